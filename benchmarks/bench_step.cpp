@@ -1,0 +1,63 @@
+// ns per step of the quaternion LGVI on the paper-orbit problem, against the
+// floor: one force-and-torque evaluation of the same potential (the method
+// needs exactly one per step). Run:
+//   build/benchmarks/bench_step --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+#include <lgvi/integrate.hpp>
+#include <lgvi/paper.hpp>
+
+#include <benchmark/benchmark.h>
+
+namespace {
+
+using lgvi::CentralGravity;
+using lgvi::RigidBodyState;
+
+// One evaluation of central gravity over the three balls, at states along the
+// orbit so that the branch predictor sees the same data as in a run.
+void BM_PotentialEvaluation(benchmark::State& st) {
+  const auto body = lgvi::paper::three_ball_body();
+  const CentralGravity pot(body, 1.0);
+  RigidBodyState s = lgvi::paper::orbit_initial_state();
+  for (auto _ : st) {
+    auto e = pot.evaluate(s.x, s.q);
+    benchmark::DoNotOptimize(e);
+    s.x.y() += 1e-9;  // defeat hoisting
+  }
+}
+BENCHMARK(BM_PotentialEvaluation);
+
+template <class Integrator>
+void run_steps(benchmark::State& st, Integrator& integ) {
+  RigidBodyState s = lgvi::paper::orbit_initial_state();
+  integ.initialize(s);
+  std::int64_t iters = 0, n = 0;
+  for (auto _ : st) {
+    integ.step(s);
+    benchmark::DoNotOptimize(s);
+    iters += integ.last_solve().iterations;
+    ++n;
+  }
+  st.counters["solver_iterations"] = static_cast<double>(iters) / static_cast<double>(n);
+}
+
+void BM_LgviStep(benchmark::State& st, lgvi::SolverKind kind) {
+  const auto body = lgvi::paper::three_ball_body();
+  lgvi::SolverOptions opt;
+  opt.kind = kind;
+  lgvi::LieGroupVariationalIntegrator<CentralGravity> integ(body, CentralGravity(body, 1.0), 0.01, opt);
+  run_steps(st, integ);
+}
+BENCHMARK_CAPTURE(BM_LgviStep, newton, lgvi::SolverKind::Newton);
+BENCHMARK_CAPTURE(BM_LgviStep, newton_exp, lgvi::SolverKind::NewtonExp);
+BENCHMARK_CAPTURE(BM_LgviStep, broyden, lgvi::SolverKind::Broyden);
+
+void BM_LagrangianLgviStep(benchmark::State& st) {
+  const auto body = lgvi::paper::three_ball_body();
+  lgvi::LagrangianLieGroupVariationalIntegrator<CentralGravity> integ(body, CentralGravity(body, 1.0), 0.01);
+  run_steps(st, integ);
+}
+BENCHMARK(BM_LagrangianLgviStep);
+
+}  // namespace
+
+BENCHMARK_MAIN();

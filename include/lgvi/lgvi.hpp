@@ -1,0 +1,187 @@
+// The quaternion Lie group variational integrator of Shen & Leok, in its
+// Hamiltonian form (the default) and its Lagrangian (position-position) form.
+//
+// Discrete Lagrangian (paper eq. "discrtelag", from Wendlandt & Marsden):
+//   L_d = h( m|x1 - x0|^2/(2h^2) + (2/h^2) Im(q0^* q1)^T J Im(q0^* q1) - (V0 + V1)/2 ).
+// With force F = -dV/dx and body torque M (F(q) dV/dq = -2 M, potential.hpp)
+// and f = q0^* q1 = exp(xi0), the paper's Hamiltonian system "eqhamilton" is
+//   p0 = m (x1 - x0)/h - (h/2) F0                   -> x1 = x0 + (h/m)(p0 + (h/2) F0)
+//   w0 = (4/h)(f_s J f_v + f_v x J f_v) - h M0      -> solve for xi0 (rotation_solver.hpp)
+//   p1 = m (x1 - x0)/h + (h/2) F1                   =  p0 + (h/2)(F0 + F1)
+//   w1 = (4/h) G(f) J Im(f) + h M1                  =  (4/h)(f_s J f_v - f_v x J f_v) + h M1
+// p1 is computed in its second, algebraically equal form: m (x1 - x0)/h loses
+// about log10(|x|/|x1 - x0|) digits to cancellation (two orders on the
+// paper's orbit), which would show directly in the angular momentum.
+#pragma once
+
+#include <lgvi/error.hpp>
+#include <lgvi/potential.hpp>
+#include <lgvi/rigid_body.hpp>
+#include <lgvi/rotation_solver.hpp>
+#include <lgvi/s3.hpp>
+#include <lgvi/state.hpp>
+
+#include <cmath>
+#include <concepts>
+#include <string>
+
+namespace lgvi {
+
+/// The contract of a one-step method: initialize at a state (evaluating the
+/// potential there), then advance by step() in place. evaluation() is the
+/// potential at the current state, for diagnostics, with no extra cost.
+template <class S>
+concept Stepper = requires(S& s, const S& cs, RigidBodyState& state) {
+  { s.initialize(state) };
+  { s.step(state) };
+  { cs.step_size() } -> std::convertible_to<double>;
+  { cs.evaluation() } -> std::convertible_to<PotentialEvaluation>;
+  { cs.last_solve() } -> std::convertible_to<SolveReport>;
+};
+
+namespace detail {
+inline void require_finite(const RigidBodyState& s, const PotentialEvaluation& e) {
+  if (!s.all_finite()) throw StepFailure("the state became non-finite", "try a smaller step");
+  if (!e.all_finite())
+    throw StepFailure("the potential returned a non-finite energy, force or torque (a ball at the field's centre?)",
+                      "check the initial state; a smaller step resolves close encounters better");
+}
+inline void require_valid_step(double h) {
+  if (!(std::isfinite(h) && h > 0.0))
+    throw InvalidInput("integrator.step: must be a finite number > 0, got " + std::to_string(h));
+}
+}  // namespace detail
+
+/// The Hamiltonian-side quaternion LGVI on (x, q, p, w).
+template <Potential P>
+class LieGroupVariationalIntegrator {
+ public:
+  LieGroupVariationalIntegrator(const RigidBody& body, P potential, double h, SolverOptions solver = {})
+      : body_(body), potential_(std::move(potential)), h_(h), solver_(body.inertia(), solver) {
+    detail::require_valid_step(h);
+  }
+
+  /// Evaluates the potential at s and seeds the solver's initial guess with
+  /// the first-order estimate xi0 ~ J^{-1} b.
+  void initialize(const RigidBodyState& s) {
+    eval_ = potential_.evaluate(s.x, s.q);
+    detail::require_finite(s, eval_);
+    f_ = S3d::exp(body_.inertia_inverse() * rotation_rhs(s));
+  }
+
+  /// One step of the paper's system "eqhamilton". The solver starts from the
+  /// previous step's f = exp(xi0) (a warm start, O(h^2) from the new root).
+  void step(RigidBodyState& s) {
+    const double h = h_;
+    const PotentialEvaluation& e0 = eval_;
+    const Vector3<double> p_half = s.p + (0.5 * h) * e0.force;
+    solver_.solve(rotation_rhs(s), f_, report_);
+    const S3d& f = f_;
+    s.x += (h / body_.mass()) * p_half;
+    s.q = s.q * f;
+    const PotentialEvaluation e1 = potential_.evaluate(s.x, s.q);
+    s.p = p_half + (0.5 * h) * e1.force;
+    const Vector3<double> fv = f.vec();
+    const Vector3<double> jfv = body_.inertia() * fv;
+    s.w = (4.0 / h) * (f.w() * jfv - fv.cross(jfv)) + h * e1.torque;
+    eval_ = e1;
+    detail::require_finite(s, eval_);
+  }
+
+  double step_size() const { return h_; }
+  const PotentialEvaluation& evaluation() const { return eval_; }
+  const SolveReport& last_solve() const { return report_; }
+  const RigidBody& body() const { return body_; }
+  const P& potential() const { return potential_; }
+  /// The solver's warm start, the last relative rotation f = q0^* q1 =
+  /// exp(xi0): part of what a checkpoint keeps for a bit-identical resume.
+  const S3d& warm_start() const { return f_; }
+  void set_warm_start(const S3d& f) { f_ = f; }
+
+ private:
+  /// b = (h/4)(w0 + h M0), the right side of g(xi0) = b.
+  Vector3<double> rotation_rhs(const RigidBodyState& s) const { return (0.25 * h_) * (s.w + h_ * eval_.torque); }
+
+  RigidBody body_;
+  P potential_;
+  double h_;
+  RotationSolver solver_;
+  PotentialEvaluation eval_;
+  S3d f_;
+  SolveReport report_;
+};
+
+/// The Lagrangian-side (position-position) form: the paper's discrete
+/// Euler-Lagrange equations
+///   m (x2 - 2 x1 + x0)/h^2 = F1,
+///   G(q0^* q1) J Im(q0^* q1) + G(q2^* q1) J Im(q2^* q1) = (h^2/4) F(q1) dV/dq(x1, q1) = -(h^2/2) M1,
+/// i.e. with f0 = q0^* q1, f1 = q1^* q2 (G(f1^*) J Im(f1^*) = -g(f1)):
+///   g(f1) = f0_s J f0_v - f0_v x J f0_v + (h^2/2) M1.
+/// The first step from (x0, q0, p0, w0) comes from the discrete Legendre
+/// transform p0 = -D1 L_d, the same equation as the Hamiltonian step; the
+/// momenta reported along the way are p_k = D2 L_d(k-1, k):
+///   p_k = m (x_k - x_{k-1})/h + (h/2) F_k,  w_k = (4/h)(f_s J f_v - f_v x J f_v) + h M_k.
+/// (That p_k pays the cancellation in x_k - x_{k-1}, inherent to this form.)
+template <Potential P>
+class LagrangianLieGroupVariationalIntegrator {
+ public:
+  LagrangianLieGroupVariationalIntegrator(const RigidBody& body, P potential, double h, SolverOptions solver = {})
+      : body_(body), potential_(std::move(potential)), h_(h), solver_(body.inertia(), solver) {
+    detail::require_valid_step(h);
+  }
+
+  void initialize(const RigidBodyState& s) {
+    eval_ = potential_.evaluate(s.x, s.q);
+    detail::require_finite(s, eval_);
+    x_prev_ = s.x;
+    q_prev_ = s.q;
+    // Configuration 1 from the Legendre transform p0 = -D1 L_d(0, 1).
+    const Vector3<double> b = (0.25 * h_) * (s.w + h_ * eval_.torque);
+    f_ = S3d::exp(body_.inertia_inverse() * b);
+    solver_.solve(b, f_, report_);
+    x_next_ = s.x + (h_ / body_.mass()) * (s.p + (0.5 * h_) * eval_.force);
+    q_next_ = s.q * f_;
+  }
+
+  /// Advances from configuration k to k + 1 (computed one step ahead), reports
+  /// p_{k+1}, w_{k+1}, and solves the DEL for configuration k + 2.
+  void step(RigidBodyState& s) {
+    const double h = h_;
+    const PotentialEvaluation e1 = potential_.evaluate(x_next_, q_next_);
+    const S3d f0 = q_prev_.inverse() * q_next_;
+    const Vector3<double> f0v = f0.vec();
+    const Vector3<double> jf0v = body_.inertia() * f0v;
+    const Vector3<double> g_backward = f0.w() * jf0v - f0v.cross(jf0v);
+    s.x = x_next_;
+    s.q = q_next_;
+    s.p = (body_.mass() / h) * (x_next_ - x_prev_) + (0.5 * h) * e1.force;
+    s.w = (4.0 / h) * g_backward + h * e1.torque;
+    eval_ = e1;
+    detail::require_finite(s, eval_);
+    // DEL for configuration k + 2.
+    solver_.solve(g_backward + (0.5 * h * h) * e1.torque, f_, report_);
+    const Vector3<double> x2 = 2.0 * x_next_ - x_prev_ + (h * h / body_.mass()) * e1.force;
+    x_prev_ = x_next_;
+    q_prev_ = q_next_;
+    x_next_ = x2;
+    q_next_ = q_next_ * f_;
+  }
+
+  double step_size() const { return h_; }
+  const PotentialEvaluation& evaluation() const { return eval_; }
+  const SolveReport& last_solve() const { return report_; }
+  const RigidBody& body() const { return body_; }
+
+ private:
+  RigidBody body_;
+  P potential_;
+  double h_;
+  RotationSolver solver_;
+  PotentialEvaluation eval_;
+  S3d f_;  // warm start: the last solved relative rotation
+  SolveReport report_;
+  Vector3<double> x_prev_, x_next_;
+  S3d q_prev_, q_next_;
+};
+
+}  // namespace lgvi

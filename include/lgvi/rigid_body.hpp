@@ -1,0 +1,118 @@
+// A rigid body: total mass m, standard inertia J about the centre of mass,
+// and optionally the uniform balls it is made of (used by potentials that
+// integrate over the body, such as CentralGravity).
+//
+// The paper's kinetic energy T = m|xdot|^2/2 + Omega^T J Omega / 2 assumes the
+// body frame's origin is the centre of mass (its eq. for T uses
+// int rho dm = 0); `from_balls` moves the origin there.
+#pragma once
+
+#include <lgvi/error.hpp>
+#include <lgvi/s3.hpp>
+
+#include <Eigen/Eigenvalues>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace lgvi {
+
+/// A uniform ball: a point mass at `position` (body frame) with the inertia
+/// 2/5 m r^2 I of a solid sphere about its own centre.
+struct Ball {
+  Vector3<double> position = Vector3<double>::Zero();
+  double mass = 0.0;
+  double radius = 0.0;
+};
+
+class RigidBody {
+ public:
+  /// A body given by mass and standard inertia J (body frame, about the
+  /// centre of mass). Throws InvalidInput unless m > 0 is finite and J is
+  /// symmetric positive definite with principal moments that satisfy the
+  /// triangle inequality (J1 + J2 >= J3 for every ordering).
+  RigidBody(double mass, const Matrix3<double>& inertia) : mass_(mass), inertia_(inertia) {
+    validate();
+  }
+
+  /// A body made of uniform balls. m = sum m_i; positions are shifted so
+  /// that the centre of mass is the body origin; J = sum m_i (|rho_i|^2 I -
+  /// rho_i rho_i^T) + 2/5 m_i r_i^2 I.
+  static RigidBody from_balls(std::vector<Ball> balls) {
+    if (balls.empty()) throw InvalidInput("body: at least one ball is needed");
+    double m = 0.0;
+    Vector3<double> c = Vector3<double>::Zero();
+    for (std::size_t i = 0; i < balls.size(); ++i) {
+      const Ball& b = balls[i];
+      const std::string name = "body.ball[" + std::to_string(i) + "]";
+      if (!b.position.allFinite()) throw InvalidInput(name + ".position: must be finite");
+      if (!(std::isfinite(b.mass) && b.mass > 0.0))
+        throw InvalidInput(name + ".mass: must be a finite number > 0, got " + std::to_string(b.mass));
+      if (!(std::isfinite(b.radius) && b.radius >= 0.0))
+        throw InvalidInput(name + ".radius: must be a finite number >= 0, got " + std::to_string(b.radius));
+      m += b.mass;
+      c += b.mass * b.position;
+    }
+    c /= m;
+    Matrix3<double> j = Matrix3<double>::Zero();
+    for (Ball& b : balls) {
+      b.position -= c;
+      const Vector3<double>& r = b.position;
+      j += b.mass * (r.squaredNorm() * Matrix3<double>::Identity() - r * r.transpose());
+      j.diagonal().array() += 0.4 * b.mass * b.radius * b.radius;
+    }
+    RigidBody body(m, j, balls);
+    return body;
+  }
+
+  double mass() const { return mass_; }
+  /// Standard inertia J (the paper's J = tr[J_d] I - J_d).
+  const Matrix3<double>& inertia() const { return inertia_; }
+  const Matrix3<double>& inertia_inverse() const { return inertia_inverse_; }
+  /// The balls, with positions relative to the centre of mass. Empty for a
+  /// body given by mass and inertia.
+  const std::vector<Ball>& balls() const { return balls_; }
+
+ private:
+  RigidBody(double mass, const Matrix3<double>& inertia, std::vector<Ball> balls)
+      : mass_(mass), inertia_(inertia), balls_(std::move(balls)) {
+    validate();
+  }
+
+  void validate() {
+    if (!(std::isfinite(mass_) && mass_ > 0.0))
+      throw InvalidInput("body.mass: must be a finite number > 0, got " + std::to_string(mass_));
+    if (!inertia_.allFinite()) throw InvalidInput("body.inertia: must be finite");
+    const double scale = inertia_.cwiseAbs().maxCoeff();
+    // Symmetry to a few ulps of the largest entry: the sum in from_balls is
+    // exactly symmetric, user input must be symmetric as written.
+    if ((inertia_ - inertia_.transpose()).cwiseAbs().maxCoeff() > 8 * eps * scale)
+      throw InvalidInput("body.inertia: must be symmetric");
+    const Eigen::SelfAdjointEigenSolver<Matrix3<double>> es(inertia_);
+    const Vector3<double> l = es.eigenvalues();  // ascending
+    // Positive definite, with a margin of round-off relative to the largest
+    // moment (a body whose balls lie on one line has a zero moment).
+    if (!(l(0) > 16 * eps * l(2)))
+      throw InvalidInput(
+          "body.inertia: must be positive definite (principal moments " + std::to_string(l(0)) + ", " +
+          std::to_string(l(1)) + ", " + std::to_string(l(2)) +
+          "); a body of point masses on one line has no inertia about that line: give the balls a radius or "
+          "move one off the line");
+    // Triangle inequality J1 + J2 >= J3; equality is a lamina (planar point
+    // masses), allowed up to round-off of the eigen-decomposition.
+    if (l(0) + l(1) < l(2) * (1.0 - 64 * eps))
+      throw InvalidInput("body.inertia: principal moments " + std::to_string(l(0)) + ", " + std::to_string(l(1)) +
+                         ", " + std::to_string(l(2)) +
+                         " violate the triangle inequality J1 + J2 >= J3; no mass distribution has them");
+    inertia_inverse_ = inertia_.inverse();
+  }
+
+  static constexpr double eps = std::numeric_limits<double>::epsilon();
+  double mass_;
+  Matrix3<double> inertia_;
+  Matrix3<double> inertia_inverse_;
+  std::vector<Ball> balls_;
+};
+
+}  // namespace lgvi

@@ -1,0 +1,286 @@
+// The implicit equation of the quaternion LGVI for the relative rotation
+// f = q0^* q1 = exp(xi0).
+//
+// The paper's second Hamiltonian equation,
+//     w0 = -(4/h) G(q1^* q0) J Im(q1^* q0) + (h/2) F(q0) dV/dq(x0, q0),
+// with q1^* q0 = f^* = (f_s, -f_v), G(f^*) = f_s I + hat(f_v) and
+// F(q0) dV/dq = -2 M0 (potential.hpp), reads
+//     g(xi) := f_s J f_v + f_v x (J f_v) = b,    b = (h/4) (w0 + h M0),
+// and the Lagrangian side's discrete Euler-Lagrange equation has the same
+// left side with another b (lgvi.hpp). The unknown is the unit quaternion
+// f = exp(xi0), q1 = q0 f. Three solvers, all for that same root:
+//   * Newton (default) with the analytic Jacobian, iterating on the Cayley
+//     (Gibbs) chart u = f_v / f_s = tan|xi0| xi0/|xi0| of f, f = (1, u)/sqrt(1 + |u|^2),
+//     the chart Lee, Leok & McClamroch use for the rotation-matrix LGVI. In
+//     it the equation is a quadratic polynomial, with no square root or
+//     trigonometric function in the loop:
+//       c(u) := J u + u x J u - (1 + |u|^2) b = (1 + |u|^2) (g(f) - b) = 0,
+//       dc/du = J + hat(u) J - hat(J u) - 2 b u^T.
+//     The chart covers exactly the branch f_s > 0 (a rotation of less than pi
+//     per step), where the paper's solution lives.
+//   * Newton on xi0 itself (the paper's exponential chart), analytic Jacobian
+//       dg/dxi = -(J f_v) f_v^T + (f_s J - hat(J f_v) + hat(f_v) J) dIm(exp)/dxi.
+//   * The paper's choice: a forward-difference Jacobian in xi0 at the first
+//     iterate of each step, then Broyden's rank-one updates (of the inverse,
+//     Sherman-Morrison).
+// All stop when the residual reaches tolerance * |b| (Broyden also when the
+// update reaches tolerance * |xi|; Newton when it reaches tolerance * |f_v|),
+// default tolerance 4 eps: round-off level. xi0 = log(f) where it is wanted.
+#pragma once
+
+#include <lgvi/error.hpp>
+#include <lgvi/s3.hpp>
+
+#include <Eigen/LU>
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace lgvi {
+
+namespace detail {
+/// Solves a r = y for a 3x3 matrix by its adjugate (Cramer's rule): about 40
+/// flops and one division, several times faster than a general LU at this
+/// size. A singular or non-finite system gives non-finite values, which the
+/// solvers report as a failed step.
+inline Vector3<double> solve_3x3(const Matrix3<double>& a, const Vector3<double>& y) {
+  const double c00 = a(1, 1) * a(2, 2) - a(1, 2) * a(2, 1);
+  const double c01 = a(1, 2) * a(2, 0) - a(1, 0) * a(2, 2);
+  const double c02 = a(1, 0) * a(2, 1) - a(1, 1) * a(2, 0);
+  const double c10 = a(0, 2) * a(2, 1) - a(0, 1) * a(2, 2);
+  const double c11 = a(0, 0) * a(2, 2) - a(0, 2) * a(2, 0);
+  const double c12 = a(0, 1) * a(2, 0) - a(0, 0) * a(2, 1);
+  const double c20 = a(0, 1) * a(1, 2) - a(0, 2) * a(1, 1);
+  const double c21 = a(0, 2) * a(1, 0) - a(0, 0) * a(1, 2);
+  const double c22 = a(0, 0) * a(1, 1) - a(0, 1) * a(1, 0);
+  const double inv_det = 1.0 / (a(0, 0) * c00 + a(0, 1) * c01 + a(0, 2) * c02);
+  return Vector3<double>((c00 * y(0) + c10 * y(1) + c20 * y(2)) * inv_det,
+                         (c01 * y(0) + c11 * y(1) + c21 * y(2)) * inv_det,
+                         (c02 * y(0) + c12 * y(1) + c22 * y(2)) * inv_det);
+}
+}  // namespace detail
+
+enum class SolverKind {
+  Newton,     ///< analytic Jacobian, Cayley chart u = f_v / f_s (the default)
+  NewtonExp,  ///< analytic Jacobian, exponential chart xi
+  Broyden     ///< the paper's finite-difference Jacobian + Broyden updates, chart xi
+};
+
+inline const char* to_string(SolverKind k) {
+  switch (k) {
+    case SolverKind::Newton: return "newton";
+    case SolverKind::NewtonExp: return "newton-exp";
+    case SolverKind::Broyden: return "broyden";
+  }
+  return "?";
+}
+
+struct SolverOptions {
+  SolverKind kind = SolverKind::Newton;
+  /// Relative stopping tolerance on the residual (against |b|) and on the
+  /// update (against |xi|). 4 eps is the floor of a double-precision
+  /// evaluation of g.
+  double tolerance = 4 * std::numeric_limits<double>::epsilon();
+  int max_iterations = 50;
+};
+
+struct SolveReport {
+  int iterations = 0;          ///< linear solves (Newton or Broyden updates)
+  int residual_evaluations = 0;  ///< evaluations of g, finite differences included
+};
+
+/// g(xi) = f_s J f_v + f_v x J f_v for f = exp(xi), and its Jacobian.
+class RotationEquation {
+ public:
+  explicit RotationEquation(const Matrix3<double>& inertia) : J_(inertia), J_norm_(inertia.norm()) {}
+
+  /// g evaluated at the unit quaternion f (f = exp(xi)).
+  Vector3<double> g(const S3d& f) const {
+    const Vector3<double> fv = f.vec();
+    const Vector3<double> jfv = J_ * fv;
+    return f.w() * jfv + fv.cross(jfv);
+  }
+
+  /// dg/dxi at xi, given f = exp(xi) and its cos, sinc.
+  Matrix3<double> jacobian(const Vector3<double>& xi, const S3d& f, double c, double sinc) const {
+    const Vector3<double> fv = f.vec();
+    const Vector3<double> jfv = J_ * fv;
+    const Matrix3<double> dg_dfv = f.w() * J_ - S3d::hat(jfv) + S3d::hat(fv) * J_;
+    return -jfv * fv.transpose() + dg_dfv * exp_imaginary_jacobian<double>(xi, c, sinc);
+  }
+
+  /// c(u) = J u + u x J u - (1 + |u|^2) b, the equation in the Cayley chart.
+  Vector3<double> cayley_residual(const Vector3<double>& u, const Vector3<double>& b) const {
+    const Vector3<double> ju = J_ * u;
+    return ju + u.cross(ju) - (1.0 + u.squaredNorm()) * b;
+  }
+
+  /// dc/du = J + hat(u) J - hat(J u) - 2 b u^T, assembled column by column
+  /// (column j: J_j + u x J_j - 2 u_j b, then - hat(J u)).
+  Matrix3<double> cayley_jacobian(const Vector3<double>& u, const Vector3<double>& b) const {
+    Matrix3<double> d;
+    for (int j = 0; j < 3; ++j) {
+      const Vector3<double> c = J_.col(j);
+      d.col(j) = c + u.cross(c) - (2.0 * u(j)) * b;
+    }
+    const Vector3<double> ju = J_ * u;
+    d(0, 1) += ju(2);
+    d(0, 2) -= ju(1);
+    d(1, 0) -= ju(2);
+    d(1, 2) += ju(0);
+    d(2, 0) += ju(1);
+    d(2, 1) -= ju(0);
+    return d;
+  }
+
+  const Matrix3<double>& inertia() const { return J_; }
+  /// Frobenius norm of J, an upper bound of its 2-norm.
+  double inertia_norm() const { return J_norm_; }
+
+ private:
+  Matrix3<double> J_;
+  double J_norm_;
+};
+
+/// Solves g(f) = b for f = exp(xi0). The initial guess and the result are
+/// held in `f` (in/out): a warm start from the previous step. Throws
+/// StepFailure if the iterate leaves the branch f_s > 0 (a rotation by pi in
+/// one step) or the iteration does not converge.
+class RotationSolver {
+ public:
+  RotationSolver(const Matrix3<double>& inertia, SolverOptions options) : eq_(inertia), opt_(options) {}
+
+  void solve(const Vector3<double>& b, S3d& f, SolveReport& report) const {
+    report = {};
+    switch (opt_.kind) {
+      case SolverKind::Newton: f = newton_cayley_chart(b, f, report); return;
+      case SolverKind::NewtonExp: {
+        Vector3<double> xi = f.log();
+        f = newton_exp_chart(b, xi, report);
+        return;
+      }
+      case SolverKind::Broyden: {
+        Vector3<double> xi = f.log();
+        f = broyden(b, xi, report);
+        return;
+      }
+    }
+  }
+
+  const SolverOptions& options() const { return opt_; }
+  const RotationEquation& equation() const { return eq_; }
+
+ private:
+  static constexpr double half_pi = 1.5707963267948966;
+
+  S3d newton_cayley_chart(const Vector3<double>& b, const S3d& guess, SolveReport& report) const {
+    if (!(guess.w() > 0.0)) throw left_branch();
+    Vector3<double> u = guess.vec() / guess.w();
+    // |c| <= tolerance (1 + |u|^2) |b| is |g(f) - b| <= tolerance |b|.
+    const double b_scale = b.lpNorm<Eigen::Infinity>();
+    for (;;) {
+      const Vector3<double> r = eq_.cayley_residual(u, b);
+      ++report.residual_evaluations;
+      const double scale = (1.0 + u.squaredNorm()) * b_scale;
+      if (r.lpNorm<Eigen::Infinity>() <= opt_.tolerance * scale) break;
+      if (report.iterations >= opt_.max_iterations) throw not_converged(r, scale);
+      const Vector3<double> delta = detail::solve_3x3(eq_.cayley_jacobian(u, b), r);
+      u -= delta;
+      ++report.iterations;
+      if (!u.allFinite()) throw left_branch();
+      // c is quadratic, so after the Newton update the residual is exactly
+      // c(u - delta) = delta x J delta - |delta|^2 b, bounded by
+      // (|J| + |b|) |delta|^2: stop without evaluating it when that bound is
+      // below the tolerance (saves one evaluation in the usual 2-iteration step).
+      const double d2 = delta.squaredNorm();
+      if ((eq_.inertia_norm() + b.norm()) * d2 <= opt_.tolerance * b_scale) break;
+      if (delta.lpNorm<Eigen::Infinity>() <= opt_.tolerance * u.lpNorm<Eigen::Infinity>()) break;
+    }
+    // f_s = 1/sqrt(1 + |u|^2) > 0; a rotation of pi per step is |u| = infinity.
+    const double fs = 1.0 / std::sqrt(1.0 + u.squaredNorm());
+    if (!(fs > 0.0)) throw left_branch();
+    return S3d(fs, fs * u.x(), fs * u.y(), fs * u.z());
+  }
+
+  S3d newton_exp_chart(const Vector3<double>& b, Vector3<double>& xi, SolveReport& report) const {
+    const double b_scale = b.lpNorm<Eigen::Infinity>();
+    for (;;) {
+      double c, sinc;
+      S3d::cos_and_sinc(xi.norm(), c, sinc);
+      const S3d f(c, sinc * xi.x(), sinc * xi.y(), sinc * xi.z());
+      const Vector3<double> r = eq_.g(f) - b;
+      ++report.residual_evaluations;
+      if (r.lpNorm<Eigen::Infinity>() <= opt_.tolerance * b_scale) return f;
+      if (report.iterations >= opt_.max_iterations) throw not_converged(r, b_scale);
+      const Matrix3<double> d = eq_.jacobian(xi, f, c, sinc);
+      const Vector3<double> delta = detail::solve_3x3(d, r);
+      xi -= delta;
+      ++report.iterations;
+      check_branch(xi);
+      if (delta.lpNorm<Eigen::Infinity>() <= opt_.tolerance * xi.lpNorm<Eigen::Infinity>()) return S3d::exp(xi);
+    }
+  }
+
+  S3d broyden(const Vector3<double>& b, Vector3<double>& xi, SolveReport& report) const {
+    const double b_scale = b.lpNorm<Eigen::Infinity>();
+    S3d f = S3d::exp(xi);
+    Vector3<double> r = eq_.g(f) - b;
+    ++report.residual_evaluations;
+    if (r.lpNorm<Eigen::Infinity>() <= opt_.tolerance * b_scale) return f;
+    // Forward differences with step sqrt(eps) max(1, |xi_j|): the Jacobian's
+    // error O(sqrt(eps)) only slows Broyden's superlinear convergence.
+    Matrix3<double> jac;
+    const double sqrt_eps = std::sqrt(std::numeric_limits<double>::epsilon());
+    for (int j = 0; j < 3; ++j) {
+      Vector3<double> xj = xi;
+      const double step = sqrt_eps * std::max(1.0, std::abs(xi(j)));
+      xj(j) += step;
+      jac.col(j) = (eq_.g(S3d::exp(xj)) - b - r) / step;
+      ++report.residual_evaluations;
+    }
+    Matrix3<double> inv = jac.inverse();
+    for (;;) {
+      if (report.iterations >= opt_.max_iterations) throw not_converged(r, b_scale);
+      const Vector3<double> delta = -(inv * r);
+      xi += delta;
+      ++report.iterations;
+      check_branch(xi);
+      f = S3d::exp(xi);
+      const Vector3<double> r_new = eq_.g(f) - b;
+      ++report.residual_evaluations;
+      if (r_new.lpNorm<Eigen::Infinity>() <= opt_.tolerance * b_scale ||
+          delta.lpNorm<Eigen::Infinity>() <= opt_.tolerance * xi.lpNorm<Eigen::Infinity>())
+        return f;
+      // "Good" Broyden update of the inverse: H += (s - H y) s^T H / (s^T H y).
+      const Vector3<double> y = r_new - r;
+      const Vector3<double> hy = inv * y;
+      const double denom = delta.dot(hy);
+      if (denom != 0.0 && std::isfinite(denom)) inv += ((delta - hy) * (delta.transpose() * inv)) / denom;
+      r = r_new;
+    }
+  }
+
+  static StepFailure left_branch() {
+    return StepFailure("the rotation in one step reached pi (|xi0| >= pi/2, Re(q0^* q1) <= 0), where the discrete "
+                       "flow is not defined",
+                       "reduce the step so that |Omega| h stays well below pi");
+  }
+
+  static void check_branch(const Vector3<double>& xi) {
+    if (!xi.allFinite() || xi.norm() >= half_pi) throw left_branch();
+  }
+
+  StepFailure not_converged(const Vector3<double>& r, double b_scale) const {
+    return StepFailure(std::string(opt_.kind == SolverKind::Newton ? "Newton" : "Broyden") +
+                           " iteration for the rotation did not converge in " + std::to_string(opt_.max_iterations) +
+                           " iterations (relative residual " +
+                           std::to_string(r.lpNorm<Eigen::Infinity>() / std::max(b_scale, 1e-300)) + ")",
+                       "try a smaller step");
+  }
+
+  RotationEquation eq_;
+  SolverOptions opt_;
+};
+
+}  // namespace lgvi

@@ -1,0 +1,202 @@
+// The unit quaternions S^3 as a Lie group, in the conventions of Shen & Leok,
+// "Lie group variational integrators for rigid body problems using quaternions"
+// (shared/paper/shen-leok-lgvi-quaternions.tex, section "Unit quaternions").
+//
+// Conventions, fixed once for the whole library:
+//   * A quaternion q = (q_s, q_v) is written scalar first everywhere in this
+//     library's API, files and docs. Eigen's Quaternion constructor takes
+//     (w, x, y, z) but *stores* (x, y, z, w); we only ever touch it through
+//     w() and vec(), never through coeffs().
+//   * The Lie algebra is R^3 with exp(xi) = (cos|xi|, sin|xi| xi/|xi|), the
+//     paper's eq. for exp. Note the factor: pi(exp(xi)) is the rotation by the
+//     angle 2|xi| about xi/|xi|, i.e. pi(exp(xi)) = expm(hat(2 xi)). (Sophus and
+//     most robotics code use exp(w) = (cos|w|/2, ...), our xi = w/2.)
+//   * A 4-vector "d/dq" (the paper's dV/dq) is ordered (d/dq_s, d/dq_v).
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <limits>
+
+namespace lgvi {
+
+template <class Scalar>
+using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
+template <class Scalar>
+using Vector4 = Eigen::Matrix<Scalar, 4, 1>;
+template <class Scalar>
+using Matrix3 = Eigen::Matrix<Scalar, 3, 3>;
+template <class Scalar>
+using Matrix34 = Eigen::Matrix<Scalar, 3, 4>;
+
+namespace detail {
+/// Threshold below which a series truncated after the term of order `order`
+/// is exact to machine precision: the first neglected term is O(x^(order+1)),
+/// so x < eps^(1/(order+1)) keeps it below eps (Pinocchio's rule).
+template <class Scalar>
+Scalar taylor_threshold(int order) {
+  using std::pow;
+  return pow(std::numeric_limits<Scalar>::epsilon(), Scalar(1) / Scalar(order + 1));
+}
+}  // namespace detail
+
+/// Element of the Lie group S^3 of unit quaternions.
+///
+/// Class invariant: |q| = 1 up to round-off. Nothing here normalizes: the
+/// integrators keep |q| = 1 by construction (q1 = q0 * exp(xi)), and the
+/// library's promise is that |q| - 1 stays at round-off without projection.
+/// `norm_error()` reports the deviation.
+template <class Scalar>
+class S3 {
+ public:
+  using Quaternion = Eigen::Quaternion<Scalar>;
+  using Tangent = Vector3<Scalar>;
+
+  /// The identity e = (1, 0, 0, 0).
+  S3() : q_(Scalar(1), Scalar(0), Scalar(0), Scalar(0)) {}
+
+  /// Wraps a quaternion that the caller guarantees to be unit (not checked,
+  /// not normalized). Use `from_quaternion_checked` for user input.
+  explicit S3(const Quaternion& q) : q_(q) {}
+
+  /// Scalar-first constructor: (q_s, q_x, q_y, q_z).
+  S3(Scalar qs, Scalar qx, Scalar qy, Scalar qz) : q_(qs, qx, qy, qz) {}
+
+  /// The exponential map of the paper, exp(xi) = (cos|xi|, sin|xi| xi/|xi|).
+  /// For |xi| below eps^(1/6), sin|xi|/|xi| is its Taylor series
+  /// 1 - |xi|^2/6 + |xi|^4/120, exact to round-off there.
+  static S3 exp(const Tangent& xi) {
+    Scalar c, sinc;
+    cos_and_sinc(xi.norm(), c, sinc);
+    return S3(Quaternion(c, sinc * xi.x(), sinc * xi.y(), sinc * xi.z()));
+  }
+
+  /// cos(theta) and sin(theta)/theta, with the small-angle series.
+  static void cos_and_sinc(Scalar theta, Scalar& c, Scalar& sinc) {
+    using std::cos;
+    using std::sin;
+    static const Scalar small = detail::taylor_threshold<Scalar>(5);
+    if (theta < small) {
+      const Scalar t2 = theta * theta;
+      c = Scalar(1) - t2 / Scalar(2) + t2 * t2 / Scalar(24);
+      sinc = Scalar(1) - t2 / Scalar(6) + t2 * t2 / Scalar(120);
+    } else {
+      c = cos(theta);
+      sinc = sin(theta) / theta;
+    }
+  }
+
+  /// The inverse of exp on the open ball |xi| < pi:
+  ///   xi = atan2(|q_v|, q_s) q_v / |q_v|.
+  /// Near the identity (|q_v| small, q_s > 0) atan(n/w)/n uses its series
+  /// (1/w)(1 - u^2/3 + u^4/5), u = n/w, below eps^(1/6). A rotation by pi in
+  /// SO(3) (q_s = 0) maps to |xi| = pi/2, well inside the domain. At q = -1
+  /// exactly (|xi| = pi, every direction) the direction x is returned.
+  Tangent log() const {
+    using std::atan2;
+    const Scalar n = q_.vec().norm();
+    const Scalar w = q_.w();
+    static const Scalar small = detail::taylor_threshold<Scalar>(5);
+    if (n == Scalar(0)) {
+      if (w >= Scalar(0)) return Tangent::Zero();
+      return Tangent(Scalar(EIGEN_PI), Scalar(0), Scalar(0));
+    }
+    if (w > Scalar(0) && n < small * w) {
+      const Scalar u2 = (n / w) * (n / w);
+      return q_.vec() * ((Scalar(1) - u2 / Scalar(3) + u2 * u2 / Scalar(5)) / w);
+    }
+    return q_.vec() * (atan2(n, w) / n);
+  }
+
+  /// hat: R^3 -> so(3), hat(x) y = x cross y.
+  static Matrix3<Scalar> hat(const Tangent& v) {
+    Matrix3<Scalar> m;
+    m << Scalar(0), -v.z(), v.y(), v.z(), Scalar(0), -v.x(), -v.y(), v.x(), Scalar(0);
+    return m;
+  }
+
+  /// vee: the inverse of hat on skew-symmetric matrices (the skew part of any
+  /// other matrix).
+  static Tangent vee(const Matrix3<Scalar>& m) {
+    return Tangent(m(2, 1) - m(1, 2), m(0, 2) - m(2, 0), m(1, 0) - m(0, 1)) / Scalar(2);
+  }
+
+  /// pi: S^3 -> SO(3), pi(q) = (2 q_s^2 - 1) I + 2 q_v q_v^T + 2 q_s hat(q_v)
+  /// (the paper's formula). A group homomorphism: pi(q1 q2) = pi(q1) pi(q2).
+  Matrix3<Scalar> matrix() const {
+    const Scalar s = q_.w();
+    const Tangent v = q_.vec();
+    Matrix3<Scalar> r = (Scalar(2) * v) * v.transpose();
+    r.diagonal().array() += Scalar(2) * s * s - Scalar(1);
+    r += (Scalar(2) * s) * hat(v);
+    return r;
+  }
+
+  /// Lift of a rotation matrix R to one of its two preimages +-q under pi
+  /// (Shepperd's method, as in Eigen). The sign picked is q_s >= 0.
+  static S3 from_rotation_matrix(const Matrix3<Scalar>& r) {
+    Quaternion q(r);
+    if (q.w() < Scalar(0)) q.coeffs() = -q.coeffs();
+    return S3(q);
+  }
+
+  /// Rotates a vector: pi(q) v, computed as q (0, v) q^*.
+  Tangent act(const Tangent& v) const { return q_ * v; }
+
+  S3 operator*(const S3& other) const { return S3(q_ * other.q_); }
+  /// The inverse on S^3 is the conjugate q^* = (q_s, -q_v).
+  S3 inverse() const { return S3(q_.conjugate()); }
+
+  const Quaternion& quaternion() const { return q_; }
+  Scalar w() const { return q_.w(); }
+  Tangent vec() const { return q_.vec(); }
+  /// (q_s, q_x, q_y, q_z).
+  Vector4<Scalar> scalar_first() const { return Vector4<Scalar>(q_.w(), q_.x(), q_.y(), q_.z()); }
+  /// |q| - 1: the deviation from the group, zero to round-off by invariant.
+  Scalar norm_error() const { return q_.norm() - Scalar(1); }
+
+ private:
+  Quaternion q_;
+};
+
+/// F(q): H -> R^{3x4}, defined by q (0, v) = F(q)^T v for all v in R^3
+/// (paper, section "Continuous time equation"):
+///   F(q) = ( -q_v , q_s I - hat(q_v) ),
+/// with the 4 columns ordered (scalar, vector) like dV/dq. For a potential,
+/// F(q) dV/dq is the derivative of V along the left-trivialized variation
+/// delta q = q (0, eta); see potential.hpp for F(q) dV/dq = -2 M.
+template <class Scalar>
+Matrix34<Scalar> F(const Eigen::Quaternion<Scalar>& q) {
+  Matrix34<Scalar> f;
+  f.col(0) = -q.vec();
+  f.template rightCols<3>() = q.w() * Matrix3<Scalar>::Identity() - S3<Scalar>::hat(q.vec());
+  return f;
+}
+
+/// G(q): H -> R^{3x3}, defined by Im(q (0, v)) = G(q)^T v (paper, section
+/// "Variational integrator on the Lagrangian side"):  G(q) = q_s I - hat(q_v).
+template <class Scalar>
+Matrix3<Scalar> G(const Eigen::Quaternion<Scalar>& q) {
+  return q.w() * Matrix3<Scalar>::Identity() - S3<Scalar>::hat(q.vec());
+}
+
+/// Jacobian of Im(exp(xi)) = sin|xi| xi/|xi| with respect to xi:
+///   d Im(exp(xi)) / d xi = s I + ((c - s)/|xi|^2) xi xi^T,  s = sin|xi|/|xi|, c = cos|xi|,
+/// and d Re(exp(xi)) / d xi = -Im(exp(xi))^T. (c - s)/|xi|^2 -> -1/3 + |xi|^2/30
+/// is taken from its series below eps^(1/4), where the direct formula cancels.
+template <class Scalar>
+Matrix3<Scalar> exp_imaginary_jacobian(const Vector3<Scalar>& xi, Scalar c, Scalar sinc) {
+  const Scalar t2 = xi.squaredNorm();
+  static const Scalar small = detail::taylor_threshold<Scalar>(3);
+  const Scalar k = t2 < small * small ? Scalar(-1) / Scalar(3) + t2 / Scalar(30) - t2 * t2 / Scalar(840)
+                                      : (c - sinc) / t2;
+  Matrix3<Scalar> d = (k * xi) * xi.transpose();
+  d.diagonal().array() += sinc;
+  return d;
+}
+
+using S3d = S3<double>;
+
+}  // namespace lgvi

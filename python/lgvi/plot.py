@@ -1,0 +1,231 @@
+"""Figures for one lgvi run: ``python3 -m lgvi.plot RUN_DIR [--out OUT_DIR]``.
+
+Reads ``RUN_DIR/trajectory.csv`` and ``RUN_DIR/summary.json`` and writes
+trajectory.png, body_motion.png, energy_error.png, quaternion_error.png and
+momentum_error.png. Quaternions are scalar-first (qw, qx, qy, qz).
+"""
+
+import argparse
+import json
+import os
+import sys
+import warnings
+
+import numpy as np
+
+REQUIRED_COLUMNS = ("t", "x", "y", "qw", "qx", "qy", "qz", "energy_error",
+                    "quat_norm_error", "Lx", "Ly", "Lz", "momentum_error")
+DPI = 120
+FIGSIZE = (6.0, 4.5)
+N_INSTANTS = 12
+
+
+def _pyplot():
+    """Import matplotlib lazily, with the non-interactive Agg backend."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def load_run(run_dir):
+    """Load a run directory.
+
+    Returns ``(columns, summary)``: a dict mapping each trajectory.csv header
+    name to a 1-D float array, and the parsed summary.json. Raises OSError for
+    missing files and ValueError for a malformed or empty trajectory.
+    """
+    csv_path = os.path.join(run_dir, "trajectory.csv")
+    with open(csv_path, encoding="utf-8") as f:
+        names = [n.strip() for n in f.readline().strip().split(",")]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # "input contained no data": checked below
+        data = np.loadtxt(csv_path, delimiter=",", skiprows=1, ndmin=2)
+    if data.shape[0] == 0:
+        raise ValueError(f"{csv_path}: trajectory has no rows")
+    if data.shape[1] != len(names):
+        raise ValueError(f"{csv_path}: header has {len(names)} columns, rows have {data.shape[1]}")
+    columns = {name: data[:, i] for i, name in enumerate(names)}
+    with open(os.path.join(run_dir, "summary.json"), encoding="utf-8") as f:
+        summary = json.load(f)
+    return columns, summary
+
+
+def rotation_matrix(q):
+    """Rotation matrix R = pi(q) of a scalar-first unit quaternion q = (qw, qx, qy, qz).
+
+    R = (2 qw^2 - 1) I + 2 v v^T + 2 qw hat(v) with v = (qx, qy, qz). Accepts
+    shape (4,) -> (3, 3) or (N, 4) -> (N, 3, 3).
+    """
+    q = np.asarray(q, dtype=float)
+    w, v = q[..., 0], q[..., 1:]
+    hat = np.zeros(q.shape[:-1] + (3, 3))
+    hat[..., 0, 1], hat[..., 0, 2] = -v[..., 2], v[..., 1]
+    hat[..., 1, 0], hat[..., 1, 2] = v[..., 2], -v[..., 0]
+    hat[..., 2, 0], hat[..., 2, 1] = -v[..., 1], v[..., 0]
+    return ((2.0 * w * w - 1.0)[..., None, None] * np.eye(3)
+            + 2.0 * v[..., :, None] * v[..., None, :]
+            + 2.0 * w[..., None, None] * hat)
+
+
+def orbit_period(t, x, y):
+    """Time for the polar angle of (x, y) to first turn by 2*pi, or None.
+
+    The angle is unwrapped; the crossing is linearly interpolated between rows.
+    Returns None when the run never completes a revolution.
+    """
+    t, x, y = (np.asarray(a, dtype=float) for a in (t, x, y))
+    if t.size < 2:
+        return None
+    angle = np.unwrap(np.arctan2(y, x))
+    turned = np.abs(angle - angle[0])
+    hits = np.flatnonzero(turned >= 2.0 * np.pi)
+    if hits.size == 0 or hits[0] == 0:
+        return None
+    i = hits[0]
+    frac = (2.0 * np.pi - turned[i - 1]) / (turned[i] - turned[i - 1])
+    return float(t[i - 1] + frac * (t[i] - t[i - 1]) - t[0])
+
+
+def _save(fig, out_dir, name, written):
+    path = os.path.join(out_dir, name)
+    fig.tight_layout()
+    fig.savefig(path, dpi=DPI)
+    _pyplot().close(fig)
+    written.append(path)
+
+
+def _outside_legend(ax):
+    """Legend to the right of the axes, so it never hides the orbit or the origin."""
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, fontsize="small")
+
+
+def _trajectory(plt, c, out_dir, written):
+    fig, ax = plt.subplots(figsize=FIGSIZE)
+    ax.plot(c["x"], c["y"], lw=1.0, label="centre of mass")
+    ax.plot(c["x"][0], c["y"][0], "o", color="tab:green", label="start")
+    ax.plot(0.0, 0.0, "*", color="black", ms=12, label="origin\n(attracting centre)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set(title="Centre-of-mass trajectory (x-y projection)", xlabel="x", ylabel="y")
+    _outside_legend(ax)
+    _save(fig, out_dir, "trajectory.png", written)
+
+
+def _body_motion(plt, c, summary, out_dir, written):
+    t, x, y = c["t"], c["x"], c["y"]
+    period = orbit_period(t, x, y)
+    if period is None:
+        idx = np.linspace(0, len(t) - 1, N_INSTANTS)
+        title = "Body motion, whole run"
+    else:
+        i_end = int(np.searchsorted(t, t[0] + period))
+        idx = np.linspace(0, min(i_end, len(t) - 1), N_INSTANTS, endpoint=False)
+        title = f"Body motion, one orbit (period T = {period:.6g})"
+    idx = np.unique(np.round(idx).astype(int))
+    balls = (summary.get("body") or {}).get("balls") or []
+    rho = np.array([b["position"] for b in balls], dtype=float).reshape(-1, 3)
+    radii = np.array([b.get("radius", 0.0) for b in balls], dtype=float)
+    quats = np.column_stack([c["qw"], c["qx"], c["qy"], c["qz"]])
+    com = np.column_stack([x, y, c["z"] if "z" in c else np.zeros_like(x)])
+    extent = max(np.ptp(x), np.ptp(y), 1e-12)
+    colors = plt.get_cmap("viridis")(np.linspace(0.0, 1.0, len(idx)))
+
+    fig, ax = plt.subplots(figsize=FIGSIZE)
+    ax.plot(x, y, color="0.75", lw=0.8, zorder=0, label="centre-of-mass path")
+    for k, (i, col) in enumerate(zip(idx, colors)):
+        R = rotation_matrix(quats[i])
+        if len(rho) == 0:
+            axis = com[i] + 0.05 * extent * R[:, 0]
+            ax.plot([com[i, 0], axis[0]], [com[i, 1], axis[1]], color=col, lw=1.5)
+            ax.plot(com[i, 0], com[i, 1], "o", color=col, ms=4)
+            continue
+        pos = com[i] + rho @ R.T  # x + R rho_i for every ball
+        for a in range(len(pos)):
+            for b in range(a + 1, len(pos)):
+                ax.plot(pos[[a, b], 0], pos[[a, b], 1], color=col, lw=1.0)
+        for p, r in zip(pos, radii):
+            if r > 0.0:
+                ax.add_patch(plt.Circle((p[0], p[1]), r, color=col, alpha=0.35))
+        ax.plot(pos[:, 0], pos[:, 1], "o", color=col, ms=4,
+                label=f"t = {t[i]:.4g}" if k in (0, len(idx) - 1) else None)
+    ax.plot(0.0, 0.0, "*", color="black", ms=10, label="origin")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set(title=title, xlabel="x", ylabel="y")
+    _outside_legend(ax)
+    _save(fig, out_dir, "body_motion.png", written)
+
+
+def _error_plot(plt, t, values, ylabel, title, name, out_dir, written, scale=None):
+    """Linear plot of a signed error with scientific offset notation."""
+    fig, ax = plt.subplots(figsize=FIGSIZE)
+    ax.plot(t, values, lw=0.8)
+    ax.ticklabel_format(axis="y", style="sci", scilimits=(0, 0), useOffset=True)
+    ax.set(title=title, xlabel="t", ylabel=ylabel)
+    if scale:  # second axis: the same curve divided by `scale`
+        sec = ax.secondary_yaxis("right", functions=(lambda v: v / scale, lambda v: v * scale))
+        sec.ticklabel_format(axis="y", style="sci", scilimits=(0, 0), useOffset=True)
+        sec.set_ylabel(ylabel + " / |L(0)|")
+    _save(fig, out_dir, name, written)
+
+
+def _max_abs(values):
+    return float(np.max(np.abs(values)))
+
+
+def draw_figures(run_dir, out_dir=None):
+    """Draw the five PNG figures of a run into out_dir (default run_dir).
+
+    Returns the list of written paths. Raises OSError/ValueError on bad input.
+    """
+    c, summary = load_run(run_dir)
+    missing = [n for n in REQUIRED_COLUMNS if n not in c]
+    if missing:
+        raise ValueError(f"trajectory.csv: missing column(s) {', '.join(missing)}")
+    out_dir = run_dir if out_dir is None else out_dir
+    os.makedirs(out_dir, exist_ok=True)
+    plt = _pyplot()
+    written = []
+    t = c["t"]
+    _trajectory(plt, c, out_dir, written)
+    _body_motion(plt, c, summary, out_dir, written)
+    _error_plot(plt, t, c["energy_error"], "energy error",
+                f"Energy error (max |.| = {_max_abs(c['energy_error']):.3e})",
+                "energy_error.png", out_dir, written)
+    _error_plot(plt, t, c["quat_norm_error"], "|q| - 1",
+                f"Quaternion norm error (max |.| = {_max_abs(c['quat_norm_error']):.3e})",
+                "quaternion_error.png", out_dir, written)
+    l0 = float(np.linalg.norm([c["Lx"][0], c["Ly"][0], c["Lz"][0]]))
+    err = c["momentum_error"]
+    title = f"Momentum error |L(t) - L(0)| (max = {_max_abs(err):.3e}"
+    title += f", relative {_max_abs(err) / l0:.3e})" if l0 > 0.0 else ")"
+    _error_plot(plt, t, err, "|L(t) - L(0)|", title, "momentum_error.png",
+                out_dir, written, scale=l0 if l0 > 0.0 else None)
+    return written
+
+
+def main(argv=None):
+    """Command-line entry: ``lgvi.plot RUN_DIR [--out OUT_DIR]``; returns the exit status.
+
+    Quiet on success (0); on failure prints one ``lgvi.plot: error: ...`` line
+    to stderr and returns 1.
+    """
+    parser = argparse.ArgumentParser(prog="lgvi.plot", description="Draw the figures of an lgvi run.")
+    parser.add_argument("run_dir", help="directory holding trajectory.csv and summary.json")
+    parser.add_argument("--out", dest="out_dir", default=None, help="output directory (default RUN_DIR)")
+    args = parser.parse_args(argv)
+    try:
+        if not os.path.isdir(args.run_dir):
+            raise OSError(f"run directory not found: {args.run_dir}")
+        draw_figures(args.run_dir, args.out_dir)
+    except KeyError as e:
+        print(f"lgvi.plot: error: summary.json: missing key {e}", file=sys.stderr)
+        return 1
+    except (OSError, ValueError, TypeError) as e:
+        msg = f"{e.strerror}: {e.filename}" if isinstance(e, OSError) and e.filename else str(e)
+        print(f"lgvi.plot: error: {msg}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,301 @@
+#include "scenario.hpp"
+
+#include <lgvi/error.hpp>
+
+#include <toml++/toml.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <initializer_list>
+#include <sstream>
+#include <string_view>
+
+namespace lgvi::app {
+
+namespace {
+
+/// Reads typed values out of a parsed TOML document, naming the full key
+/// ("integrator.step") in every error.
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
+    throw InvalidInput(file_ + ": " + (key.empty() ? "" : "key '" + key + "': ") + what);
+  }
+
+  /// Rejects keys of `t` not in `allowed`.
+  void only_keys(const toml::table& t, const std::string& prefix, std::initializer_list<std::string_view> allowed) const {
+    for (const auto& [k, v] : t) {
+      bool ok = false;
+      for (auto a : allowed) ok = ok || k.str() == a;
+      if (!ok) {
+        std::string list;
+        for (auto a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+        fail(join(prefix, std::string(k.str())), "unknown key; allowed here: " + list);
+      }
+    }
+  }
+
+  const toml::table& table(const toml::table& t, const std::string& prefix, const std::string& name) const {
+    const toml::node* n = t.get(name);
+    if (!n) fail(join(prefix, name), "missing table [" + join(prefix, name) + "]");
+    if (!n->is_table()) fail(join(prefix, name), "must be a table [" + join(prefix, name) + "]");
+    return *n->as_table();
+  }
+
+  const toml::table* optional_table(const toml::table& t, const std::string& prefix, const std::string& name) const {
+    const toml::node* n = t.get(name);
+    if (n && !n->is_table()) fail(join(prefix, name), "must be a table");
+    return n ? n->as_table() : nullptr;
+  }
+
+  double number(const toml::node& n, const std::string& key) const {
+    if (!n.is_number()) fail(key, std::string("must be a number, got a ") + type_name(n));
+    const double v = n.value<double>().value();
+    if (!std::isfinite(v)) fail(key, "must be finite, got " + std::to_string(v));
+    return v;
+  }
+
+  double number(const toml::table& t, const std::string& prefix, const std::string& name) const {
+    const toml::node* n = t.get(name);
+    if (!n) fail(join(prefix, name), "missing (a number)");
+    return number(*n, join(prefix, name));
+  }
+
+  std::int64_t integer(const toml::table& t, const std::string& prefix, const std::string& name) const {
+    const toml::node* n = t.get(name);
+    const std::string key = join(prefix, name);
+    if (!n) fail(key, "missing (an integer)");
+    if (!n->is_integer()) fail(key, std::string("must be an integer, got a ") + type_name(*n));
+    return n->value<std::int64_t>().value();
+  }
+
+  std::string string(const toml::table& t, const std::string& prefix, const std::string& name,
+                     std::initializer_list<std::string_view> allowed) const {
+    const toml::node* n = t.get(name);
+    const std::string key = join(prefix, name);
+    std::string list;
+    for (auto a : allowed) list += (list.empty() ? "\"" : ", \"") + std::string(a) + "\"";
+    if (!n) fail(key, "missing; one of " + list);
+    if (!n->is_string()) fail(key, std::string("must be a string, one of ") + list + ", got a " + type_name(*n));
+    const std::string v = n->value<std::string>().value();
+    for (auto a : allowed)
+      if (v == a) return v;
+    fail(key, "\"" + v + "\" is not one of " + list);
+  }
+
+  template <int N>
+  Eigen::Matrix<double, N, 1> vector(const toml::node& n, const std::string& key) const {
+    const toml::array* a = n.as_array();
+    if (!a) fail(key, "must be an array of " + std::to_string(N) + " numbers, got a " + type_name(n));
+    if (static_cast<int>(a->size()) != N)
+      fail(key, "must have " + std::to_string(N) + " numbers, got " + std::to_string(a->size()));
+    Eigen::Matrix<double, N, 1> v;
+    for (int i = 0; i < N; ++i) v(i) = number(*a->get(static_cast<std::size_t>(i)), key + "[" + std::to_string(i) + "]");
+    return v;
+  }
+
+  template <int N>
+  Eigen::Matrix<double, N, 1> vector(const toml::table& t, const std::string& prefix, const std::string& name) const {
+    const toml::node* n = t.get(name);
+    if (!n) fail(join(prefix, name), "missing (an array of " + std::to_string(N) + " numbers)");
+    return vector<N>(*n, join(prefix, name));
+  }
+
+  Matrix3<double> matrix3(const toml::table& t, const std::string& prefix, const std::string& name) const {
+    const toml::node* n = t.get(name);
+    const std::string key = join(prefix, name);
+    if (!n) fail(key, "missing (a 3x3 array of arrays)");
+    const toml::array* a = n->as_array();
+    if (!a || a->size() != 3) fail(key, "must be 3 rows of 3 numbers, e.g. [[1,0,0],[0,2,0],[0,0,3]]");
+    Matrix3<double> m;
+    for (int i = 0; i < 3; ++i)
+      m.row(i) = vector<3>(*a->get(static_cast<std::size_t>(i)), key + "[" + std::to_string(i) + "]").transpose();
+    return m;
+  }
+
+  static std::string join(const std::string& prefix, const std::string& name) {
+    return prefix.empty() ? name : prefix + "." + name;
+  }
+
+ private:
+  static const char* type_name(const toml::node& n) {
+    switch (n.type()) {
+      case toml::node_type::string: return "string";
+      case toml::node_type::integer: return "integer";
+      case toml::node_type::floating_point: return "number";
+      case toml::node_type::boolean: return "boolean";
+      case toml::node_type::array: return "array";
+      case toml::node_type::table: return "table";
+      default: return "date or time";
+    }
+  }
+
+  std::string file_;
+};
+
+RigidBody read_body(const Reader& r, const toml::table& root) {
+  const toml::table& t = r.table(root, "", "body");
+  r.only_keys(t, "body", {"mass", "inertia", "ball"});
+  const bool has_balls = t.contains("ball");
+  const bool has_mass = t.contains("mass") || t.contains("inertia");
+  if (has_balls && has_mass)
+    r.fail("body", "give either mass + inertia or [[body.ball]] entries, not both");
+  try {
+    if (!has_balls) {
+      if (!has_mass) r.fail("body", "missing: give mass + inertia, or one or more [[body.ball]]");
+      return RigidBody(r.number(t, "body", "mass"), r.matrix3(t, "body", "inertia"));
+    }
+    const toml::array* arr = t.get("ball")->as_array();
+    if (!arr || arr->empty() || !arr->is_array_of_tables())
+      r.fail("body.ball", "must be one or more [[body.ball]] tables");
+    if (arr->size() > 100000) r.fail("body.ball", "more than 100000 balls; merge them into mass + inertia");
+    std::vector<Ball> balls;
+    for (std::size_t i = 0; i < arr->size(); ++i) {
+      const toml::table& b = *arr->get(i)->as_table();
+      const std::string prefix = "body.ball[" + std::to_string(i) + "]";
+      r.only_keys(b, prefix, {"position", "mass", "radius"});
+      balls.push_back({r.vector<3>(b, prefix, "position"), r.number(b, prefix, "mass"), r.number(b, prefix, "radius")});
+    }
+    return RigidBody::from_balls(std::move(balls));
+  } catch (const InvalidInput& e) {
+    const std::string what = e.what();
+    // Messages from the library name the field but not the file.
+    if (what.rfind("body", 0) == 0) r.fail("", what);
+    throw;
+  }
+}
+
+PotentialSpec read_potential(const Reader& r, const toml::table& root) {
+  const toml::table& t = r.table(root, "", "potential");
+  PotentialSpec p;
+  const std::string kind = r.string(t, "potential", "kind", {"none", "central", "uniform"});
+  if (kind == "none") {
+    r.only_keys(t, "potential", {"kind"});
+  } else if (kind == "central") {
+    r.only_keys(t, "potential", {"kind", "mu"});
+    p.kind = PotentialKind::Central;
+    p.mu = r.number(t, "potential", "mu");
+    if (!(p.mu > 0.0)) r.fail("potential.mu", "must be > 0 (attracting centre of strength mu)");
+  } else {
+    r.only_keys(t, "potential", {"kind", "g"});
+    p.kind = PotentialKind::Uniform;
+    p.g = r.vector<3>(t, "potential", "g");
+  }
+  return p;
+}
+
+RigidBodyState read_initial(const Reader& r, const toml::table& root, const RigidBody& body) {
+  const toml::table& t = r.table(root, "", "initial");
+  r.only_keys(t, "initial", {"position", "quaternion", "momentum", "velocity", "w", "omega"});
+  RigidBodyState s;
+  s.x = r.vector<3>(t, "initial", "position");
+  const Vector4<double> q = r.vector<4>(t, "initial", "quaternion");
+  const double n = q.norm();
+  if (!(std::abs(n - 1.0) <= 1e-6))
+    r.fail("initial.quaternion",
+           "must be a unit quaternion (scalar first, [w, x, y, z]); its norm is " + std::to_string(n) +
+               ", more than 1e-6 from 1");
+  s.q = S3d(q(0) / n, q(1) / n, q(2) / n, q(3) / n);
+  if (t.contains("momentum") == t.contains("velocity"))
+    r.fail("initial", "give exactly one of momentum = [px, py, pz] or velocity = [vx, vy, vz]");
+  s.p = t.contains("momentum") ? r.vector<3>(t, "initial", "momentum")
+                               : Vector3<double>(body.mass() * r.vector<3>(t, "initial", "velocity"));
+  if (t.contains("w") == t.contains("omega"))
+    r.fail("initial", "give exactly one of w = [...] (the paper's w = 2 J Omega) or omega = [...] (body angular velocity)");
+  s.w = t.contains("w") ? r.vector<3>(t, "initial", "w")
+                        : Vector3<double>(2.0 * body.inertia() * r.vector<3>(t, "initial", "omega"));
+  return s;
+}
+
+IntegratorSpec read_integrator(const Reader& r, const toml::table& root) {
+  const toml::table& t = r.table(root, "", "integrator");
+  r.only_keys(t, "integrator", {"method", "solver", "step", "duration", "tolerance", "max_iterations"});
+  IntegratorSpec s;
+  if (t.contains("method"))
+    s.method = r.string(t, "integrator", "method", {"lgvi", "lgvi-lagrangian"}) == "lgvi" ? Method::Hamiltonian
+                                                                                          : Method::Lagrangian;
+  if (t.contains("solver")) {
+    const std::string k = r.string(t, "integrator", "solver", {"newton", "newton-exp", "broyden"});
+    s.solver.kind = k == "newton" ? SolverKind::Newton : k == "newton-exp" ? SolverKind::NewtonExp : SolverKind::Broyden;
+  }
+  if (t.contains("tolerance")) {
+    s.solver.tolerance = r.number(t, "integrator", "tolerance");
+    if (!(s.solver.tolerance > 0.0 && s.solver.tolerance < 1e-3))
+      r.fail("integrator.tolerance", "must be in (0, 1e-3); the default 4 eps ~ 8.9e-16 is round-off level");
+  }
+  if (t.contains("max_iterations")) {
+    const std::int64_t m = r.integer(t, "integrator", "max_iterations");
+    if (m < 1 || m > 10000) r.fail("integrator.max_iterations", "must be an integer in [1, 10000]");
+    s.solver.max_iterations = static_cast<int>(m);
+  }
+  s.step = r.number(t, "integrator", "step");
+  if (!(s.step > 0.0)) r.fail("integrator.step", "must be > 0, got " + std::to_string(s.step));
+  s.duration = r.number(t, "integrator", "duration");
+  if (!(s.duration >= 0.0)) r.fail("integrator.duration", "must be >= 0, got " + std::to_string(s.duration));
+  // n = ceil(duration / step), forgiving the round-off of the division
+  // (1000 / 0.01 = 100000.00000000001); the run ends at t = n step.
+  const double ratio = s.duration / s.step;
+  if (!(ratio <= 9007199254740992.0))  // 2^53: beyond it t0 + k h no longer tells steps apart
+    r.fail("integrator.duration", "needs more than 2^53 steps of the given step; shorten it or enlarge the step");
+  const double nearest = std::round(ratio);
+  s.steps = static_cast<std::int64_t>(std::abs(ratio - nearest) <= 1e-9 * std::max(1.0, ratio) ? nearest
+                                                                                               : std::ceil(ratio));
+  return s;
+}
+
+}  // namespace
+
+Scenario parse_scenario(const std::string& text, const std::string& name) {
+  const Reader r(name);
+  toml::table root;
+  try {
+    root = toml::parse(text, name);
+  } catch (const toml::parse_error& e) {
+    std::ostringstream os;
+    os << name << ":" << e.source().begin.line << ":" << e.source().begin.column << ": " << e.description();
+    throw InvalidInput(os.str());
+  }
+  r.only_keys(root, "", {"body", "potential", "initial", "integrator", "output"});
+  RigidBody body = read_body(r, root);
+  PotentialSpec potential = read_potential(r, root);
+  RigidBodyState initial = read_initial(r, root, body);
+  IntegratorSpec integrator = read_integrator(r, root);
+  std::int64_t every = 1;
+  if (const toml::table* out = r.optional_table(root, "", "output")) {
+    r.only_keys(*out, "output", {"every"});
+    if (out->contains("every")) {
+      every = r.integer(*out, "output", "every");
+      if (every < 1) r.fail("output.every", "must be an integer >= 1");
+    }
+  }
+  const std::string stem = std::filesystem::path(name).stem().string();
+  return Scenario{stem, std::move(body), potential, initial, integrator, every};
+}
+
+Scenario read_scenario(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw InvalidInput(path + ": is a directory, not a scenario file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InvalidInput(path + ": cannot open the scenario file");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  const std::string text = ss.str();
+  if (text.find('\0') != std::string::npos) throw InvalidInput(path + ": not a text file (contains NUL bytes)");
+  return parse_scenario(text, path);
+}
+
+const char* to_string(PotentialKind k) {
+  switch (k) {
+    case PotentialKind::None: return "none";
+    case PotentialKind::Central: return "central";
+    case PotentialKind::Uniform: return "uniform";
+  }
+  return "?";
+}
+
+const char* to_string(Method m) { return m == Method::Hamiltonian ? "lgvi" : "lgvi-lagrangian"; }
+
+}  // namespace lgvi::app
