@@ -120,8 +120,9 @@ class CallablePotential {
 /// The paper's rotational generalized force F(q) dV/dq from the torque M.
 inline Vector3<double> seed_torque_term(const Vector3<double>& torque) { return -2.0 * torque; }
 
-/// Largest discrepancies between a potential's force and torque and central
-/// finite differences of its energy, each relative to max(1, |value|).
+/// Discrepancies between a potential's force and torque and finite
+/// differences of its energy, each relative to the larger of the two values
+/// compared (0 when both are exactly 0).
 struct DerivativeCheck {
   double force_error = 0.0;
   double torque_error = 0.0;
@@ -129,27 +130,29 @@ struct DerivativeCheck {
 };
 
 /// Checks force = -dV/dx and torque = -dV/dtheta (theta the body-frame
-/// rotation, q -> q exp(theta/2)) by central differences of the energy with
-/// step h. With V smooth, the truncation error is O(h^2) and the round-off
-/// O(eps |V| / h): h ~ eps^(1/3) |x| balances them at ~1e-10 relative.
+/// rotation angle: q -> q exp(theta/2), i.e. R -> R expm(hat(theta))) by
+/// fourth-order central differences of the energy,
+///   f'(0) ~ (8 (f(h) - f(-h)) - (f(2h) - f(-2h))) / (12 h),
+/// with h = eps^(1/5) (times max(1, |x|) for positions): the truncation
+/// O(h^4) and the round-off O(eps |V| / h) are then both ~1e-13 |V|. A
+/// derivative much smaller than |V| (a tidal torque far from the centre) is
+/// checked relative to itself, so its achievable accuracy is eps |V| / (h |M|).
 template <Potential P>
-DerivativeCheck check_potential_derivatives(const P& potential, const Vector3<double>& x, const S3d& q,
-                                            double h = 0.0) {
-  if (h <= 0.0) h = std::cbrt(std::numeric_limits<double>::epsilon()) * std::max(1.0, x.norm());
+DerivativeCheck check_potential_derivatives(const P& potential, const Vector3<double>& x, const S3d& q) {
+  const double h0 = std::pow(std::numeric_limits<double>::epsilon(), 0.2);
   const PotentialEvaluation e = potential.evaluate(x, q);
   Vector3<double> force_fd, torque_fd;
+  auto diff = [](auto&& f, double h) { return (8.0 * (f(h) - f(-h)) - (f(2 * h) - f(-2 * h))) / (12.0 * h); };
   for (int i = 0; i < 3; ++i) {
-    Vector3<double> dx = Vector3<double>::Zero();
-    dx(i) = h;
-    force_fd(i) = -(potential.evaluate(x + dx, q).energy - potential.evaluate(x - dx, q).energy) / (2 * h);
-    // delta R = R hat(delta theta) <=> delta q = q exp(delta theta / 2).
-    const S3d qp = q * S3d::exp(dx / 2.0), qm = q * S3d::exp(-dx / 2.0);
-    torque_fd(i) = -(potential.evaluate(x, qp).energy - potential.evaluate(x, qm).energy) / (2 * h);
+    const Vector3<double> unit = Vector3<double>::Unit(i);
+    force_fd(i) = -diff([&](double t) { return potential.evaluate(x + t * unit, q).energy; }, h0 * std::max(1.0, x.norm()));
+    torque_fd(i) = -diff([&](double t) { return potential.evaluate(x, q * S3d::exp((t / 2) * unit)).energy; }, h0);
   }
-  DerivativeCheck c;
-  c.force_error = (e.force - force_fd).norm() / std::max(1.0, e.force.norm());
-  c.torque_error = (e.torque - torque_fd).norm() / std::max(1.0, e.torque.norm());
-  return c;
+  auto relative = [](const Vector3<double>& a, const Vector3<double>& b) {
+    const double scale = std::max(a.norm(), b.norm());
+    return scale > 0.0 ? (a - b).norm() / scale : 0.0;
+  };
+  return {relative(e.force, force_fd), relative(e.torque, torque_fd)};
 }
 
 }  // namespace lgvi
