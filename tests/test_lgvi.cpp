@@ -1,1 +1,261 @@
-#include <gtest/gtest.h>
+// The quaternion LGVI (lgvi.hpp): convergence order against a tight solution
+// of the continuous equations, an exact discrete solution, the paper's
+// invariants over 1e5 steps, and equivalences between forms and solvers.
+#include <lgvi/continuous.hpp>
+#include <lgvi/integrate.hpp>
+#include <lgvi/paper.hpp>
+
+#include "test_support.hpp"
+
+#include <gmock/gmock.h>
+
+#include <cmath>
+#include <vector>
+
+namespace {
+
+using lgvi::CentralGravity;
+using lgvi::RigidBody;
+using lgvi::RigidBodyState;
+using lgvi::S3d;
+using V3 = lgvi::Vector3<double>;
+using M3 = lgvi::Matrix3<double>;
+constexpr double eps = 2.220446049250313e-16;
+
+template <class Stepper>
+RigidBodyState run(Stepper& stepper, RigidBodyState s, std::int64_t n) {
+  lgvi::integrate_n_steps(stepper, s, 0.0, n, [](const lgvi::StepInfo&) {});
+  return s;
+}
+
+template <template <class> class Integrator>
+RigidBodyState run_paper(double h, std::int64_t n, lgvi::SolverKind kind = lgvi::SolverKind::Newton,
+                         RigidBodyState s0 = lgvi::paper::orbit_initial_state()) {
+  const RigidBody body = lgvi::paper::three_ball_body();
+  lgvi::SolverOptions opt;
+  opt.kind = kind;
+  Integrator<CentralGravity> integ(body, CentralGravity(body, 1.0), h, opt);
+  return run(integ, s0, n);
+}
+
+double distance(const RigidBodyState& a, const RigidBodyState& b) {
+  return std::max({(a.x - b.x).norm(), (a.q.scalar_first() - b.q.scalar_first()).norm(), (a.p - b.p).norm(),
+                   (a.w - b.w).norm()});
+}
+
+// ---------------------------------------------------------------- convergence
+
+RigidBodyState reference_solution(double t_end, double h_ref) {
+  const RigidBody body = lgvi::paper::three_ball_body();
+  const lgvi::ContinuousEquations<CentralGravity> eqs(body, CentralGravity(body, 1.0));
+  const auto c = eqs.rk4(lgvi::to_continuous(lgvi::paper::orbit_initial_state(), body), h_ref,
+                         std::lround(t_end / h_ref));
+  return lgvi::from_continuous(c, body);
+}
+
+TEST(Convergence, ReferenceSolutionIsTight) {
+  // RK4's error ~ C h^4: halving h_ref = 1e-3 must change the result by
+  // ~ (15/16) C h^4; we need the reference ~1e-12 from the truth to measure
+  // LGVI errors down to 1e-6 with 6 digits.
+  const double d = distance(reference_solution(1.0, 1e-3), reference_solution(1.0, 5e-4));
+  EXPECT_LE(d, 1e-12);
+}
+
+template <template <class> class Integrator>
+void expect_second_order() {
+  const RigidBodyState ref = reference_solution(1.0, 5e-4);
+  std::vector<double> errors;
+  for (double h : {0.1, 0.05, 0.025, 0.0125}) {
+    const RigidBodyState s = run_paper<Integrator>(h, std::lround(1.0 / h));
+    errors.push_back(distance(s, ref));
+  }
+  for (std::size_t i = 0; i + 1 < errors.size(); ++i) {
+    const double order = std::log2(errors[i] / errors[i + 1]);
+    // Second order: the error ratio on halving h is 4 up to O(h) corrections
+    // of the asymptotic regime (|order - 2| <= 0.1 from h = 0.1 down).
+    EXPECT_NEAR(order, 2.0, 0.1) << "h = " << 0.1 / std::pow(2, i) << ", errors " << errors[i] << " -> "
+                                 << errors[i + 1];
+  }
+}
+
+TEST(Convergence, HamiltonianFormIsSecondOrder) { expect_second_order<lgvi::LieGroupVariationalIntegrator>(); }
+TEST(Convergence, LagrangianFormIsSecondOrder) {
+  expect_second_order<lgvi::LagrangianLieGroupVariationalIntegrator>();
+}
+
+// ---------------------------------------------------------- exact discrete flow
+
+TEST(ExactSolution, SpinAboutAPrincipalAxisAdvancesByArcsinPerStep) {
+  // Free body spinning about the principal axis e3 with rate Omega: the
+  // discrete equation g(f) = (h/4) w with f_v || e3 reduces to
+  // sin(theta) cos(theta) J3 = h J3 Omega / 2, so each step rotates by
+  // 2 theta = asin(h Omega) (exactly, against h Omega for the continuous flow).
+  const RigidBody body(2.0, M3(V3(1.0, 2.0, 3.0).asDiagonal()));
+  const double h = 0.1, omega = 5.0;
+  lgvi::LieGroupVariationalIntegrator<lgvi::NoPotential> integ(body, {}, h);
+  RigidBodyState s;
+  s.w = 2.0 * body.inertia() * V3(0, 0, omega);
+  const std::int64_t n = 1000;
+  s = run(integ, s, n);
+  const double angle = static_cast<double>(n) * std::asin(h * omega);
+  // Rounding accumulates over n steps like n eps in the angle.
+  EXPECT_MAT_NEAR(s.q.scalar_first(), S3d::exp(V3(0, 0, angle / 2)).scalar_first(), 4 * n * eps);
+  EXPECT_MAT_NEAR(s.w, (2.0 * body.inertia() * V3(0, 0, omega)).eval(), 8 * eps * s.w.norm());
+}
+
+// -------------------------------------------------- the paper's promises, 1e5 steps
+
+struct LongRun {
+  double max_relative_momentum_error = 0, max_quat_error = 0, first_tenth_energy = 0, last_tenth_energy = 0;
+  double final_t = 0;
+};
+
+LongRun long_run(lgvi::SolverKind kind) {
+  const RigidBody body = lgvi::paper::three_ball_body();
+  lgvi::SolverOptions opt;
+  opt.kind = kind;
+  lgvi::LieGroupVariationalIntegrator<CentralGravity> integ(body, CentralGravity(body, 1.0), 0.01, opt);
+  RigidBodyState s = lgvi::paper::orbit_initial_state();
+  const std::int64_t n = 100000;
+  double e0 = 0;
+  V3 l0;
+  LongRun r;
+  lgvi::integrate_n_steps(integ, s, 0.0, n, [&](const lgvi::StepInfo& i) {
+    const double e = lgvi::total_energy(i.state, body, i.evaluation);
+    const V3 l = lgvi::angular_momentum(i.state);
+    if (i.k == 0) e0 = e, l0 = l;
+    r.max_relative_momentum_error = std::max(r.max_relative_momentum_error, (l - l0).norm() / l0.norm());
+    r.max_quat_error = std::max(r.max_quat_error, std::abs(i.state.q.norm_error()));
+    if (i.k <= n / 10) r.first_tenth_energy = std::max(r.first_tenth_energy, std::abs(e - e0));
+    if (i.k >= n - n / 10) r.last_tenth_energy = std::max(r.last_tenth_energy, std::abs(e - e0));
+    r.final_t = i.t;
+  });
+  return r;
+}
+
+class PaperOrbit : public ::testing::TestWithParam<lgvi::SolverKind> {};
+
+TEST_P(PaperOrbit, InvariantsOver1e5Steps) {
+  const LongRun r = long_run(GetParam());
+  std::printf("[ lgvi     ] %s: max rel |dL| %.3e, max ||q|-1| %.3e, max |dE| first tenth %.3e, last tenth %.3e\n",
+              lgvi::to_string(GetParam()), r.max_relative_momentum_error, r.max_quat_error, r.first_tenth_energy,
+              r.last_tenth_energy);
+  // Discrete Noether: each step conserves L up to the rounding of O(100) flops
+  // on numbers of size |L|; 1e5 steps of a random walk of a few eps give ~1e-13.
+  EXPECT_LE(r.max_relative_momentum_error, 1e-12);
+  // |q| - 1 changes by the rounding of one quaternion product per step.
+  EXPECT_LE(r.max_quat_error, 1e-13);
+  // Symplectic: the energy error oscillates with the orbit without drift.
+  EXPECT_LE(r.last_tenth_energy, 2.0 * r.first_tenth_energy);
+  EXPECT_EQ(r.final_t, 100000 * 0.01);  // t = t0 + k h, not accumulated
+}
+
+INSTANTIATE_TEST_SUITE_P(Solvers, PaperOrbit, ::testing::Values(lgvi::SolverKind::Newton, lgvi::SolverKind::Broyden),
+                         [](const auto& info) { return std::string(lgvi::to_string(info.param)); });
+
+// ------------------------------------------------------------ equivalences
+
+TEST(Equivalence, SolversGiveTheSameTrajectory) {
+  // Each step's root agrees to ~eps between solvers; the differences then
+  // grow with the flow's sensitivity (~ linear in t on this orbit).
+  const RigidBodyState a = run_paper<lgvi::LieGroupVariationalIntegrator>(0.01, 1000, lgvi::SolverKind::Newton);
+  const RigidBodyState b = run_paper<lgvi::LieGroupVariationalIntegrator>(0.01, 1000, lgvi::SolverKind::NewtonExp);
+  const RigidBodyState c = run_paper<lgvi::LieGroupVariationalIntegrator>(0.01, 1000, lgvi::SolverKind::Broyden);
+  std::printf("[ lgvi     ] 1000 steps: |newton - newton-exp| %.2e, |newton - broyden| %.2e\n", distance(a, b),
+              distance(a, c));
+  EXPECT_LE(distance(a, b), 1000 * 16 * eps);
+  EXPECT_LE(distance(a, c), 1000 * 16 * eps);
+}
+
+TEST(Equivalence, LagrangianAndHamiltonianFormsGiveTheSameTrajectory) {
+  // The position-position form recomputes p_k = m (x_k - x_{k-1})/h + ...:
+  // the cancellation costs |x| / |x_k - x_{k-1}| ~ 8 / 0.0033 ~ 2.4e3 in
+  // relative precision per step on momentum, so the forms agree to ~1e3 eps
+  // per step rather than eps.
+  const RigidBodyState a = run_paper<lgvi::LieGroupVariationalIntegrator>(0.01, 1000);
+  const RigidBodyState b = run_paper<lgvi::LagrangianLieGroupVariationalIntegrator>(0.01, 1000);
+  std::printf("[ lgvi     ] 1000 steps: |hamiltonian - lagrangian| %.2e\n", distance(a, b));
+  EXPECT_LE(distance(a, b), 1000 * 4096 * eps);
+}
+
+TEST(Equivalence, RotatedFormOfW1EqualsThePapersFormula) {
+  // One step: w1 as computed (pi(f)^T (w0 + h M0) + h M1) against the paper's
+  // w1 = (4/h) G(q0^* q1) J Im(q0^* q1) - (h/2) F(q1) dV/dq(x1, q1).
+  const RigidBody body = lgvi::paper::three_ball_body();
+  const CentralGravity pot(body, 1.0);
+  const double h = 0.01;
+  lgvi::LieGroupVariationalIntegrator<CentralGravity> integ(body, pot, h);
+  RigidBodyState s = lgvi::paper::orbit_initial_state();
+  s.q = lgvi::test::random_unit_quaternion();
+  const RigidBodyState s0 = s;
+  integ.initialize(s);
+  integ.step(s);
+  const Eigen::Quaterniond f = s0.q.quaternion().conjugate() * s.q.quaternion();
+  const V3 w1_paper = (4 / h) * lgvi::G(f) * body.inertia() * f.vec() - (h / 2) * lgvi::seed_torque_term(integ.evaluation().torque);
+  // Equal on the solution; the literal form's (4/h) amplifies the rounding of f.
+  EXPECT_MAT_NEAR(s.w, w1_paper, 4 / h * 16 * eps * body.inertia().norm());
+  // And p1 against m (x1 - x0)/h + (h/2) F1 (cancellation: |x|/|dx| ~ 2.4e3).
+  const V3 p1_paper = body.mass() * (s.x - s0.x) / h + (h / 2) * integ.evaluation().force;
+  EXPECT_MAT_NEAR(s.p, p1_paper, 4096 * eps);
+}
+
+TEST(Symmetry, ReversingMomentaRetracesTheTrajectory) {
+  // L_d(q0, q1) = L_d(q1, q0): the method is symmetric, so flipping (p, w)
+  // and stepping n times again returns to the start, up to rounding
+  // amplified by the flow (~n eps growth).
+  const std::int64_t n = 1000;
+  RigidBodyState s = run_paper<lgvi::LieGroupVariationalIntegrator>(0.01, n);
+  s.p = -s.p;
+  s.w = -s.w;
+  s = run_paper<lgvi::LieGroupVariationalIntegrator>(0.01, n, lgvi::SolverKind::Newton, s);
+  s.p = -s.p;
+  s.w = -s.w;
+  const RigidBodyState s0 = lgvi::paper::orbit_initial_state();
+  std::printf("[ lgvi     ] forward-backward %lld steps: %.2e\n", static_cast<long long>(n), distance(s, s0));
+  EXPECT_LE(distance(s, s0), n * 64 * eps);
+}
+
+TEST(Projection, LiftAndProjectAreInverse) {
+  const RigidBody body = lgvi::paper::three_ball_body();
+  lgvi::RotationMatrixState r{V3(1, 2, 3), lgvi::test::random_unit_quaternion().matrix(), V3(0.1, 0.2, 0.3),
+                              V3(-1, 0.5, 2)};
+  const RigidBodyState s = lgvi::lift(r, body);
+  EXPECT_MAT_NEAR(s.w, (2.0 * body.inertia() * r.omega).eval(), 0.0);
+  const lgvi::RotationMatrixState back = lgvi::project(s, body);
+  EXPECT_MAT_NEAR(back.R, r.R, 16 * eps);
+  EXPECT_MAT_NEAR(back.xdot, r.xdot, 4 * eps);
+  EXPECT_MAT_NEAR(back.omega, r.omega, 16 * eps);
+}
+
+// ------------------------------------------------------------------ failures
+
+TEST(Failure, RotationReachingPiStopsTheRunAtThatStep) {
+  const RigidBody body(1.0, M3(V3(1.0, 2.0, 3.0).asDiagonal()));
+  lgvi::LieGroupVariationalIntegrator<lgvi::NoPotential> integ(body, {}, 0.01);
+  RigidBodyState s;
+  s.w = 2.0 * body.inertia() * V3(400.0, 0, 0);  // |Omega| h = 4 rad > pi
+  std::int64_t observed = -1;
+  try {
+    lgvi::integrate_n_steps(integ, s, 0.0, 10, [&](const lgvi::StepInfo& i) { observed = i.k; });
+    FAIL() << "expected an IntegrationFailure";
+  } catch (const lgvi::IntegrationFailure& e) {
+    EXPECT_EQ(e.step(), 0);
+    EXPECT_EQ(observed, 0);  // the initial state was seen, nothing after it
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("smaller step"));
+  }
+}
+
+TEST(Failure, BodyAtTheCentreOfTheFieldIsNonFinite) {
+  const RigidBody point(1.0, M3::Identity());
+  lgvi::LieGroupVariationalIntegrator<CentralGravity> integ(point, CentralGravity(point, 1.0), 0.01);
+  RigidBodyState s;  // x = 0: V = -inf
+  EXPECT_THROW(run(integ, s, 1), lgvi::IntegrationFailure);
+}
+
+TEST(Failure, InvalidStepIsRejected) {
+  const RigidBody point(1.0, M3::Identity());
+  EXPECT_THROW(lgvi::LieGroupVariationalIntegrator<lgvi::NoPotential>(point, {}, 0.0), lgvi::InvalidInput);
+  EXPECT_THROW(lgvi::LieGroupVariationalIntegrator<lgvi::NoPotential>(point, {}, std::nan("")), lgvi::InvalidInput);
+}
+
+}  // namespace

@@ -1,1 +1,161 @@
-#include <gtest/gtest.h>
+// The implicit rotation equation g(f) = b (rotation_solver.hpp): analytic
+// Jacobians against finite differences, the three solvers against each other
+// and against the paper's equation written literally with G and F.
+#include <lgvi/paper.hpp>
+#include <lgvi/rotation_solver.hpp>
+
+#include "test_support.hpp"
+
+#include <gmock/gmock.h>
+
+namespace {
+
+using lgvi::RotationEquation;
+using lgvi::RotationSolver;
+using lgvi::S3d;
+using lgvi::SolverKind;
+using V3 = lgvi::Vector3<double>;
+using M3 = lgvi::Matrix3<double>;
+constexpr double eps = 2.220446049250313e-16;
+
+M3 random_inertia() {
+  // A random valid inertia: random principal moments obeying the triangle
+  // inequality, in random axes.
+  const double a = lgvi::test::uniform(0.5, 2.0), b = lgvi::test::uniform(0.5, 2.0);
+  const double c = lgvi::test::uniform(std::abs(a - b) + 0.1, a + b - 0.1);
+  const M3 r = lgvi::test::random_unit_quaternion().matrix();
+  return r * V3(a, b, c).asDiagonal() * r.transpose();
+}
+
+TEST(RotationEquation, CayleyJacobianMatchesFiniteDifferences) {
+  for (int trial = 0; trial < 10; ++trial) {
+    const RotationEquation eq(random_inertia());
+    const V3 u = lgvi::test::random_vector(0.5), b = lgvi::test::random_vector(0.5);
+    M3 fd;
+    const double h = 1e-6;  // c is quadratic: central differences are exact but for round-off ~eps/h
+    for (int j = 0; j < 3; ++j)
+      fd.col(j) = (eq.cayley_residual(u + h * V3::Unit(j), b) - eq.cayley_residual(u - h * V3::Unit(j), b)) / (2 * h);
+    EXPECT_MAT_NEAR(eq.cayley_jacobian(u, b), fd, 1e-9);
+    // c(u) = (1 + |u|^2) (g(f) - b) for f = (1, u)/sqrt(1 + |u|^2).
+    const double fs = 1 / std::sqrt(1 + u.squaredNorm());
+    const S3d f(fs, fs * u.x(), fs * u.y(), fs * u.z());
+    EXPECT_MAT_NEAR(eq.cayley_residual(u, b), ((1 + u.squaredNorm()) * (eq.g(f) - b)).eval(), 16 * eps);
+  }
+}
+
+TEST(RotationEquation, ExponentialChartJacobianMatchesFiniteDifferences) {
+  for (int trial = 0; trial < 10; ++trial) {
+    const RotationEquation eq(random_inertia());
+    const V3 xi = lgvi::test::random_vector(0.7);
+    double c, sinc;
+    S3d::cos_and_sinc(xi.norm(), c, sinc);
+    M3 fd;
+    const double h = 1e-5;  // truncation h^2 |g'''| / 6 ~ 1e-10
+    for (int j = 0; j < 3; ++j)
+      fd.col(j) = (eq.g(S3d::exp(xi + h * V3::Unit(j))) - eq.g(S3d::exp(xi - h * V3::Unit(j)))) / (2 * h);
+    EXPECT_MAT_NEAR(eq.jacobian(xi, S3d::exp(xi), c, sinc), fd, 1e-9);
+  }
+}
+
+class Solvers : public ::testing::TestWithParam<SolverKind> {};
+
+TEST_P(Solvers, SolveThePapersEquationToRoundOff) {
+  // The paper's second Hamiltonian equation, written literally:
+  //   w0 = -(4/h) G(q1^* q0) J Im(q1^* q0) + (h/2) F(q0) dV/dq,
+  // with F(q0) dV/dq = -2 M0 and q1 = q0 f.
+  for (int trial = 0; trial < 20; ++trial) {
+    const M3 J = random_inertia();
+    const double h = 0.05;
+    const V3 w0 = lgvi::test::random_vector(10.0), M0 = lgvi::test::random_vector(1.0);
+    const S3d q0 = lgvi::test::random_unit_quaternion();
+    lgvi::SolverOptions opt;
+    opt.kind = GetParam();
+    const RotationSolver solver(J, opt);
+    S3d f = S3d::exp(J.inverse() * (0.25 * h * (w0 + h * M0)));  // first-order guess
+    lgvi::SolveReport report;
+    solver.solve(0.25 * h * (w0 + h * M0), f, report);
+    const S3d q1 = q0 * f;
+    const Eigen::Quaterniond q1q0 = q1.quaternion().conjugate() * q0.quaternion();
+    const V3 rhs = -(4 / h) * lgvi::G(q1q0) * J * q1q0.vec() + (h / 2) * (-2.0 * M0);
+    // Solved to tolerance 4 eps relative to |b| = h|w0|/4; the literal form's
+    // own rounding (products with q0, q1 of size 1, times 4/h) adds a few eps |w0|.
+    EXPECT_MAT_NEAR(rhs, w0, 64 * eps * w0.norm()) << "solver " << lgvi::to_string(GetParam());
+    EXPECT_LE(std::abs(f.norm_error()), 4 * eps);
+    EXPECT_GE(report.iterations, 1);
+  }
+}
+
+TEST_P(Solvers, RotationReachingPiIsReported) {
+  // b beyond what any rotation of less than pi per step can produce.
+  lgvi::SolverOptions opt;
+  opt.kind = GetParam();
+  const RotationSolver solver(M3::Identity(), opt);
+  S3d f;
+  lgvi::SolveReport report;
+  try {
+    solver.solve(V3(50.0, 0, 0), f, report);
+    FAIL() << "expected a StepFailure";
+  } catch (const lgvi::StepFailure& e) {
+    EXPECT_THAT(std::string(e.what()) + e.hint(), ::testing::AnyOf(::testing::HasSubstr("reached pi"),
+                                                                   ::testing::HasSubstr("did not converge")));
+    EXPECT_THAT(e.hint(), ::testing::HasSubstr("smaller step"));
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(AllSolvers, Solvers,
+                         ::testing::Values(SolverKind::Newton, SolverKind::NewtonExp, SolverKind::Broyden),
+                         [](const auto& info) {
+                           std::string n = lgvi::to_string(info.param);
+                           std::replace(n.begin(), n.end(), '-', '_');
+                           return n;
+                         });
+
+TEST(Solvers, AllThreeFindTheSameRoot) {
+  const M3 J = lgvi::paper::three_ball_body().inertia();
+  for (int trial = 0; trial < 20; ++trial) {
+    const V3 b = lgvi::test::random_vector(0.05);
+    S3d f[3];
+    int k = 0;
+    for (SolverKind kind : {SolverKind::Newton, SolverKind::NewtonExp, SolverKind::Broyden}) {
+      lgvi::SolverOptions opt;
+      opt.kind = kind;
+      lgvi::SolveReport report;
+      f[k] = S3d::exp(J.inverse() * b);
+      RotationSolver(J, opt).solve(b, f[k], report);
+      ++k;
+    }
+    // Each is within 4 eps |b| of the root in g; g is well conditioned
+    // (|dg/df_v| ~ |J|, |J^{-1}| ~ 2) near the identity.
+    EXPECT_MAT_NEAR(f[0].scalar_first(), f[1].scalar_first(), 16 * eps);
+    EXPECT_MAT_NEAR(f[0].scalar_first(), f[2].scalar_first(), 16 * eps);
+  }
+}
+
+TEST(Solvers, NewtonIsQuadraticFromAWarmStart) {
+  // From the previous step's f (O(h^2) away), Newton needs 2 iterations and
+  // Broyden a few more: the paper's choice costs iterations, not accuracy.
+  const M3 J = lgvi::paper::three_ball_body().inertia();
+  const V3 b(0.0025, 0.005, 0.0075), b_next = b + V3(1e-6, -2e-6, 1e-6);
+  lgvi::SolveReport newton, broyden;
+  S3d f = S3d::exp(J.inverse() * b);
+  RotationSolver(J, {}).solve(b, f, newton);
+  S3d f_newton = f, f_broyden = f;
+  RotationSolver(J, {}).solve(b_next, f_newton, newton);
+  lgvi::SolverOptions bopt;
+  bopt.kind = SolverKind::Broyden;
+  RotationSolver(J, bopt).solve(b_next, f_broyden, broyden);
+  EXPECT_LE(newton.iterations, 2);
+  EXPECT_GE(broyden.iterations, newton.iterations);
+  EXPECT_LE(broyden.iterations, 6);
+}
+
+TEST(Solvers, NonConvergenceIsReportedNotHidden) {
+  lgvi::SolverOptions opt;
+  opt.max_iterations = 1;
+  const M3 J = lgvi::paper::three_ball_body().inertia();
+  S3d f;  // a cold start at the identity, far from the root
+  lgvi::SolveReport report;
+  EXPECT_THROW(RotationSolver(J, opt).solve(V3(0.3, 0.2, 0.1), f, report), lgvi::StepFailure);
+}
+
+}  // namespace

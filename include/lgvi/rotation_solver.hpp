@@ -264,7 +264,7 @@ class RotationSolver {
   static StepFailure left_branch() {
     return StepFailure("the rotation in one step reached pi (|xi0| >= pi/2, Re(q0^* q1) <= 0), where the discrete "
                        "flow is not defined",
-                       "reduce the step so that |Omega| h stays well below pi");
+                       "take a smaller step, so that the rotation |Omega| h per step stays well below pi");
   }
 
   static void check_branch(const Vector3<double>& xi) {
