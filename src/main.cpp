@@ -27,8 +27,16 @@ int main(int argc, char** argv) {
 
   try {
     app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : lgvi::app::kBadInput;
+    // One line, like every other error; --help has the details.
+    std::cerr << "lgvi: error: " << e.what() << " (see lgvi --help or lgvi run --help)\n";
+    return lgvi::app::kBadInput;
   }
   options.figures = !no_figures;
   try {

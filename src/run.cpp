@@ -49,6 +49,7 @@ struct Recorder {
   int iterations_max = 0;
   double last_t = 0.0;
   std::int64_t last_k = 0;
+  bool observed = false;  ///< at least the initial state was evaluated and recorded
 
   void operator()(const StepInfo& i) {
     const RigidBodyState& s = i.state;
@@ -68,6 +69,7 @@ struct Recorder {
     max_momentum_error = std::max(max_momentum_error, dl);
     last_t = i.t;
     last_k = i.k;
+    observed = true;
     if (i.k % scenario.output_every == 0 || i.k == scenario.integrator.steps) {
       const auto& q = s.q.quaternion();
       const double row[trajectory_columns] = {i.t,    s.x.x(), s.x.y(), s.x.z(), q.w(),  q.x(),  q.y(),
@@ -211,7 +213,7 @@ int run_scenario(const Scenario& sc, const RunOptions& opt) {
       .number("last_time", rec.last_t)
       .number("wall_seconds", wall)
       .number("ns_per_step", rec.last_k > 0 ? wall * 1e9 / static_cast<double>(rec.last_k) : 0.0)
-      .number("initial_energy", rec.energy0)
+      .number("initial_energy", rec.observed ? rec.energy0 : std::nan(""))
       .array("initial_angular_momentum", to_vector(rec.momentum0))
       .number("max_abs_energy_error", rec.max_energy_error)
       .number("max_abs_quat_norm_error", rec.max_quat_error)
@@ -230,9 +232,13 @@ int run_scenario(const Scenario& sc, const RunOptions& opt) {
     return kRunFailed;
   }
   if (!failure.empty()) {
-    std::cerr << "lgvi: error: " << failure << "\n"
-              << "lgvi: the trajectory up to t = " << rec.last_t << " is in " << csv_path.string()
-              << "; summary.json says \"completed\": false\n";
+    std::cerr << "lgvi: error: " << failure << "\n";
+    if (rec.observed)
+      std::cerr << "lgvi: the trajectory up to t = " << rec.last_t << " is in " << csv_path.string()
+                << "; summary.json says \"completed\": false\n";
+    else
+      std::cerr << "lgvi: no state could be evaluated, " << csv_path.string()
+                << " holds only its header; summary.json says \"completed\": false\n";
     return kRunFailed;
   }
   if (!opt.quiet)

@@ -8,12 +8,26 @@
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
+#include <limits>
 #include <sstream>
 #include <string_view>
 
 namespace lgvi::app {
 
 namespace {
+
+/// User text echoed in a message, with control characters escaped so that
+/// every message stays one line.
+std::string printable(std::string_view text) {
+  std::string o;
+  for (char c : text) {
+    if (c == '\n') o += "\\n";
+    else if (c == '\t') o += "\\t";
+    else if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) o += "?";
+    else o += c;
+  }
+  return o;
+}
 
 /// Reads typed values out of a parsed TOML document, naming the full key
 /// ("integrator.step") in every error.
@@ -33,7 +47,7 @@ class Reader {
       if (!ok) {
         std::string list;
         for (auto a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
-        fail(join(prefix, std::string(k.str())), "unknown key; allowed here: " + list);
+        fail(join(prefix, printable(k.str())), "unknown key; allowed here: " + list);
       }
     }
   }
@@ -53,7 +67,7 @@ class Reader {
 
   double number(const toml::node& n, const std::string& key) const {
     if (!n.is_number()) fail(key, std::string("must be a number, got a ") + type_name(n));
-    const double v = n.value<double>().value();
+    const double v = n.is_integer() ? static_cast<double>(n.as_integer()->get()) : n.as_floating_point()->get();
     if (!std::isfinite(v)) fail(key, "must be finite, got " + std::to_string(v));
     return v;
   }
@@ -83,7 +97,7 @@ class Reader {
     const std::string v = n->value<std::string>().value();
     for (auto a : allowed)
       if (v == a) return v;
-    fail(key, "\"" + v + "\" is not one of " + list);
+    fail(key, "\"" + printable(v) + "\" is not one of " + list);
   }
 
   template <int N>
@@ -143,29 +157,32 @@ RigidBody read_body(const Reader& r, const toml::table& root) {
   const bool has_mass = t.contains("mass") || t.contains("inertia");
   if (has_balls && has_mass)
     r.fail("body", "give either mass + inertia or [[body.ball]] entries, not both");
-  try {
-    if (!has_balls) {
-      if (!has_mass) r.fail("body", "missing: give mass + inertia, or one or more [[body.ball]]");
-      return RigidBody(r.number(t, "body", "mass"), r.matrix3(t, "body", "inertia"));
+  // The library's messages name the field ("body.inertia: ...") but not the file.
+  auto checked = [&](auto&& make) -> RigidBody {
+    try {
+      return make();
+    } catch (const InvalidInput& e) {
+      r.fail("", e.what());
     }
-    const toml::array* arr = t.get("ball")->as_array();
-    if (!arr || arr->empty() || !arr->is_array_of_tables())
-      r.fail("body.ball", "must be one or more [[body.ball]] tables");
-    if (arr->size() > 100000) r.fail("body.ball", "more than 100000 balls; merge them into mass + inertia");
-    std::vector<Ball> balls;
-    for (std::size_t i = 0; i < arr->size(); ++i) {
-      const toml::table& b = *arr->get(i)->as_table();
-      const std::string prefix = "body.ball[" + std::to_string(i) + "]";
-      r.only_keys(b, prefix, {"position", "mass", "radius"});
-      balls.push_back({r.vector<3>(b, prefix, "position"), r.number(b, prefix, "mass"), r.number(b, prefix, "radius")});
-    }
-    return RigidBody::from_balls(std::move(balls));
-  } catch (const InvalidInput& e) {
-    const std::string what = e.what();
-    // Messages from the library name the field but not the file.
-    if (what.rfind("body", 0) == 0) r.fail("", what);
-    throw;
+  };
+  if (!has_balls) {
+    if (!has_mass) r.fail("body", "missing: give mass + inertia, or one or more [[body.ball]]");
+    const double mass = r.number(t, "body", "mass");
+    const Matrix3<double> inertia = r.matrix3(t, "body", "inertia");
+    return checked([&] { return RigidBody(mass, inertia); });
   }
+  const toml::array* arr = t.get("ball")->as_array();
+  if (!arr || arr->empty() || !arr->is_array_of_tables())
+    r.fail("body.ball", "must be one or more [[body.ball]] tables");
+  if (arr->size() > 100000) r.fail("body.ball", "more than 100000 balls; merge them into mass + inertia");
+  std::vector<Ball> balls;
+  for (std::size_t i = 0; i < arr->size(); ++i) {
+    const toml::table& b = *arr->get(i)->as_table();
+    const std::string prefix = "body.ball[" + std::to_string(i) + "]";
+    r.only_keys(b, prefix, {"position", "mass", "radius"});
+    balls.push_back({r.vector<3>(b, prefix, "position"), r.number(b, prefix, "mass"), r.number(b, prefix, "radius")});
+  }
+  return checked([&] { return RigidBody::from_balls(std::move(balls)); });
 }
 
 PotentialSpec read_potential(const Reader& r, const toml::table& root) {
@@ -203,10 +220,12 @@ RigidBodyState read_initial(const Reader& r, const toml::table& root, const Rigi
     r.fail("initial", "give exactly one of momentum = [px, py, pz] or velocity = [vx, vy, vz]");
   s.p = t.contains("momentum") ? r.vector<3>(t, "initial", "momentum")
                                : Vector3<double>(body.mass() * r.vector<3>(t, "initial", "velocity"));
+  if (!s.p.allFinite()) r.fail("initial.velocity", "m v overflows to infinity; give smaller values");
   if (t.contains("w") == t.contains("omega"))
     r.fail("initial", "give exactly one of w = [...] (the paper's w = 2 J Omega) or omega = [...] (body angular velocity)");
   s.w = t.contains("w") ? r.vector<3>(t, "initial", "w")
                         : Vector3<double>(2.0 * body.inertia() * r.vector<3>(t, "initial", "omega"));
+  if (!s.w.allFinite()) r.fail("initial.omega", "2 J omega overflows to infinity; give smaller values");
   return s;
 }
 
@@ -236,13 +255,14 @@ IntegratorSpec read_integrator(const Reader& r, const toml::table& root) {
   s.duration = r.number(t, "integrator", "duration");
   if (!(s.duration >= 0.0)) r.fail("integrator.duration", "must be >= 0, got " + std::to_string(s.duration));
   // n = ceil(duration / step), forgiving the round-off of the division
-  // (1000 / 0.01 = 100000.00000000001); the run ends at t = n step.
+  // (1000 / 0.01 = 100000.00000000001, an error of a few eps * ratio); the
+  // run ends at t = n step.
   const double ratio = s.duration / s.step;
   if (!(ratio <= 9007199254740992.0))  // 2^53: beyond it t0 + k h no longer tells steps apart
     r.fail("integrator.duration", "needs more than 2^53 steps of the given step; shorten it or enlarge the step");
   const double nearest = std::round(ratio);
-  s.steps = static_cast<std::int64_t>(std::abs(ratio - nearest) <= 1e-9 * std::max(1.0, ratio) ? nearest
-                                                                                               : std::ceil(ratio));
+  const double slack = std::min(0.25, 1e-9 + 64 * std::numeric_limits<double>::epsilon() * ratio);
+  s.steps = static_cast<std::int64_t>(std::abs(ratio - nearest) <= slack ? nearest : std::ceil(ratio));
   return s;
 }
 

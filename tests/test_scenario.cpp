@@ -1,1 +1,613 @@
+// Tests of the scenario reader: the shipped scenarios parse with the values
+// they state, and every kind of bad input is rejected with a one-line
+// InvalidInput that starts with the file name and names the offending key.
 #include <gtest/gtest.h>
+
+#include "scenario.hpp"
+
+#include <lgvi/error.hpp>
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+#include <typeinfo>
+#include <vector>
+
+#include <unistd.h>
+
+namespace {
+
+using lgvi::InvalidInput;
+using lgvi::app::parse_scenario;
+using lgvi::app::read_scenario;
+using lgvi::app::Scenario;
+
+const std::string scenario_dir = LGVI_SCENARIO_DIR;
+
+// ---------------------------------------------------------------------------
+// Helpers
+
+/// A valid scenario, mutated by the bad-input cases below. Every line a case
+/// replaces occurs exactly once.
+const std::string base_text = R"([body]
+mass = 2.0
+inertia = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.5]]
+
+[potential]
+kind = "central"
+mu = 1.0
+
+[initial]
+position = [8.0, 0.0, 0.0]
+quaternion = [1.0, 0.0, 0.0, 0.0]
+momentum = [0.0, 1.0, 0.0]
+w = [1.0, 2.0, 3.0]
+
+[integrator]
+method = "lgvi"
+solver = "newton"
+step = 0.01
+duration = 1.0
+
+[output]
+every = 10
+)";
+
+const std::string base_body = R"([body]
+mass = 2.0
+inertia = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.5]]
+)";
+
+/// `text` with the single occurrence of `from` replaced by `to`. Throws (and
+/// so fails the test loudly) if `from` is not there exactly once: a typo in
+/// a case must not turn it into a test of the unmutated text.
+std::string replace(const std::string& text, const std::string& from, const std::string& to) {
+  const std::size_t at = text.find(from);
+  if (at == std::string::npos || text.find(from, at + 1) != std::string::npos)
+    throw std::logic_error("test bug: '" + from + "' does not occur exactly once in the base text");
+  std::string out = text;
+  out.replace(at, from.size(), to);
+  return out;
+}
+
+std::string mutate(const std::string& from, const std::string& to) { return replace(base_text, from, to); }
+
+/// The base scenario with its [body] made of the given [[body.ball]] entries.
+std::string with_balls(const std::string& balls) { return mutate(base_body, "[body]\n" + balls); }
+
+/// Three balls: unit masses, radius 0.1, on a triangle (a valid body).
+std::string ball_entry(const std::string& position, const std::string& mass, const std::string& radius) {
+  return "[[body.ball]]\nposition = " + position + "\nmass = " + mass + "\nradius = " + radius + "\n";
+}
+
+/// The message of the InvalidInput that parsing `text` throws; fails the
+/// test if it throws nothing or something else.
+std::string parse_error(const std::string& text, const std::string& name) {
+  try {
+    parse_scenario(text, name);
+  } catch (const InvalidInput& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "threw a " << typeid(e).name() << " that is not an InvalidInput: " << e.what();
+    return {};
+  }
+  ADD_FAILURE() << "parsed without error:\n" << text;
+  return {};
+}
+
+std::string read_error(const std::string& path) {
+  try {
+    read_scenario(path);
+  } catch (const InvalidInput& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "threw a " << typeid(e).name() << " that is not an InvalidInput: " << e.what();
+    return {};
+  }
+  ADD_FAILURE() << "read " << path << " without error";
+  return {};
+}
+
+/// The rules every error message obeys: one line, starting with the file
+/// name, naming each of `expected`. Prints the message on failure.
+testing::AssertionResult is_good_message(const std::string& message, const std::string& file,
+                                         const std::vector<std::string>& expected) {
+  if (message.empty()) return testing::AssertionFailure() << "no message";
+  if (message.find('\n') != std::string::npos)
+    return testing::AssertionFailure() << "message is not one line: \"" << message << "\"";
+  if (message.rfind(file + ":", 0) != 0)
+    return testing::AssertionFailure() << "message does not start with \"" << file << ":\": \"" << message << "\"";
+  for (const std::string& e : expected)
+    if (message.find(e) == std::string::npos)
+      return testing::AssertionFailure() << "message does not contain \"" << e << "\": \"" << message << "\"";
+  return testing::AssertionSuccess() << message;
+}
+
+/// A file in the test temporary folder, removed at the end of the scope.
+class TempFile {
+ public:
+  TempFile(const std::string& stem, const std::string& content)
+      : path_(testing::TempDir() + "lgvi_test_" + std::to_string(::getpid()) + "_" + stem + ".toml") {
+    std::ofstream out(path_, std::ios::binary);
+    out.write(content.data(), static_cast<std::streamsize>(content.size()));
+  }
+  ~TempFile() {
+    std::error_code ec;
+    std::filesystem::remove(path_, ec);
+  }
+  TempFile(const TempFile&) = delete;
+  TempFile& operator=(const TempFile&) = delete;
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+// ---------------------------------------------------------------------------
+// The shipped scenarios
+
+/// The inertia of the paper's body, computed independently of the reader.
+///
+/// Three unit point masses on an equilateral triangle of side 1 in the x-y
+/// plane; about the centroid each is at distance 1/sqrt(3), so
+///   Jzz = sum m |rho|^2 = 3 * 1 * (1/3) = 1.
+/// The second-moment tensor S = sum m rho rho^T of the in-plane part has
+/// 3-fold symmetry, hence is isotropic in the plane: Sxx = Syy = tr(S)/2 =
+/// 1/2, Sxy = 0 (explicitly, with the centroid at the origin the x are
+/// -1/2, 1/2, 0 and sum x^2 = 1/2; the y are -c, -c, 2c with c = sqrt(3)/6,
+/// sum y^2 = 6 c^2 = 1/2; sum x y = c/2 - c/2 + 0 = 0). The standard inertia
+/// J = sum m (|rho|^2 I - rho rho^T) then has
+///   Jxx = sum m (|rho|^2 - x^2) = sum y^2 = 1/2,
+///   Jyy = sum x^2 = 1/2,  Jzz = 1,  off-diagonal -sum x y = 0, 0, 0.
+/// Each ball adds its own 2/5 m r^2 = 0.4 * 1 * 0.01 = 0.004 on the diagonal;
+/// three balls add 0.012.
+lgvi::Matrix3<double> paper_inertia() {
+  lgvi::Matrix3<double> j = lgvi::Matrix3<double>::Zero();
+  j.diagonal() << 0.5 + 0.012, 0.5 + 0.012, 1.0 + 0.012;
+  return j;
+}
+
+void expect_paper_body_and_integrator(const Scenario& s) {
+  EXPECT_EQ(s.body.mass(), 3.0);
+  ASSERT_EQ(s.body.balls().size(), 3u);
+  lgvi::Vector3<double> first_moment = lgvi::Vector3<double>::Zero();
+  for (const lgvi::Ball& b : s.body.balls()) {
+    EXPECT_EQ(b.mass, 1.0);
+    EXPECT_EQ(b.radius, 0.1);
+    EXPECT_NEAR(b.position.norm(), 1.0 / std::sqrt(3.0), 1e-15);
+    first_moment += b.mass * b.position;
+  }
+  EXPECT_LE(first_moment.norm(), 1e-15) << "centre of mass not at the origin: " << first_moment.transpose();
+  EXPECT_LE((s.body.inertia() - paper_inertia()).cwiseAbs().maxCoeff(), 1e-14) << s.body.inertia();
+
+  EXPECT_EQ(s.potential.kind, lgvi::app::PotentialKind::Central);
+  EXPECT_EQ(s.potential.mu, 1.0);
+  EXPECT_EQ(s.initial.x, lgvi::Vector3<double>(8.0, 0.0, 0.0));
+  EXPECT_EQ(s.initial.q.w(), 1.0);
+  EXPECT_EQ(s.initial.q.quaternion().vec(), lgvi::Vector3<double>::Zero());
+  EXPECT_EQ(s.initial.w, lgvi::Vector3<double>(1.0, 2.0, 3.0));
+
+  EXPECT_EQ(s.integrator.method, lgvi::app::Method::Hamiltonian);
+  EXPECT_EQ(s.integrator.solver.kind, lgvi::SolverKind::Newton);
+  EXPECT_EQ(s.integrator.step, 0.01);
+  EXPECT_EQ(s.integrator.duration, 1000.0);
+  // 1000 / 0.01 = 100000.00000000001 in floating point: must not become 100001.
+  EXPECT_EQ(s.integrator.steps, 100000);
+  EXPECT_EQ(s.output_every, 10);
+}
+
+TEST(ScenarioFiles, PaperParsesWithItsStatedValues) {
+  const Scenario s = read_scenario(scenario_dir + "/paper.toml");
+  EXPECT_EQ(s.name, "paper");
+  expect_paper_body_and_integrator(s);
+  EXPECT_EQ(s.initial.p, lgvi::Vector3<double>(1.0, 0.0, 0.0));  // the paper's radial p0
+}
+
+TEST(ScenarioFiles, PaperOrbitParsesWithItsStatedValues) {
+  const Scenario s = read_scenario(scenario_dir + "/paper-orbit.toml");
+  EXPECT_EQ(s.name, "paper-orbit");
+  expect_paper_body_and_integrator(s);
+  EXPECT_EQ(s.initial.p, lgvi::Vector3<double>(0.0, 1.0, 0.0));  // tangential
+}
+
+// ---------------------------------------------------------------------------
+// Valid variants
+
+TEST(ScenarioInput, BaseTextParses) {
+  const Scenario s = parse_scenario(base_text, "dir/base.toml");
+  EXPECT_EQ(s.name, "base");
+  EXPECT_EQ(s.body.mass(), 2.0);
+  EXPECT_TRUE(s.body.balls().empty());
+  EXPECT_EQ(s.integrator.steps, 100);
+  EXPECT_EQ(s.output_every, 10);
+}
+
+TEST(ScenarioInput, DefaultsForOptionalKeys) {
+  std::string text = replace(mutate("method = \"lgvi\"\n", ""), "solver = \"newton\"\n", "");
+  text = replace(text, "[output]\nevery = 10\n", "");
+  const Scenario s = parse_scenario(text, "defaults.toml");
+  EXPECT_EQ(s.integrator.method, lgvi::app::Method::Hamiltonian);
+  EXPECT_EQ(s.integrator.solver.kind, lgvi::SolverKind::Newton);
+  EXPECT_EQ(s.integrator.solver.tolerance, lgvi::SolverOptions{}.tolerance);
+  EXPECT_EQ(s.integrator.solver.max_iterations, lgvi::SolverOptions{}.max_iterations);
+  EXPECT_EQ(s.output_every, 1);
+}
+
+TEST(ScenarioInput, OtherMethodSolverAndPotentials) {
+  std::string text = mutate("method = \"lgvi\"", "method = \"lgvi-lagrangian\"");
+  text = replace(text, "solver = \"newton\"", "solver = \"broyden\"\ntolerance = 1e-12\nmax_iterations = 7");
+  text = replace(text, "kind = \"central\"\nmu = 1.0", "kind = \"uniform\"\ng = [0, 0, -9.81]");
+  const Scenario s = parse_scenario(text, "other.toml");
+  EXPECT_EQ(s.integrator.method, lgvi::app::Method::Lagrangian);
+  EXPECT_EQ(s.integrator.solver.kind, lgvi::SolverKind::Broyden);
+  EXPECT_EQ(s.integrator.solver.tolerance, 1e-12);
+  EXPECT_EQ(s.integrator.solver.max_iterations, 7);
+  EXPECT_EQ(s.potential.kind, lgvi::app::PotentialKind::Uniform);
+  EXPECT_EQ(s.potential.g, lgvi::Vector3<double>(0.0, 0.0, -9.81));
+
+  const Scenario none = parse_scenario(mutate("kind = \"central\"\nmu = 1.0", "kind = \"none\""), "none.toml");
+  EXPECT_EQ(none.potential.kind, lgvi::app::PotentialKind::None);
+  const Scenario exp = parse_scenario(mutate("solver = \"newton\"", "solver = \"newton-exp\""), "exp.toml");
+  EXPECT_EQ(exp.integrator.solver.kind, lgvi::SolverKind::NewtonExp);
+}
+
+TEST(ScenarioInput, StepCountIsCeilingForgivingRoundOff) {
+  struct Case {
+    const char* step;
+    const char* duration;
+    std::int64_t steps;
+  };
+  const Case cases[] = {
+      {"0.01", "1000.0", 100000},  // 100000.00000000001
+      {"0.01", "1.0", 100},        //
+      {"0.1", "0.3", 3},           // 2.9999999999999996
+      {"0.01", "0.1", 10},         //
+      {"0.01", "0.015", 2},        // a partial step is completed: ceil
+      {"0.01", "0.0", 0},          //
+      {"1", "5", 5},               // integers are numbers
+  };
+  for (const Case& c : cases) {
+    std::string text = mutate("step = 0.01", std::string("step = ") + c.step);
+    text = replace(text, "duration = 1.0", std::string("duration = ") + c.duration);
+    const Scenario s = parse_scenario(text, "steps.toml");
+    EXPECT_EQ(s.integrator.steps, c.steps) << "duration " << c.duration << ", step " << c.step;
+  }
+}
+
+TEST(ScenarioInput, VelocityGivesMomentumTimesMass) {
+  // Mass 2: p = m v.
+  const Scenario s = parse_scenario(mutate("momentum = [0.0, 1.0, 0.0]", "velocity = [0.5, -1.0, 2.0]"), "v.toml");
+  EXPECT_EQ(s.initial.p, lgvi::Vector3<double>(1.0, -2.0, 4.0));
+  // A ball body: m = 3.
+  const Scenario b = parse_scenario(
+      replace(with_balls(ball_entry("[0, 0, 0]", "1.0", "0.1") + ball_entry("[1, 0, 0]", "2.0", "0.1")),
+              "momentum = [0.0, 1.0, 0.0]", "velocity = [0.0, 1.0, 0.0]"),
+      "vb.toml");
+  EXPECT_EQ(b.initial.p, lgvi::Vector3<double>(0.0, 3.0, 0.0));
+}
+
+TEST(ScenarioInput, OmegaGivesTwiceInertiaTimesOmega) {
+  // J = [[2, 0.1, 0], [0.1, 3, 0], [0, 0, 4]] (principal moments ~1.99, 3.01,
+  // 4: valid); Omega = (1, 2, 3): J Omega = (2 + 0.2, 0.1 + 6, 12) =
+  // (2.2, 6.1, 12), w = 2 J Omega = (4.4, 12.2, 24).
+  std::string text = mutate("inertia = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.5]]",
+                            "inertia = [[2.0, 0.1, 0.0], [0.1, 3.0, 0.0], [0.0, 0.0, 4.0]]");
+  text = replace(text, "w = [1.0, 2.0, 3.0]", "omega = [1.0, 2.0, 3.0]");
+  const Scenario s = parse_scenario(text, "omega.toml");
+  const lgvi::Vector3<double> expected(4.4, 12.2, 24.0);
+  EXPECT_LE((s.initial.w - expected).cwiseAbs().maxCoeff(), 1e-14) << s.initial.w.transpose();
+}
+
+TEST(ScenarioInput, NearlyUnitQuaternionIsNormalized) {
+  // |(0.50000025, 0.50000025, 0.50000025, 0.50000025)| = 1 + 5e-7 (within 1e-6).
+  const Scenario s = parse_scenario(
+      mutate("quaternion = [1.0, 0.0, 0.0, 0.0]", "quaternion = [0.50000025, 0.50000025, 0.50000025, 0.50000025]"),
+      "q.toml");
+  EXPECT_LE(std::abs(s.initial.q.quaternion().norm() - 1.0), 1e-15);
+  EXPECT_LE(std::abs(s.initial.q.norm_error()), 1e-15);
+  EXPECT_NEAR(s.initial.q.w(), 0.5, 1e-15);
+  // A norm 1 - 5e-7 (scalar only).
+  const Scenario t = parse_scenario(mutate("quaternion = [1.0, 0.0, 0.0, 0.0]", "quaternion = [0.9999995, 0, 0, 0]"),
+                                    "q.toml");
+  EXPECT_EQ(t.initial.q.w(), 1.0);
+}
+
+TEST(ScenarioInput, QuaternionFurtherThan1e6FromUnitIsRejected) {
+  // |(0.500001, ...)| = 1 + 2e-6.
+  const std::string message = parse_error(
+      mutate("quaternion = [1.0, 0.0, 0.0, 0.0]", "quaternion = [0.500001, 0.500001, 0.500001, 0.500001]"),
+      "q.toml");
+  EXPECT_TRUE(is_good_message(message, "q.toml", {"initial.quaternion", "unit quaternion"}));
+  const std::string zero = parse_error(mutate("quaternion = [1.0, 0.0, 0.0, 0.0]", "quaternion = [0, 0, 0, 0]"),
+                                       "q.toml");
+  EXPECT_TRUE(is_good_message(zero, "q.toml", {"initial.quaternion"}));
+}
+
+TEST(ScenarioInput, IntegerBeyondTwoToThe53IsANumber) {
+  // toml++ will not convert an integer above 2^53 to double exactly; the
+  // reader must still treat it as a number (it did throw bad_optional_access).
+  const Scenario s =
+      parse_scenario(mutate("position = [8.0, 0.0, 0.0]", "position = [9007199254740993, 0, 0]"), "big.toml");
+  EXPECT_EQ(s.initial.x.x(), 9007199254740992.0);
+}
+
+// ---------------------------------------------------------------------------
+// Bad input: each case is a mutation of the base text and the substrings its
+// message must contain (besides starting with the file name, on one line).
+
+struct BadCase {
+  std::string id;           ///< test name suffix
+  std::string description;  ///< what is wrong
+  std::string text;         ///< the scenario text
+  std::vector<std::string> expected;
+};
+
+void PrintTo(const BadCase& c, std::ostream* os) { *os << c.description; }
+
+const std::string bad_name = "dir/bad.toml";
+
+/// The line (1-based) of the first occurrence of `s` in `text`.
+int line_of(const std::string& text, const std::string& s) {
+  const std::size_t at = text.find(s);
+  if (at == std::string::npos) throw std::logic_error("test bug: '" + s + "' not in the text");
+  int line = 1;
+  for (std::size_t i = 0; i < at; ++i) line += text[i] == '\n';
+  return line;
+}
+
+std::vector<BadCase> bad_cases() {
+  const std::string triangle =
+      ball_entry("[0, 0, 0]", "1.0", "0.1") + ball_entry("[1, 0, 0]", "1.0", "0.1") +
+      ball_entry("[0.5, 0.8660254037844386, 0]", "1.0", "0.1");
+  const std::string duplicate = mutate("step = 0.01\n", "step = 0.01\nstep = 0.02\n");
+  std::vector<BadCase> c = {
+      // Unknown and missing keys and tables.
+      {"UnknownTopLevelKey", "unknown key at top level", "title = \"x\"\n" + base_text, {"key 'title'", "unknown key"}},
+      {"UnknownTopLevelTable", "unknown table at top level", base_text + "[extra]\na = 1\n", {"key 'extra'"}},
+      {"UnknownIntegratorKey", "unknown key in [integrator]", mutate("step = 0.01", "stepp = 0.1\nstep = 0.01"),
+       {"integrator.stepp", "unknown key", "step"}},
+      {"UnknownInitialKey", "unknown key in [initial]", mutate("w = [1.0, 2.0, 3.0]", "w = [1.0, 2.0, 3.0]\nx = 1"),
+       {"initial.x", "unknown key"}},
+      {"UnknownBodyKey", "unknown key in [body]", mutate("mass = 2.0", "mass = 2.0\ndensity = 1"),
+       {"body.density", "unknown key"}},
+      {"UnknownPotentialKey", "mu given with kind none", mutate("kind = \"central\"", "kind = \"none\""),
+       {"potential.mu", "unknown key"}},
+      {"UnknownOutputKey", "unknown key in [output]", mutate("every = 10", "every = 10\nfolder = \"x\""),
+       {"output.folder", "unknown key"}},
+      {"UnknownBallKey", "unknown key in a ball", with_balls(triangle + "colour = \"red\"\n"),
+       {"body.ball[2].colour", "unknown key"}},
+      {"MissingInitial", "missing [initial]",
+       mutate("[initial]\nposition = [8.0, 0.0, 0.0]\nquaternion = [1.0, 0.0, 0.0, 0.0]\nmomentum = [0.0, 1.0, 0.0]\n"
+              "w = [1.0, 2.0, 3.0]\n",
+              ""),
+       {"initial", "missing table"}},
+      {"MissingIntegrator", "missing [integrator]",
+       mutate("[integrator]\nmethod = \"lgvi\"\nsolver = \"newton\"\nstep = 0.01\nduration = 1.0\n", ""),
+       {"integrator", "missing table"}},
+      {"MisspelledTable", "[integratorr]", mutate("[integrator]\n", "[integratorr]\n"),
+       {"key 'integratorr'", "unknown key"}},
+      {"MissingStep", "missing integrator.step", mutate("step = 0.01\n", ""), {"integrator.step", "missing"}},
+      {"MissingDuration", "missing integrator.duration", mutate("duration = 1.0\n", ""),
+       {"integrator.duration", "missing"}},
+      {"MissingPotentialKind", "missing potential.kind", mutate("kind = \"central\"\n", ""),
+       {"potential.kind", "missing"}},
+      {"MissingPosition", "missing initial.position", mutate("position = [8.0, 0.0, 0.0]\n", ""),
+       {"initial.position", "missing"}},
+      {"MissingQuaternion", "missing initial.quaternion", mutate("quaternion = [1.0, 0.0, 0.0, 0.0]\n", ""),
+       {"initial.quaternion", "missing"}},
+      {"EmptyFile", "empty file", "", {"body", "missing table"}},
+      {"BodyNotATable", "body = 1", mutate(base_body, "body = 1\n"), {"key 'body'", "table"}},
+      {"OutputNotATable", "output = 1", "output = 1\n" + mutate("[output]\nevery = 10\n", ""),
+       {"key 'output'", "table"}},
+
+      // Potential.
+      {"UnknownPotentialKind", "potential.kind = \"magnetic\"", mutate("kind = \"central\"", "kind = \"magnetic\""),
+       {"potential.kind", "magnetic", "central"}},
+      {"PotentialKindNotString", "potential.kind = 3", mutate("kind = \"central\"", "kind = 3"),
+       {"potential.kind", "must be a string"}},
+      {"CentralWithoutMu", "central without mu", mutate("mu = 1.0\n", ""), {"potential.mu", "missing"}},
+      {"MuZero", "mu = 0", mutate("mu = 1.0", "mu = 0"), {"potential.mu", "> 0"}},
+      {"MuNegative", "mu = -1", mutate("mu = 1.0", "mu = -1.0"), {"potential.mu", "> 0"}},
+      {"UniformWithoutG", "uniform without g", mutate("kind = \"central\"\nmu = 1.0", "kind = \"uniform\""),
+       {"potential.g", "missing"}},
+
+      // Types and values of numbers and arrays.
+      {"StepIsString", "step = \"0.01\"", mutate("step = 0.01", "step = \"0.01\""),
+       {"integrator.step", "must be a number", "string"}},
+      {"MuIsBoolean", "mu = true", mutate("mu = 1.0", "mu = true"), {"potential.mu", "must be a number"}},
+      {"StepIsDate", "step = 1979-05-27", mutate("step = 0.01", "step = 1979-05-27"),
+       {"integrator.step", "must be a number"}},
+      {"PositionTooShort", "position = [1, 2]", mutate("position = [8.0, 0.0, 0.0]", "position = [1, 2]"),
+       {"initial.position", "3 numbers", "got 2"}},
+      {"PositionTooLong", "position = [1, 2, 3, 4]", mutate("position = [8.0, 0.0, 0.0]", "position = [1, 2, 3, 4]"),
+       {"initial.position", "3 numbers", "got 4"}},
+      {"PositionNotArray", "position = 1", mutate("position = [8.0, 0.0, 0.0]", "position = 1"),
+       {"initial.position", "array"}},
+      {"PositionNestedString", "position = [1, \"a\", 3]",
+       mutate("position = [8.0, 0.0, 0.0]", "position = [1, \"a\", 3]"), {"initial.position[1]", "must be a number"}},
+      {"PositionNestedArray", "position = [1, [2], 3]",
+       mutate("position = [8.0, 0.0, 0.0]", "position = [1, [2], 3]"), {"initial.position[1]", "must be a number"}},
+      {"StepNan", "step = nan", mutate("step = 0.01", "step = nan"), {"integrator.step", "finite"}},
+      {"PositionInf", "position = [inf, 0, 0]", mutate("position = [8.0, 0.0, 0.0]", "position = [inf, 0, 0]"),
+       {"initial.position[0]", "finite"}},
+      {"MomentumMinusInf", "momentum = [0, -inf, 0]",
+       mutate("momentum = [0.0, 1.0, 0.0]", "momentum = [0, -inf, 0]"), {"initial.momentum[1]", "finite"}},
+      {"MassNan", "mass = nan", mutate("mass = 2.0", "mass = nan"), {"body.mass", "finite"}},
+
+      // Integrator.
+      {"StepZero", "step = 0", mutate("step = 0.01", "step = 0"), {"integrator.step", "> 0"}},
+      {"StepNegative", "step = -0.01", mutate("step = 0.01", "step = -0.01"), {"integrator.step", "> 0"}},
+      {"DurationNegative", "duration = -1", mutate("duration = 1.0", "duration = -1"),
+       {"integrator.duration", ">= 0"}},
+      {"TooManySteps", "duration / step > 2^53 (step = 1e-10, duration = 1e7)",
+       replace(mutate("step = 0.01", "step = 1e-10"), "duration = 1.0", "duration = 1e7"),
+       {"integrator.duration", "2^53"}},
+      {"MethodRk4", "integrator.method = \"rk4\"", mutate("method = \"lgvi\"", "method = \"rk4\""),
+       {"integrator.method", "rk4", "lgvi"}},
+      {"SolverGauss", "integrator.solver = \"gauss\"", mutate("solver = \"newton\"", "solver = \"gauss\""),
+       {"integrator.solver", "gauss", "newton"}},
+      {"ToleranceTooLarge", "tolerance = 0.01", mutate("step = 0.01", "step = 0.01\ntolerance = 0.01"),
+       {"integrator.tolerance", "(0, 1e-3)"}},
+      {"ToleranceZero", "tolerance = 0", mutate("step = 0.01", "step = 0.01\ntolerance = 0.0"),
+       {"integrator.tolerance", "(0, 1e-3)"}},
+      {"MaxIterationsZero", "max_iterations = 0", mutate("step = 0.01", "step = 0.01\nmax_iterations = 0"),
+       {"integrator.max_iterations"}},
+      {"MaxIterationsFraction", "max_iterations = 2.5", mutate("step = 0.01", "step = 0.01\nmax_iterations = 2.5"),
+       {"integrator.max_iterations", "integer"}},
+
+      // Initial state.
+      {"MomentumAndVelocity", "both momentum and velocity",
+       mutate("momentum = [0.0, 1.0, 0.0]", "momentum = [0.0, 1.0, 0.0]\nvelocity = [0.0, 1.0, 0.0]"),
+       {"initial", "momentum", "velocity", "exactly one"}},
+      {"NeitherMomentumNorVelocity", "neither momentum nor velocity", mutate("momentum = [0.0, 1.0, 0.0]\n", ""),
+       {"initial", "momentum", "velocity", "exactly one"}},
+      {"WAndOmega", "both w and omega", mutate("w = [1.0, 2.0, 3.0]", "w = [1.0, 2.0, 3.0]\nomega = [1, 1, 1]"),
+       {"initial", "w = ", "omega", "exactly one"}},
+      {"NeitherWNorOmega", "neither w nor omega", mutate("w = [1.0, 2.0, 3.0]\n", ""),
+       {"initial", "w = ", "omega", "exactly one"}},
+      {"VelocityWrongLength", "velocity = [1]",
+       mutate("momentum = [0.0, 1.0, 0.0]", "velocity = [1]"), {"initial.velocity", "3 numbers"}},
+      {"OmegaString", "omega = \"fast\"", mutate("w = [1.0, 2.0, 3.0]", "omega = \"fast\""),
+       {"initial.omega", "array"}},
+
+      // Body.
+      {"MassAndBalls", "both mass + inertia and balls", mutate(base_body, base_body + triangle),
+       {"body", "not both"}},
+      {"BodyEmpty", "[body] with neither mass + inertia nor balls", mutate(base_body, "[body]\n"),
+       {"body", "missing", "mass + inertia", "body.ball"}},
+      {"MassWithoutInertia", "mass without inertia",
+       mutate("inertia = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.5]]\n", ""), {"body.inertia", "missing"}},
+      {"InertiaWithoutMass", "inertia without mass", mutate("mass = 2.0\n", ""), {"body.mass", "missing"}},
+      {"MassZero", "mass = 0", mutate("mass = 2.0", "mass = 0.0"), {"body.mass", "> 0"}},
+      {"MassNegative", "mass = -2", mutate("mass = 2.0", "mass = -2.0"), {"body.mass", "> 0"}},
+      {"InertiaNotSymmetric", "inertia not symmetric",
+       mutate("[[1.0, 0.0, 0.0], [0.0, 2.0, 0.0]", "[[1.0, 0.1, 0.0], [0.0, 2.0, 0.0]"),
+       {"body.inertia", "symmetric"}},
+      {"InertiaNotPositiveDefinite", "inertia not positive definite", mutate("[0.0, 0.0, 2.5]]", "[0.0, 0.0, -2.5]]"),
+       {"body.inertia", "positive definite"}},
+      {"InertiaTriangleInequality", "inertia diag(1, 1, 3) violates the triangle inequality",
+       mutate("[[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.5]]", "[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 3.0]]"),
+       {"body.inertia", "triangle inequality"}},
+      {"InertiaTwoRows", "inertia with two rows",
+       mutate("[[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.5]]", "[[1.0, 0.0, 0.0], [0.0, 2.0, 0.0]]"),
+       {"body.inertia", "3 rows"}},
+      {"InertiaShortRow", "inertia with a row of two",
+       mutate("[[1.0, 0.0, 0.0], [0.0, 2.0, 0.0]", "[[1.0, 0.0, 0.0], [0.0, 2.0]"), {"body.inertia[1]", "3 numbers"}},
+      {"InertiaNan", "inertia with nan", mutate("[0.0, 0.0, 2.5]]", "[0.0, 0.0, nan]]"),
+       {"body.inertia[2][2]", "finite"}},
+      {"BallsOnALine", "point balls on one line (J singular)",
+       with_balls(ball_entry("[0, 0, 0]", "1.0", "0") + ball_entry("[1, 0, 0]", "1.0", "0") +
+                  ball_entry("[2, 0, 0]", "1.0", "0")),
+       {"body.inertia", "positive definite"}},
+      {"SinglePointBall", "one ball of radius 0 (J = 0)", with_balls(ball_entry("[1, 2, 3]", "1.0", "0.0")),
+       {"body.inertia", "positive definite"}},
+      {"BallZeroMass", "second ball has mass 0",
+       with_balls(ball_entry("[0, 0, 0]", "1.0", "0.1") + ball_entry("[1, 0, 0]", "0.0", "0.1")),
+       {"body.ball[1].mass", "> 0"}},
+      {"BallNegativeRadius", "ball with a negative radius", with_balls(ball_entry("[0, 0, 0]", "1.0", "-0.1")),
+       {"body.ball[0].radius", ">= 0"}},
+      {"BallMissingRadius", "ball without radius", with_balls("[[body.ball]]\nposition = [0, 0, 0]\nmass = 1.0\n"),
+       {"body.ball[0].radius", "missing"}},
+      {"BallPositionInf", "ball position inf", with_balls(ball_entry("[0, inf, 0]", "1.0", "0.1")),
+       {"body.ball[0].position[1]", "finite"}},
+      {"BallNotTables", "body.ball = [1, 2]", mutate(base_body, "[body]\nball = [1, 2]\n"),
+       {"body.ball", "[[body.ball]]"}},
+      {"BallEmptyArray", "body.ball = []", mutate(base_body, "[body]\nball = []\n"), {"body.ball"}},
+
+      // Output.
+      {"OutputEveryZero", "output.every = 0", mutate("every = 10", "every = 0"), {"output.every", ">= 1"}},
+      {"OutputEveryNegative", "output.every = -3", mutate("every = 10", "every = -3"), {"output.every", ">= 1"}},
+      {"OutputEveryFraction", "output.every = 1.5", mutate("every = 10", "every = 1.5"),
+       {"output.every", "integer"}},
+
+      // TOML syntax.
+      {"DuplicateKey", "integrator.step given twice (toml++ parse error)", duplicate,
+       {bad_name + ":" + std::to_string(line_of(duplicate, "step = 0.02")) + ":", "step"}},
+      {"SyntaxError", "a value missing after '='", mutate("mu = 1.0", "mu = "),
+       {bad_name + ":" + std::to_string(line_of(base_text, "mu = 1.0")) + ":"}},
+      {"UnterminatedString", "unterminated string", mutate("kind = \"central\"", "kind = \"central"),
+       {bad_name + ":" + std::to_string(line_of(base_text, "kind = \"central\"")) + ":"}},
+      {"DuplicateTable", "[output] given twice", base_text + "[output]\nevery = 2\n", {bad_name + ":", "output"}},
+  };
+  return c;
+}
+
+class ScenarioBadInput : public testing::TestWithParam<BadCase> {};
+
+TEST_P(ScenarioBadInput, ThrowsInvalidInputNamingTheKey) {
+  const BadCase& c = GetParam();
+  const std::string message = parse_error(c.text, bad_name);
+  EXPECT_TRUE(is_good_message(message, bad_name, c.expected)) << c.description << "; scenario text:\n" << c.text;
+}
+
+INSTANTIATE_TEST_SUITE_P(Cases, ScenarioBadInput, testing::ValuesIn(bad_cases()),
+                         [](const testing::TestParamInfo<BadCase>& info) { return info.param.id; });
+
+// ---------------------------------------------------------------------------
+// Files
+
+TEST(ScenarioRead, FileWithNulBytesIsRejected) {
+  const TempFile f("nul", base_text + std::string("# \0\0\0\n", 6));
+  EXPECT_TRUE(is_good_message(read_error(f.path()), f.path(), {"NUL"}));
+}
+
+TEST(ScenarioRead, NonexistentPathIsRejected) {
+  const std::string path = testing::TempDir() + "lgvi-no-such-folder/no-such-scenario.toml";
+  EXPECT_TRUE(is_good_message(read_error(path), path, {"cannot open"}));
+}
+
+TEST(ScenarioRead, DirectoryIsRejected) {
+  EXPECT_TRUE(is_good_message(read_error(scenario_dir), scenario_dir, {"directory"}));
+}
+
+TEST(ScenarioRead, ErrorsInAFileNameThePath) {
+  const TempFile f("bad-step", mutate("step = 0.01", "step = 0"));
+  EXPECT_TRUE(is_good_message(read_error(f.path()), f.path(), {"integrator.step"}));
+  const TempFile g("bad-syntax", mutate("mu = 1.0", "mu = = 1"));
+  EXPECT_TRUE(is_good_message(read_error(g.path()), g.path(),
+                              {g.path() + ":" + std::to_string(line_of(base_text, "mu = 1.0")) + ":"}));
+}
+
+// ---------------------------------------------------------------------------
+// Regression tests of bugs found in src/scenario.cpp (now fixed).
+
+// Strings from the file are echoed unescaped: a TOML "\n" in a value or a key
+// makes the message two lines.
+TEST(ScenarioRegression, UserTextWithNewlineKeepsMessageOneLine) {
+  EXPECT_TRUE(is_good_message(parse_error(mutate("kind = \"central\"", "kind = \"mag\\nnetic\""), bad_name), bad_name,
+                              {"potential.kind"}));
+  EXPECT_TRUE(is_good_message(parse_error("\"a\\nb\" = 1\n" + base_text, bad_name), bad_name, {"unknown key"}));
+}
+
+// read_body re-prefixes every message starting with "body" (meant for the
+// library's "body.inertia: ..."), so for a file whose name starts with
+// "body" its own messages get the file name twice.
+TEST(ScenarioRegression, FileNamedBodyIsNamedOnce) {
+  const std::string message = parse_error(mutate(base_body, "[body]\n"), "body.toml");
+  EXPECT_TRUE(is_good_message(message, "body.toml", {"key 'body'"}));
+  EXPECT_EQ(message.find("body.toml: body.toml"), std::string::npos) << message;
+}
+
+// p = m v and w = 2 J Omega can overflow to inf from finite input; the reader
+// accepts the state and the run then fails at step 0 (exit status 1, "try a
+// smaller step") instead of exit status 2 naming the key.
+TEST(ScenarioRegression, OverflowingVelocityOrOmegaIsRejected) {
+  EXPECT_TRUE(is_good_message(
+      parse_error(mutate("momentum = [0.0, 1.0, 0.0]", "velocity = [1e308, 0.0, 0.0]"), bad_name), bad_name,
+      {"initial.velocity"}));
+  EXPECT_TRUE(is_good_message(parse_error(mutate("w = [1.0, 2.0, 3.0]", "omega = [1e308, 1e308, 1e308]"), bad_name),
+                              bad_name, {"initial.omega"}));
+}
+
+TEST(ScenarioRead, ValidFileTakesItsStemAsName) {
+  const TempFile f("valid", base_text);
+  const Scenario s = read_scenario(f.path());
+  EXPECT_EQ(s.name, std::filesystem::path(f.path()).stem().string());
+  EXPECT_EQ(s.integrator.steps, 100);
+}
+
+}  // namespace
