@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
@@ -39,8 +40,9 @@ class IntegrationFailure : public std::runtime_error {
 
  private:
   static std::string format(std::int64_t step, double time, const StepFailure& cause) {
-    std::string m = "step " + std::to_string(step) + " (from t = " + std::to_string(time) +
-                    ") failed: " + cause.what();
+    char t[32];
+    std::snprintf(t, sizeof t, "%.10g", time);
+    std::string m = "step " + std::to_string(step) + " (from t = " + t + ") failed: " + cause.what();
     if (!cause.hint().empty()) m += "; " + cause.hint();
     return m;
   }

@@ -47,6 +47,11 @@ concept Stepper = requires(S& s, const S& cs, RigidBodyState& state) {
 
 namespace detail {
 inline void require_finite(const RigidBodyState& s, const PotentialEvaluation& e) {
+  // One test on a sum: a NaN or infinity anywhere makes it non-finite
+  // (inf - inf is NaN), so the common case costs one branch.
+  const double sum = s.x.sum() + s.q.quaternion().coeffs().sum() + s.p.sum() + s.w.sum() + e.energy + e.force.sum() +
+                     e.torque.sum();
+  if (std::isfinite(sum)) return;
   if (!s.all_finite()) throw StepFailure("the state became non-finite", "try a smaller step");
   if (!e.all_finite())
     throw StepFailure("the potential returned a non-finite energy, force or torque (a ball at the field's centre?)",
@@ -73,21 +78,23 @@ class LieGroupVariationalIntegrator {
     eval_ = potential_.evaluate(s.x, s.q);
     detail::require_finite(s, eval_);
     // b = (h/4)(w0 + h M0), the right side of g(xi0) = b; xi0 ~ J^{-1} b.
-    f_ = S3d::exp(body_.inertia_inverse() * ((0.25 * h_) * (s.w + h_ * eval_.torque)));
+    predictor_.reset(S3d::exp(body_.inertia_inverse() * ((0.25 * h_) * (s.w + h_ * eval_.torque))));
   }
 
-  /// One step of the paper's system "eqhamilton" (forms above). The solver starts from the
-  /// previous step's f = exp(xi0) (a warm start, O(h^2) from the new root).
+  /// One step of the paper's system "eqhamilton" (forms above). The solver
+  /// starts from the RotationPredictor's extrapolation of the last steps' f.
   void step(RigidBodyState& s) {
     const double h = h_;
     const Vector3<double> p_half = s.p + (0.5 * h) * eval_.force;
     const Vector3<double> w_half = s.w + h * eval_.torque;  // w0 + h M0 = (4/h) g(f)
-    solver_.solve((0.25 * h) * w_half, f_, report_);
+    S3d f = predictor_.predict();
+    solver_.solve((0.25 * h) * w_half, f, report_);
+    predictor_.push(f);
     s.x += (h / body_.mass()) * p_half;
-    s.q = s.q * f_;
+    s.q = s.q * f;
     const PotentialEvaluation e1 = potential_.evaluate(s.x, s.q);
     s.p = p_half + (0.5 * h) * e1.force;
-    s.w = f_.inverse().act(w_half) + h * e1.torque;
+    s.w = f.inverse().act(w_half) + h * e1.torque;
     eval_ = e1;
     detail::require_finite(s, eval_);
   }
@@ -97,10 +104,10 @@ class LieGroupVariationalIntegrator {
   const SolveReport& last_solve() const { return report_; }
   const RigidBody& body() const { return body_; }
   const P& potential() const { return potential_; }
-  /// The solver's warm start, the last relative rotation f = q0^* q1 =
-  /// exp(xi0): part of what a checkpoint keeps for a bit-identical resume.
-  const S3d& warm_start() const { return f_; }
-  void set_warm_start(const S3d& f) { f_ = f; }
+  /// The solver's warm start (the last relative rotations f = q0^* q1 =
+  /// exp(xi0)): part of what a checkpoint keeps for a bit-identical resume.
+  const RotationPredictor& warm_start() const { return predictor_; }
+  void set_warm_start(const RotationPredictor& p) { predictor_ = p; }
 
  private:
   RigidBody body_;
@@ -108,7 +115,7 @@ class LieGroupVariationalIntegrator {
   double h_;
   RotationSolver solver_;
   PotentialEvaluation eval_;
-  S3d f_;
+  RotationPredictor predictor_;
   SolveReport report_;
 };
 
@@ -138,10 +145,11 @@ class LagrangianLieGroupVariationalIntegrator {
     q_prev_ = s.q;
     // Configuration 1 from the Legendre transform p0 = -D1 L_d(0, 1).
     const Vector3<double> b = (0.25 * h_) * (s.w + h_ * eval_.torque);
-    f_ = S3d::exp(body_.inertia_inverse() * b);
-    solver_.solve(b, f_, report_);
+    S3d f = S3d::exp(body_.inertia_inverse() * b);
+    solver_.solve(b, f, report_);
+    predictor_.reset(f);
     x_next_ = s.x + (h_ / body_.mass()) * (s.p + (0.5 * h_) * eval_.force);
-    q_next_ = s.q * f_;
+    q_next_ = s.q * f;
   }
 
   /// Advances from configuration k to k + 1 (computed one step ahead), reports
@@ -160,12 +168,14 @@ class LagrangianLieGroupVariationalIntegrator {
     eval_ = e1;
     detail::require_finite(s, eval_);
     // DEL for configuration k + 2.
-    solver_.solve(g_backward + (0.5 * h * h) * e1.torque, f_, report_);
+    S3d f = predictor_.predict();
+    solver_.solve(g_backward + (0.5 * h * h) * e1.torque, f, report_);
+    predictor_.push(f);
     const Vector3<double> x2 = 2.0 * x_next_ - x_prev_ + (h * h / body_.mass()) * e1.force;
     x_prev_ = x_next_;
     q_prev_ = q_next_;
     x_next_ = x2;
-    q_next_ = q_next_ * f_;
+    q_next_ = q_next_ * f;
   }
 
   double step_size() const { return h_; }
@@ -179,7 +189,7 @@ class LagrangianLieGroupVariationalIntegrator {
   double h_;
   RotationSolver solver_;
   PotentialEvaluation eval_;
-  S3d f_;  // warm start: the last solved relative rotation
+  RotationPredictor predictor_;
   SolveReport report_;
   Vector3<double> x_prev_, x_next_;
   S3d q_prev_, q_next_;
