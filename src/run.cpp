@@ -75,7 +75,7 @@ struct Recorder {
       const double row[trajectory_columns] = {i.t,    s.x.x(), s.x.y(), s.x.z(), q.w(),  q.x(),  q.y(),
                                               q.z(),  s.p.x(), s.p.y(), s.p.z(), s.w.x(), s.w.y(), s.w.z(),
                                               energy, de,      dq,      L.x(),   L.y(),   L.z(),   dl};
-      csv.row(row, trajectory_columns);
+      csv.row(row);
     }
   }
 };
@@ -168,7 +168,7 @@ int run_scenario(const Scenario& sc, const RunOptions& opt) {
     fs::create_directories(dir);
     // A summary left by an earlier run must not describe this one.
     fs::remove(summary_path);
-    csv = std::make_unique<CsvWriter>(csv_path.string());
+    csv = std::make_unique<CsvWriter>(csv_path.string(), trajectory_header, trajectory_columns);
   } catch (const std::exception& e) {
     std::cerr << "lgvi: error: output folder '" << dir << "' cannot be written: " << e.what()
               << "; choose another with --out\n";
