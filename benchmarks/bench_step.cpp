@@ -30,26 +30,33 @@ template <class Integrator>
 void run_steps(benchmark::State& st, Integrator& integ) {
   RigidBodyState s = lgvi::paper::orbit_initial_state();
   integ.initialize(s);
-  std::int64_t iters = 0, n = 0;
+  std::int64_t iters = 0, evals = 0, n = 0;
   for (auto _ : st) {
     integ.step(s);
     benchmark::DoNotOptimize(s);
     iters += integ.last_solve().iterations;
+    evals += integ.last_solve().residual_evaluations;
     ++n;
   }
   st.counters["solver_iterations"] = static_cast<double>(iters) / static_cast<double>(n);
+  st.counters["residual_evaluations"] = static_cast<double>(evals) / static_cast<double>(n);
 }
 
-void BM_LgviStep(benchmark::State& st, lgvi::SolverKind kind) {
+void BM_LgviStep(benchmark::State& st, lgvi::SolverKind kind, int predictor_order) {
   const auto body = lgvi::paper::three_ball_body();
   lgvi::SolverOptions opt;
   opt.kind = kind;
+  opt.predictor_order = predictor_order;
   lgvi::LieGroupVariationalIntegrator<CentralGravity> integ(body, CentralGravity(body, 1.0), 0.01, opt);
   run_steps(st, integ);
 }
-BENCHMARK_CAPTURE(BM_LgviStep, newton, lgvi::SolverKind::Newton);
-BENCHMARK_CAPTURE(BM_LgviStep, newton_exp, lgvi::SolverKind::NewtonExp);
-BENCHMARK_CAPTURE(BM_LgviStep, broyden, lgvi::SolverKind::Broyden);
+// Default: cubic predictor of the initial guess.
+BENCHMARK_CAPTURE(BM_LgviStep, newton, lgvi::SolverKind::Newton, 3);
+BENCHMARK_CAPTURE(BM_LgviStep, newton_exp, lgvi::SolverKind::NewtonExp, 3);
+BENCHMARK_CAPTURE(BM_LgviStep, broyden, lgvi::SolverKind::Broyden, 3);
+// Warm start from the previous step's f only, as the paper's description would do.
+BENCHMARK_CAPTURE(BM_LgviStep, newton_warm_start, lgvi::SolverKind::Newton, 0);
+BENCHMARK_CAPTURE(BM_LgviStep, broyden_warm_start, lgvi::SolverKind::Broyden, 0);
 
 void BM_LagrangianLgviStep(benchmark::State& st) {
   const auto body = lgvi::paper::three_ball_body();

@@ -108,7 +108,8 @@ JsonObject scenario_json(const Scenario& s) {
       .string("solver", to_string(s.integrator.solver.kind))
       .number("step", s.integrator.step)
       .number("tolerance", s.integrator.solver.tolerance)
-      .integer("max_iterations", s.integrator.solver.max_iterations);
+      .integer("max_iterations", s.integrator.solver.max_iterations)
+      .integer("predictor_order", s.integrator.solver.predictor_order);
   JsonObject o;
   o.object("body", body).object("potential", pot).object("integrator", integ).integer("output_every", s.output_every);
   return o;

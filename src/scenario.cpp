@@ -231,7 +231,7 @@ RigidBodyState read_initial(const Reader& r, const toml::table& root, const Rigi
 
 IntegratorSpec read_integrator(const Reader& r, const toml::table& root) {
   const toml::table& t = r.table(root, "", "integrator");
-  r.only_keys(t, "integrator", {"method", "solver", "step", "duration", "tolerance", "max_iterations"});
+  r.only_keys(t, "integrator", {"method", "solver", "step", "duration", "tolerance", "max_iterations", "predictor_order"});
   IntegratorSpec s;
   if (t.contains("method"))
     s.method = r.string(t, "integrator", "method", {"lgvi", "lgvi-lagrangian"}) == "lgvi" ? Method::Hamiltonian
@@ -249,6 +249,11 @@ IntegratorSpec read_integrator(const Reader& r, const toml::table& root) {
     const std::int64_t m = r.integer(t, "integrator", "max_iterations");
     if (m < 1 || m > 10000) r.fail("integrator.max_iterations", "must be an integer in [1, 10000]");
     s.solver.max_iterations = static_cast<int>(m);
+  }
+  if (t.contains("predictor_order")) {
+    const std::int64_t o = r.integer(t, "integrator", "predictor_order");
+    if (o < 0 || o > 3) r.fail("integrator.predictor_order", "must be an integer in [0, 3] (3, cubic, is the default)");
+    s.solver.predictor_order = static_cast<int>(o);
   }
   s.step = r.number(t, "integrator", "step");
   if (!(s.step > 0.0)) r.fail("integrator.step", "must be > 0, got " + std::to_string(s.step));

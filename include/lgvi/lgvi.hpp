@@ -68,7 +68,11 @@ template <Potential P>
 class LieGroupVariationalIntegrator {
  public:
   LieGroupVariationalIntegrator(const RigidBody& body, P potential, double h, SolverOptions solver = {})
-      : body_(body), potential_(std::move(potential)), h_(h), solver_(body.inertia(), solver) {
+      : body_(body),
+        potential_(std::move(potential)),
+        h_(h),
+        solver_(body.inertia(), solver),
+        predictor_(solver.predictor_order) {
     detail::require_valid_step(h);
   }
 
@@ -134,7 +138,11 @@ template <Potential P>
 class LagrangianLieGroupVariationalIntegrator {
  public:
   LagrangianLieGroupVariationalIntegrator(const RigidBody& body, P potential, double h, SolverOptions solver = {})
-      : body_(body), potential_(std::move(potential)), h_(h), solver_(body.inertia(), solver) {
+      : body_(body),
+        potential_(std::move(potential)),
+        h_(h),
+        solver_(body.inertia(), solver),
+        predictor_(solver.predictor_order) {
     detail::require_valid_step(h);
   }
 

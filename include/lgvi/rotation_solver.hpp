@@ -86,6 +86,9 @@ struct SolverOptions {
   /// evaluation of g.
   double tolerance = 4 * std::numeric_limits<double>::epsilon();
   int max_iterations = 50;
+  /// Degree of the polynomial extrapolation of the last steps' f that starts
+  /// each solve (RotationPredictor): 0 = the previous step's f, 3 = cubic.
+  int predictor_order = 3;
 };
 
 struct SolveReport {
@@ -154,6 +157,8 @@ class RotationEquation {
 /// needs two. It only changes the starting point: the root is the same.
 class RotationPredictor {
  public:
+  explicit RotationPredictor(int order = 3) : order_(std::clamp(order, 0, 3)) {}
+
   /// Forgets the history and starts from f.
   void reset(const S3d& f) {
     count_ = 0;
@@ -168,7 +173,7 @@ class RotationPredictor {
 
   S3d predict() const {
     Vector3<double> v;
-    switch (count_) {
+    switch (std::min(count_, order_ + 1)) {
       case 4: v = 4.0 * (v_[0] + v_[2]) - 6.0 * v_[1] - v_[3]; break;
       case 3: v = 3.0 * (v_[0] - v_[1]) + v_[2]; break;
       case 2: v = 2.0 * v_[0] - v_[1]; break;
@@ -195,6 +200,7 @@ class RotationPredictor {
   std::array<Vector3<double>, 4> v_{Vector3<double>::Zero(), Vector3<double>::Zero(), Vector3<double>::Zero(),
                                     Vector3<double>::Zero()};
   int count_ = 0;
+  int order_;
 };
 
 /// Solves g(f) = b for f = exp(xi0). The initial guess and the result are
