@@ -264,3 +264,26 @@ TEST(Failure, InvalidStepIsRejected) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(Cost, OnePotentialEvaluationPerStep) {
+  // The force and torque at the new point serve the next step: n steps cost
+  // n + 1 evaluations (the +1 at initialize), for both forms.
+  const RigidBody body = lgvi::paper::three_ball_body();
+  const CentralGravity gravity(body, 1.0);
+  long calls = 0;
+  const lgvi::CallablePotential counting([&](const V3& x, const S3d& q) {
+    ++calls;
+    return gravity.evaluate(x, q);
+  });
+  lgvi::LieGroupVariationalIntegrator<lgvi::CallablePotential> ham(body, counting, 0.01);
+  run(ham, lgvi::paper::orbit_initial_state(), 500);
+  EXPECT_EQ(calls, 501);
+  calls = 0;
+  lgvi::LagrangianLieGroupVariationalIntegrator<lgvi::CallablePotential> lag(body, counting, 0.01);
+  run(lag, lgvi::paper::orbit_initial_state(), 500);
+  EXPECT_EQ(calls, 501);
+}
+
+}  // namespace
