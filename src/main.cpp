@@ -18,12 +18,23 @@ int main(int argc, char** argv) {
   std::string scenario_path;
   lgvi::app::RunOptions options;
   bool no_figures = false;
-  run->add_option("SCENARIO", scenario_path, "Scenario file (TOML), see README 'Scenario files'")->required();
-  run->add_option("--out", options.out_dir, "Output folder (default: a folder named after the scenario)");
+  std::string resume_dir;
+  auto* scenario_opt = run->add_option("SCENARIO", scenario_path, "Scenario file (TOML), see README 'Scenario files'");
+  auto* resume_opt =
+      run->add_option("--resume", resume_dir, "Continue the interrupted run in this folder from its checkpoint");
+  scenario_opt->excludes(resume_opt);
+  run->add_option("--out", options.out_dir, "Output folder (default: a folder named after the scenario)")
+      ->excludes(resume_opt);
+  run->add_option("--checkpoint-every", options.checkpoint_every,
+                  "Write the full state to DIR/checkpoint.bin every N steps (and on SIGINT/SIGTERM)")
+      ->check(CLI::NonNegativeNumber);
   run->add_flag("--no-figures", no_figures, "Do not draw the PNG figures");
   run->add_flag("-q,--quiet", options.quiet, "Print nothing on success");
-  run->footer("Example:\n  lgvi run scenarios/paper.toml --out results/paper\nExit status: 0 success, 1 the run "
-              "failed (the error names the step), 2 bad usage or bad input");
+  run->footer(
+      "Examples:\n  lgvi run scenarios/paper.toml --out results/paper\n"
+      "  lgvi run long.toml --checkpoint-every 100000   # then, after Ctrl-C: lgvi run --resume long\n"
+      "Exit status: 0 success, 1 the run failed (the error names the step), 2 bad usage or bad input,\n"
+      "130/143 stopped by SIGINT/SIGTERM (the files are valid up to the last step; summary.json says so)");
 
   try {
     app.parse(argc, argv);
@@ -40,8 +51,13 @@ int main(int argc, char** argv) {
   }
   options.figures = !no_figures;
   try {
+    if (!resume_dir.empty()) return lgvi::app::resume_run(resume_dir, options);
+    if (scenario_path.empty()) throw CLI::RequiredError("SCENARIO (or --resume DIR)");
     const lgvi::app::Scenario scenario = lgvi::app::read_scenario(scenario_path);
     return lgvi::app::run_scenario(scenario, options);
+  } catch (const CLI::Error& e) {
+    std::cerr << "lgvi: error: " << e.what() << " (see lgvi run --help)\n";
+    return lgvi::app::kBadInput;
   } catch (const lgvi::InvalidInput& e) {
     std::cerr << "lgvi: error: " << e.what() << "\n";
     return lgvi::app::kBadInput;

@@ -1,94 +1,12 @@
 #include "output.hpp"
 
 #include <cerrno>
-#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <stdexcept>
 
 namespace lgvi::app {
-
-namespace {
-constexpr std::size_t rows_per_block = 2048;
-}
-
-CsvWriter::CsvWriter(const std::string& path, const std::string& header, int columns)
-    : path_(path), columns_(columns) {
-  file_ = std::fopen(path.c_str(), "wb");
-  if (!file_) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
-  if (std::fputs((header + "\n").c_str(), file_) < 0) throw std::runtime_error("cannot write " + path);
-  filling_.reserve(rows_per_block * static_cast<std::size_t>(columns));
-  writing_.reserve(filling_.capacity());
-  thread_ = std::thread([this] { writer_loop(); });
-}
-
-CsvWriter::~CsvWriter() {
-  try {
-    close();
-  } catch (...) {  // a destructor must not throw; close() reports errors to callers that call it
-  }
-}
-
-void CsvWriter::row(const double* values) {
-  filling_.insert(filling_.end(), values, values + columns_);
-  if (filling_.size() >= rows_per_block * static_cast<std::size_t>(columns_)) hand_over();
-}
-
-void CsvWriter::hand_over() {
-  std::unique_lock lock(mutex_);
-  cv_.wait(lock, [this] { return !block_ready_; });  // the writer has taken the previous block
-  std::swap(filling_, writing_);
-  filling_.clear();
-  block_ready_ = true;
-  cv_.notify_all();
-}
-
-void CsvWriter::writer_loop() {
-  std::vector<double> block;
-  for (;;) {
-    {
-      std::unique_lock lock(mutex_);
-      cv_.wait(lock, [this] { return block_ready_ || stop_; });
-      if (!block_ready_) return;  // stop_ and nothing left
-      std::swap(block, writing_);
-      block_ready_ = false;
-      cv_.notify_all();
-    }
-    if (error_.empty()) write_block(block);
-    block.clear();
-  }
-}
-
-void CsvWriter::write_block(const std::vector<double>& block) {
-  // 17 significant digits (%.17g) with std::to_chars: exact text, several
-  // times faster than printf.
-  std::string text;
-  text.reserve(block.size() * 24);
-  char number[32];
-  for (std::size_t i = 0; i < block.size(); ++i) {
-    const auto res = std::to_chars(number, number + sizeof number, block[i], std::chars_format::general, 17);
-    text.append(number, res.ptr);
-    text.push_back((i + 1) % static_cast<std::size_t>(columns_) == 0 ? '\n' : ',');
-  }
-  if (std::fwrite(text.data(), 1, text.size(), file_) != text.size())
-    error_ = "writing " + path_ + " failed: " + std::strerror(errno);
-}
-
-void CsvWriter::close() {
-  if (!file_) return;
-  if (!filling_.empty()) hand_over();
-  {
-    std::lock_guard lock(mutex_);
-    stop_ = true;
-    cv_.notify_all();
-  }
-  if (thread_.joinable()) thread_.join();
-  const int rc = std::fclose(file_);
-  file_ = nullptr;
-  if (!error_.empty()) throw std::runtime_error(error_);
-  if (rc != 0) throw std::runtime_error("closing " + path_ + " failed: " + std::strerror(errno));
-}
 
 std::string json_number(double v) {
   if (!std::isfinite(v)) return "null";  // JSON has no NaN/inf

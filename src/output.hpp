@@ -1,57 +1,13 @@
-// Trajectory and summary files of a run.
+// Summary files of a run: a small JSON writer and atomic file replacement.
 #pragma once
 
 #include <cstdint>
-#include <condition_variable>
-#include <cstdio>
-#include <mutex>
-#include <thread>
 #include <string>
 #include <vector>
 
 #include <fmt/format.h>
 
 namespace lgvi::app {
-
-/// The columns of trajectory.csv, in order.
-inline constexpr const char* trajectory_header =
-    "t,x,y,z,qw,qx,qy,qz,px,py,pz,wx,wy,wz,energy,energy_error,quat_norm_error,Lx,Ly,Lz,momentum_error";
-inline constexpr int trajectory_columns = 21;
-
-/// CSV writer: rows of doubles printed with 17 significant digits (%.17g:
-/// every double round-trips exactly). Formatting 17 digits costs ~60 ns a
-/// number, as much as the integration itself on the paper's run, so rows are
-/// collected in blocks and a second thread formats and writes each block
-/// while the integration goes on (double buffering). The file's bytes do not
-/// depend on the timing.
-class CsvWriter {
- public:
-  /// Opens (truncates) `path` and writes `header`; throws std::runtime_error
-  /// naming the file on failure.
-  CsvWriter(const std::string& path, const std::string& header, int columns);
-  ~CsvWriter();
-  CsvWriter(const CsvWriter&) = delete;
-  CsvWriter& operator=(const CsvWriter&) = delete;
-
-  void row(const double* values);
-  /// Writes out every row and closes; throws on a write error (disk full).
-  void close();
-
- private:
-  void hand_over();
-  void writer_loop();
-  void write_block(const std::vector<double>& block);
-
-  std::string path_;
-  int columns_;
-  std::FILE* file_ = nullptr;
-  std::vector<double> filling_, writing_;
-  std::thread thread_;
-  std::mutex mutex_;
-  std::condition_variable cv_;
-  bool block_ready_ = false, stop_ = false;
-  std::string error_;
-};
 
 /// A minimal JSON object writer (the summary is small and flat-ish).
 class JsonObject {

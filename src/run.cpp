@@ -1,23 +1,22 @@
 #include "run.hpp"
 
 #include "output.hpp"
+#include "simulation.hpp"
 
-#include <lgvi/integrate.hpp>
-#include <lgvi/lgvi.hpp>
-#include <lgvi/potential.hpp>
+#include <lgvi/error.hpp>
 
 #include <fmt/format.h>
 
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdlib>
 #include <cstring>
-#include <memory>
 #include <filesystem>
 #include <iostream>
 #include <spawn.h>
 #include <sys/wait.h>
-#include <variant>
+#include <unistd.h>
 
 extern char** environ;
 
@@ -27,102 +26,29 @@ namespace fs = std::filesystem;
 
 namespace {
 
-using AnyPotential = std::variant<NoPotential, CentralGravity, UniformGravity>;
+volatile std::sig_atomic_t g_stop_signal = 0;
 
-AnyPotential make_potential(const Scenario& s) {
-  switch (s.potential.kind) {
-    case PotentialKind::Central: return CentralGravity(s.body, s.potential.mu);
-    case PotentialKind::Uniform: return UniformGravity(s.body, s.potential.g);
-    case PotentialKind::None: break;
+extern "C" void on_stop_signal(int signo) { g_stop_signal = signo; }
+
+/// SIGINT and SIGTERM stop the run at the next step boundary while installed.
+class StopSignals {
+ public:
+  StopSignals() {
+    g_stop_signal = 0;
+    struct sigaction sa {};
+    sa.sa_handler = on_stop_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, &old_int_);
+    sigaction(SIGTERM, &sa, &old_term_);
   }
-  return NoPotential{};
-}
-
-/// Diagnostics over every step (written or not) and the rows written.
-struct Recorder {
-  const Scenario& scenario;
-  CsvWriter& csv;
-  double energy0 = 0.0;
-  Vector3<double> momentum0 = Vector3<double>::Zero();
-  double max_energy_error = 0.0, max_quat_error = 0.0, max_momentum_error = 0.0;
-  std::int64_t iterations_total = 0, steps_solved = 0;
-  int iterations_max = 0;
-  double last_t = 0.0;
-  std::int64_t last_k = 0;
-  bool observed = false;  ///< at least the initial state was evaluated and recorded
-
-  void operator()(const StepInfo& i) {
-    const RigidBodyState& s = i.state;
-    const double energy = total_energy(s, scenario.body, i.evaluation);
-    const Vector3<double> L = angular_momentum(s);
-    if (i.k == 0) {
-      energy0 = energy;
-      momentum0 = L;
-    } else {
-      iterations_total += i.solve.iterations;
-      iterations_max = std::max(iterations_max, i.solve.iterations);
-      ++steps_solved;
-    }
-    const double de = energy - energy0, dq = s.q.norm_error(), dl = (L - momentum0).norm();
-    max_energy_error = std::max(max_energy_error, std::abs(de));
-    max_quat_error = std::max(max_quat_error, std::abs(dq));
-    max_momentum_error = std::max(max_momentum_error, dl);
-    last_t = i.t;
-    last_k = i.k;
-    observed = true;
-    if (i.k % scenario.output_every == 0 || i.k == scenario.integrator.steps) {
-      const auto& q = s.q.quaternion();
-      const double row[trajectory_columns] = {i.t,    s.x.x(), s.x.y(), s.x.z(), q.w(),  q.x(),  q.y(),
-                                              q.z(),  s.p.x(), s.p.y(), s.p.z(), s.w.x(), s.w.y(), s.w.z(),
-                                              energy, de,      dq,      L.x(),   L.y(),   L.z(),   dl};
-      csv.row(row);
-    }
+  ~StopSignals() {
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
   }
+
+ private:
+  struct sigaction old_int_ {}, old_term_ {};
 };
-
-std::vector<double> to_vector(const Eigen::Ref<const Eigen::VectorXd>& v) { return {v.data(), v.data() + v.size()}; }
-
-JsonObject scenario_json(const Scenario& s) {
-  JsonObject body;
-  body.number("mass", s.body.mass());
-  std::string inertia = "[";
-  for (int i = 0; i < 3; ++i) {
-    inertia += (i ? ", [" : "[") + json_number(s.body.inertia()(i, 0)) + ", " + json_number(s.body.inertia()(i, 1)) +
-               ", " + json_number(s.body.inertia()(i, 2)) + "]";
-  }
-  body.raw("inertia", inertia + "]");
-  std::string balls = "[";
-  for (std::size_t i = 0; i < s.body.balls().size(); ++i) {
-    const Ball& b = s.body.balls()[i];
-    balls += fmt::format("{}{{\"position\": [{}, {}, {}], \"mass\": {}, \"radius\": {}}}", i ? ", " : "",
-                         json_number(b.position.x()), json_number(b.position.y()), json_number(b.position.z()),
-                         json_number(b.mass), json_number(b.radius));
-  }
-  body.raw("balls", balls + "]");
-  JsonObject pot;
-  pot.string("kind", to_string(s.potential.kind));
-  if (s.potential.kind == PotentialKind::Central) pot.number("mu", s.potential.mu);
-  if (s.potential.kind == PotentialKind::Uniform) pot.array("g", to_vector(s.potential.g));
-  JsonObject integ;
-  integ.string("method", to_string(s.integrator.method))
-      .string("solver", to_string(s.integrator.solver.kind))
-      .number("step", s.integrator.step)
-      .number("tolerance", s.integrator.solver.tolerance)
-      .integer("max_iterations", s.integrator.solver.max_iterations)
-      .integer("predictor_order", s.integrator.solver.predictor_order);
-  JsonObject o;
-  o.object("body", body).object("potential", pot).object("integrator", integ).integer("output_every", s.output_every);
-  return o;
-}
-
-JsonObject state_json(const RigidBodyState& s) {
-  JsonObject o;
-  o.array("position", to_vector(s.x))
-      .array("quaternion", {s.q.w(), s.q.quaternion().x(), s.q.quaternion().y(), s.q.quaternion().z()})
-      .array("momentum", to_vector(s.p))
-      .array("w", to_vector(s.w));
-  return o;
-}
 
 /// Folder holding the `lgvi` Python package (for the figures).
 std::string python_dir() {
@@ -130,6 +56,132 @@ std::string python_dir() {
   std::error_code ec;
   if (fs::exists(fs::path(LGVI_SOURCE_PYTHON_DIR) / "lgvi" / "plot.py", ec)) return LGVI_SOURCE_PYTHON_DIR;
   return LGVI_INSTALLED_PYTHON_DIR;
+}
+
+/// A progress line on standard error, only when it is a terminal.
+class Progress {
+ public:
+  Progress(bool enabled, std::int64_t total, double step)
+      : enabled_(enabled && isatty(STDERR_FILENO)), total_(total), step_(step), start_(clock::now()) {}
+  void operator()(std::int64_t k, double t) {
+    if (!enabled_) return;
+    const double elapsed = std::chrono::duration<double>(clock::now() - start_).count();
+    if (elapsed - last_ < 0.25 && k < total_) return;
+    last_ = elapsed;
+    const double rate = static_cast<double>(k - k_start_) / std::max(elapsed, 1e-9);
+    const double eta = rate > 0 ? static_cast<double>(total_ - k) / rate : 0.0;
+    std::fprintf(stderr, "\rlgvi: step %lld/%lld (t = %.6g), %.3g steps/s, ETA %.0f s   ", static_cast<long long>(k),
+                 static_cast<long long>(total_), t, rate, eta);
+    shown_ = true;
+  }
+  void start_at(std::int64_t k) { k_start_ = k; }
+  ~Progress() {
+    if (shown_) std::fputs("\n", stderr);
+  }
+  bool enabled() const { return enabled_; }
+  double step() const { return step_; }
+
+ private:
+  using clock = std::chrono::steady_clock;
+  bool enabled_;
+  std::int64_t total_, k_start_ = 0;
+  double step_;
+  clock::time_point start_;
+  double last_ = -1.0;
+  bool shown_ = false;
+};
+
+/// The shared part of a fresh and a resumed run.
+int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, const Checkpoint* resume) {
+  const fs::path trajectory_path = fs::path(dir) / trajectory_file_name(sc.output_format);
+  const fs::path summary_path = fs::path(dir) / "summary.json";
+  const fs::path checkpoint_path = fs::path(dir) / "checkpoint.bin";
+  std::unique_ptr<TrajectorySink> sink;
+  try {
+    fs::create_directories(dir);
+    // A summary left by an earlier run must not describe this one.
+    fs::remove(summary_path);
+    if (!resume) {
+      fs::remove(checkpoint_path);
+      write_file_atomically((fs::path(dir) / "scenario.toml").string(), sc.source_text);
+    }
+    sink = open_trajectory(sc.output_format, trajectory_path.string(), resume ? &resume->sink : nullptr);
+  } catch (const std::exception& e) {
+    std::cerr << "lgvi: error: output folder '" << dir << "' cannot be written: " << e.what()
+              << "; choose another with --out\n";
+    return kBadInput;
+  }
+
+  Progress progress(!opt.quiet, sc.integrator.steps, sc.integrator.step);
+  SimulationOptions so;
+  so.checkpoint_every = opt.checkpoint_every;
+  so.checkpoint_path = checkpoint_path.string();
+  so.resume = resume;
+  so.stop_flag = &g_stop_signal;
+  if (progress.enabled()) {
+    progress.start_at(resume ? resume->k : 0);
+    so.progress = [&](std::int64_t k, double t) { progress(k, t); };
+    so.progress_every = 4096;
+  }
+  SimulationResult result;
+  {
+    StopSignals signals;
+    try {
+      result = simulate(sc, *sink, so);
+    } catch (const std::exception& e) {  // I/O while checkpointing
+      result.error = e.what();
+    }
+    if (result.interrupted)
+      result.error = std::string("interrupted by ") + (g_stop_signal == SIGTERM ? "SIGTERM" : "SIGINT") +
+                     " at t = " + fmt::format("{}", result.stats.last_t) +
+                     (opt.checkpoint_every > 0 ? "; continue with: lgvi run --resume " + dir : "");
+  }
+  const std::string summary = summary_json(sc, result);
+  try {
+    sink->close(sc.source_text, summary);
+  } catch (const std::exception& e) {
+    if (result.error.empty()) result.error = e.what();
+    result.completed = false;
+  }
+  try {
+    write_file_atomically(summary_path.string(), result.completed ? summary : summary_json(sc, result));
+  } catch (const std::exception& e) {
+    std::cerr << "lgvi: error: " << e.what() << "\n";
+    return kRunFailed;
+  }
+  if (result.interrupted) {
+    std::cerr << "lgvi: " << result.error << "\n";
+    return g_stop_signal == SIGTERM ? kInterruptedSigterm : kInterruptedSigint;
+  }
+  if (!result.completed) {
+    std::cerr << "lgvi: error: " << result.error << "\n";
+    if (result.stats.observed)
+      std::cerr << "lgvi: the trajectory up to t = " << result.stats.last_t << " is in " << trajectory_path.string()
+                << "; summary.json says \"completed\": false\n";
+    else
+      std::cerr << "lgvi: no state could be evaluated, " << trajectory_path.string()
+                << " holds no rows; summary.json says \"completed\": false\n";
+    return kRunFailed;
+  }
+  if (opt.checkpoint_every > 0) fs::remove(checkpoint_path);  // the run is complete: nothing to resume
+  const RunStatistics& st = result.stats;
+  const double l0 = st.momentum0.norm();
+  if (!opt.quiet)
+    std::cout << fmt::format(
+        "{}: {} steps in {:.3f} s ({:.0f} ns/step); max |dE| = {:.3e}, max ||q|-1| = {:.3e}, max |dL|/|L0| = {:.3e}; "
+        "output in {}\n",
+        sc.name, st.last_k, result.wall_seconds,
+        st.last_k ? result.wall_seconds * 1e9 / static_cast<double>(st.last_k) : 0.0, st.max_energy_error,
+        st.max_quat_error, l0 > 0 ? st.max_momentum_error / l0 : st.max_momentum_error, dir);
+  if (opt.figures) {
+    try {
+      draw_figures(dir);
+    } catch (const std::exception& e) {
+      std::cerr << "lgvi: error: the run completed and its files are written, but " << e.what() << "\n";
+      return kRunFailed;
+    }
+  }
+  return kSuccess;
 }
 
 }  // namespace
@@ -161,103 +213,17 @@ void draw_figures(const std::string& run_dir) {
 }
 
 int run_scenario(const Scenario& sc, const RunOptions& opt) {
-  const std::string dir = opt.out_dir.empty() ? sc.name : opt.out_dir;
-  const fs::path csv_path = fs::path(dir) / "trajectory.csv";
-  const fs::path summary_path = fs::path(dir) / "summary.json";
-  std::unique_ptr<CsvWriter> csv;
-  try {
-    fs::create_directories(dir);
-    // A summary left by an earlier run must not describe this one.
-    fs::remove(summary_path);
-    csv = std::make_unique<CsvWriter>(csv_path.string(), trajectory_header, trajectory_columns);
-  } catch (const std::exception& e) {
-    std::cerr << "lgvi: error: output folder '" << dir << "' cannot be written: " << e.what()
-              << "; choose another with --out\n";
-    return kBadInput;
-  }
+  return execute(sc, opt.out_dir.empty() ? sc.name : opt.out_dir, opt, nullptr);
+}
 
-  RigidBodyState state = sc.initial;
-  Recorder rec{sc, *csv};
-  std::string failure;
-  AnyPotential potential_variant = make_potential(sc);
-  const auto start = std::chrono::steady_clock::now();
-  try {
-    std::visit(
-        [&](auto& potential) {
-          using P = std::decay_t<decltype(potential)>;
-          if (sc.integrator.method == Method::Hamiltonian) {
-            LieGroupVariationalIntegrator<P> stepper(sc.body, potential, sc.integrator.step, sc.integrator.solver);
-            integrate_n_steps(stepper, state, 0.0, sc.integrator.steps, rec);
-          } else {
-            LagrangianLieGroupVariationalIntegrator<P> stepper(sc.body, potential, sc.integrator.step,
-                                                                sc.integrator.solver);
-            integrate_n_steps(stepper, state, 0.0, sc.integrator.steps, rec);
-          }
-        },
-        potential_variant);
-  } catch (const IntegrationFailure& e) {
-    failure = e.what();
-  }
-  try {
-    csv->close();
-  } catch (const std::exception& e) {
-    failure = failure.empty() ? std::string(e.what()) : failure;
-  }
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-
-  JsonObject summary;
-  summary.string("scenario", sc.name)
-      .boolean("completed", failure.empty())
-      .string("error", failure)
-      .integer("steps", rec.last_k)
-      .number("duration", sc.integrator.step * static_cast<double>(sc.integrator.steps))
-      .number("last_time", rec.last_t)
-      .number("wall_seconds", wall)
-      .number("ns_per_step", rec.last_k > 0 ? wall * 1e9 / static_cast<double>(rec.last_k) : 0.0)
-      .number("initial_energy", rec.observed ? rec.energy0 : std::nan(""))
-      .array("initial_angular_momentum", to_vector(rec.momentum0))
-      .number("max_abs_energy_error", rec.max_energy_error)
-      .number("max_abs_quat_norm_error", rec.max_quat_error)
-      .number("max_momentum_error", rec.max_momentum_error)
-      .number("max_relative_momentum_error",
-              rec.momentum0.norm() > 0 ? rec.max_momentum_error / rec.momentum0.norm() : rec.max_momentum_error)
-      .number("solver_iterations_mean",
-              rec.steps_solved ? static_cast<double>(rec.iterations_total) / static_cast<double>(rec.steps_solved) : 0.0)
-      .integer("solver_iterations_max", rec.iterations_max)
-      .object("final", state_json(state))
-      .object("setup", scenario_json(sc));
-  try {
-    write_file_atomically(summary_path.string(), summary.str() + "\n");
-  } catch (const std::exception& e) {
-    std::cerr << "lgvi: error: " << e.what() << "\n";
-    return kRunFailed;
-  }
-  if (!failure.empty()) {
-    std::cerr << "lgvi: error: " << failure << "\n";
-    if (rec.observed)
-      std::cerr << "lgvi: the trajectory up to t = " << rec.last_t << " is in " << csv_path.string()
-                << "; summary.json says \"completed\": false\n";
-    else
-      std::cerr << "lgvi: no state could be evaluated, " << csv_path.string()
-                << " holds only its header; summary.json says \"completed\": false\n";
-    return kRunFailed;
-  }
-  if (!opt.quiet)
-    std::cout << fmt::format(
-        "{}: {} steps in {:.3f} s ({:.0f} ns/step); max |dE| = {:.3e}, max ||q|-1| = {:.3e}, max |dL|/|L0| = {:.3e}; "
-        "output in {}\n",
-        sc.name, rec.last_k, wall, rec.last_k ? wall * 1e9 / static_cast<double>(rec.last_k) : 0.0,
-        rec.max_energy_error, rec.max_quat_error,
-        rec.momentum0.norm() > 0 ? rec.max_momentum_error / rec.momentum0.norm() : rec.max_momentum_error, dir);
-  if (opt.figures) {
-    try {
-      draw_figures(dir);
-    } catch (const std::exception& e) {
-      std::cerr << "lgvi: error: the run completed and its files are written, but " << e.what() << "\n";
-      return kRunFailed;
-    }
-  }
-  return kSuccess;
+int resume_run(const std::string& dir, RunOptions opt) {
+  const Scenario sc = read_scenario((fs::path(dir) / "scenario.toml").string());
+  const Checkpoint c = read_checkpoint((fs::path(dir) / "checkpoint.bin").string());
+  if (opt.checkpoint_every == 0) opt.checkpoint_every = c.checkpoint_every;
+  if (c.k > sc.integrator.steps)
+    throw InvalidInput(dir + "/checkpoint.bin: step " + std::to_string(c.k) + " is beyond the scenario's " +
+                       std::to_string(sc.integrator.steps) + " steps");
+  return execute(sc, dir, opt, &c);
 }
 
 }  // namespace lgvi::app

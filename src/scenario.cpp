@@ -290,14 +290,19 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   IntegratorSpec integrator = read_integrator(r, root);
   std::int64_t every = 1;
   if (const toml::table* out = r.optional_table(root, "", "output")) {
-    r.only_keys(*out, "output", {"every"});
+    r.only_keys(*out, "output", {"every", "format"});
     if (out->contains("every")) {
       every = r.integer(*out, "output", "every");
       if (every < 1) r.fail("output.every", "must be an integer >= 1");
     }
   }
+  TrajectoryFormat format = TrajectoryFormat::Csv;
+  if (const toml::table* out = root.get_as<toml::table>("output"); out && out->contains("format")) {
+    const std::string f = r.string(*out, "output", "format", {"csv", "npz", "hdf5"});
+    format = f == "csv" ? TrajectoryFormat::Csv : f == "npz" ? TrajectoryFormat::Npz : TrajectoryFormat::Hdf5;
+  }
   const std::string stem = std::filesystem::path(name).stem().string();
-  return Scenario{stem, std::move(body), potential, initial, integrator, every};
+  return Scenario{stem, std::move(body), potential, initial, integrator, every, format, text};
 }
 
 Scenario read_scenario(const std::string& path) {

@@ -7,6 +7,8 @@
 #include <lgvi/rotation_solver.hpp>
 #include <lgvi/state.hpp>
 
+#include "trajectory_sink.hpp"
+
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -37,6 +39,8 @@ struct Scenario {
   RigidBodyState initial;
   IntegratorSpec integrator;
   std::int64_t output_every = 1;
+  TrajectoryFormat output_format = TrajectoryFormat::Csv;
+  std::string source_text;  ///< the TOML text it was read from
 };
 
 /// Reads and validates a scenario file. Throws InvalidInput with a message

@@ -30,6 +30,7 @@
 #include <cmath>
 #include <concepts>
 #include <string>
+#include <vector>
 
 namespace lgvi {
 
@@ -108,10 +109,14 @@ class LieGroupVariationalIntegrator {
   const SolveReport& last_solve() const { return report_; }
   const RigidBody& body() const { return body_; }
   const P& potential() const { return potential_; }
-  /// The solver's warm start (the last relative rotations f = q0^* q1 =
-  /// exp(xi0)): part of what a checkpoint keeps for a bit-identical resume.
-  const RotationPredictor& warm_start() const { return predictor_; }
-  void set_warm_start(const RotationPredictor& p) { predictor_ = p; }
+  /// What a checkpoint must keep besides the state for a bit-identical
+  /// resume: the predictor's history of the last steps' f.
+  std::vector<double> internal_state() const { return predictor_.serialize(); }
+  /// Resumes at `s` (evaluating the potential there) with saved internals.
+  void resume(const RigidBodyState& s, const std::vector<double>& internal) {
+    initialize(s);
+    predictor_.deserialize(internal);
+  }
 
  private:
   RigidBody body_;
@@ -190,6 +195,25 @@ class LagrangianLieGroupVariationalIntegrator {
   const PotentialEvaluation& evaluation() const { return eval_; }
   const SolveReport& last_solve() const { return report_; }
   const RigidBody& body() const { return body_; }
+
+  /// Besides the state: the configuration one step ahead and the predictor.
+  std::vector<double> internal_state() const {
+    std::vector<double> v{x_next_.x(), x_next_.y(), x_next_.z(), q_next_.w(), q_next_.vec().x(),
+                          q_next_.vec().y(), q_next_.vec().z()};
+    const std::vector<double> p = predictor_.serialize();
+    v.insert(v.end(), p.begin(), p.end());
+    return v;
+  }
+  void resume(const RigidBodyState& s, const std::vector<double>& internal) {
+    if (internal.size() < 7) throw InvalidInput("checkpoint: Lagrangian integrator data too short");
+    eval_ = potential_.evaluate(s.x, s.q);
+    detail::require_finite(s, eval_);
+    x_prev_ = s.x;
+    q_prev_ = s.q;
+    x_next_ = Vector3<double>(internal[0], internal[1], internal[2]);
+    q_next_ = S3d(internal[3], internal[4], internal[5], internal[6]);
+    predictor_.deserialize(std::vector<double>(internal.begin() + 7, internal.end()));
+  }
 
  private:
   RigidBody body_;

@@ -39,6 +39,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
 namespace lgvi {
 
@@ -187,13 +188,17 @@ class RotationPredictor {
     return S3d(std::sqrt(std::max(s2, 0.0)), v.x(), v.y(), v.z());
   }
 
-  /// The history, newest first, and how many entries are valid: part of what
-  /// a checkpoint keeps for a bit-identical resume.
-  const std::array<Vector3<double>, 4>& history() const { return v_; }
-  int count() const { return count_; }
-  void restore(const std::array<Vector3<double>, 4>& v, int count) {
-    v_ = v;
-    count_ = count;
+  /// The history (count, then the 4 vectors newest first): what a
+  /// checkpoint keeps for a bit-identical resume.
+  std::vector<double> serialize() const {
+    std::vector<double> out{static_cast<double>(count_)};
+    for (const auto& v : v_) out.insert(out.end(), {v.x(), v.y(), v.z()});
+    return out;
+  }
+  void deserialize(const std::vector<double>& in) {
+    if (in.size() != 13) throw InvalidInput("checkpoint: predictor data has the wrong size");
+    count_ = std::clamp(static_cast<int>(in[0]), 0, 4);
+    for (int i = 0; i < 4; ++i) v_[static_cast<std::size_t>(i)] = Vector3<double>(in[1 + 3 * i], in[2 + 3 * i], in[3 + 3 * i]);
   }
 
  private:

@@ -1,0 +1,52 @@
+// Where a run's trajectory rows go: CSV, npz or HDF5 files (and, for the
+// Python package, memory). One interface, so that the run loop, checkpoints
+// and resume do not depend on the format.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+namespace lgvi::app {
+
+/// The trajectory's columns, in order, in every format.
+inline constexpr const char* trajectory_header =
+    "t,x,y,z,qw,qx,qy,qz,px,py,pz,wx,wy,wz,energy,energy_error,quat_norm_error,Lx,Ly,Lz,momentum_error";
+inline constexpr int trajectory_columns = 21;
+
+/// How far a file has been written, as returned by TrajectorySink::sync() and
+/// kept in a checkpoint; a resumed run truncates the file back to it. The
+/// meaning of the fields is the format's own (CSV and npz: bytes of the file
+/// and the CRC-32 of the data so far; HDF5: rows).
+struct SinkPosition {
+  std::int64_t rows = 0;
+  std::int64_t bytes = 0;
+  std::uint32_t crc32 = 0;
+};
+
+class TrajectorySink {
+ public:
+  virtual ~TrajectorySink() = default;
+  /// Appends one row of trajectory_columns values.
+  virtual void row(const double* values) = 0;
+  /// Makes every row so far durable in the file and says where it ends.
+  virtual SinkPosition sync() = 0;
+  /// Completes the file. The scenario (TOML text) and the summary (JSON text)
+  /// are stored with the trajectory where the format allows (npz entries,
+  /// HDF5 attributes); CSV has them as side files (scenario.toml,
+  /// summary.json). Throws std::runtime_error on a write error.
+  virtual void close(const std::string& scenario_toml, const std::string& summary_json) = 0;
+};
+
+enum class TrajectoryFormat { Csv, Npz, Hdf5 };
+
+/// The file name of the trajectory in a run folder for each format.
+const char* trajectory_file_name(TrajectoryFormat f);
+
+/// Opens a new trajectory file (truncating), or, with `resume`, reopens one
+/// and truncates it back to that position to append. Throws
+/// std::runtime_error naming the file on failure.
+std::unique_ptr<TrajectorySink> open_trajectory(TrajectoryFormat format, const std::string& path,
+                                                const SinkPosition* resume = nullptr);
+
+}  // namespace lgvi::app

@@ -1,0 +1,110 @@
+"""Runs that stop and go on: SIGINT/SIGTERM stop `lgvi run` at a step boundary
+with valid files, and `lgvi run --resume` continues to a trajectory
+byte-identical to an uninterrupted run. Run by ctest with LGVI_BINARY set."""
+import json
+import os
+import pathlib
+import signal
+import subprocess
+import time
+
+import pytest
+
+BINARY = os.environ.get("LGVI_BINARY")
+SOURCE = pathlib.Path(os.environ.get("LGVI_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
+pytestmark = pytest.mark.skipif(BINARY is None, reason="LGVI_BINARY not set (run through ctest)")
+
+STEPS = 4_000_000  # ~1 s: long enough to be interrupted mid-way
+
+
+def scenario(tmp_path, every=1000):
+    text = (SOURCE / "scenarios" / "paper-orbit.toml").read_text()
+    text = text.replace("duration = 1000.0", f"duration = {STEPS // 100}.0").replace("every = 10", f"every = {every}")
+    path = tmp_path / "long.toml"
+    path.write_text(text)
+    return path
+
+
+def run(*args):
+    return subprocess.run([BINARY, "run", *map(str, args), "--no-figures", "-q"], capture_output=True, text=True)
+
+
+def interrupt(args, sig, after=0.3):
+    proc = subprocess.Popen([BINARY, "run", *map(str, args), "--no-figures", "-q"], stderr=subprocess.PIPE, text=True)
+    time.sleep(after)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=60)
+    return proc.returncode, err
+
+
+def rows_are_whole(path):
+    text = path.read_text()
+    assert text.endswith("\n")
+    lines = text.splitlines()
+    assert all(line.count(",") == 20 for line in lines)
+    return len(lines) - 1
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("full")
+    out = tmp / "full"
+    proc = run(scenario(tmp), "--out", out)
+    assert proc.returncode == 0, proc.stderr
+    return out
+
+
+@pytest.mark.parametrize("sig,status", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_signal_stops_at_a_step_boundary_and_resume_is_byte_identical(tmp_path, uninterrupted, sig, status):
+    out = tmp_path / "run"
+    code, err = interrupt([scenario(tmp_path), "--out", out, "--checkpoint-every", 100000], sig)
+    assert code == status, err
+    assert "interrupted by" in err and "--resume" in err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["completed"] is False
+    assert summary["error"].startswith("interrupted by " + ("SIGINT" if sig == signal.SIGINT else "SIGTERM"))
+    assert 0 < summary["steps"] < STEPS  # really stopped mid-way
+    rows = rows_are_whole(out / "trajectory.csv")
+    assert rows == summary["steps"] // 1000 + 1  # every 1000th step and t = 0, nothing after the stop
+    assert (out / "checkpoint.bin").is_file()
+
+    proc = run("--resume", out)
+    assert proc.returncode == 0, proc.stderr
+    assert (out / "trajectory.csv").read_bytes() == (uninterrupted / "trajectory.csv").read_bytes()
+    resumed, full = json.loads((out / "summary.json").read_text()), json.loads((uninterrupted / "summary.json").read_text())
+    assert resumed["completed"] is True
+    for key in ["steps", "max_abs_energy_error", "max_abs_quat_norm_error", "max_momentum_error",
+                "solver_iterations_mean", "solver_iterations_max", "final"]:
+        assert resumed[key] == full[key], key
+    assert not (out / "checkpoint.bin").exists()  # complete: nothing left to resume
+
+
+def test_two_interruptions_then_resume(tmp_path, uninterrupted):
+    out = tmp_path / "run"
+    code, _ = interrupt([scenario(tmp_path), "--out", out, "--checkpoint-every", 50000], signal.SIGINT, after=0.2)
+    assert code == 130
+    code, _ = interrupt(["--resume", out], signal.SIGINT, after=0.2)
+    assert code in (0, 130)  # it may finish first on a fast machine
+    proc = run("--resume", out) if code == 130 else None
+    assert proc is None or proc.returncode == 0, proc.stderr
+    assert (out / "trajectory.csv").read_bytes() == (uninterrupted / "trajectory.csv").read_bytes()
+
+
+def test_resume_without_checkpoint_is_a_clear_error(tmp_path):
+    out = tmp_path / "run"
+    proc = run(scenario(tmp_path).parent / "nothing-here", "--out", out)
+    assert proc.returncode == 2
+    proc = run("--resume", tmp_path / "no-such-run")
+    assert proc.returncode == 2
+    assert proc.stderr.count("\n") == 1 and "scenario.toml" in proc.stderr
+
+
+def test_failed_run_never_claims_success(tmp_path):
+    text = (SOURCE / "tests" / "cli" / "bad" / "pi-rotation.toml").read_text()
+    path = tmp_path / "pi.toml"
+    path.write_text(text)
+    out = tmp_path / "run"
+    proc = run(path, "--out", out)
+    assert proc.returncode == 1
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["completed"] is False and "reached pi" in summary["error"]
