@@ -217,8 +217,9 @@ int run_scenario(const Scenario& sc, const RunOptions& opt) {
 }
 
 int resume_run(const std::string& dir, RunOptions opt) {
-  const Scenario sc = read_scenario((fs::path(dir) / "scenario.toml").string());
+  Scenario sc = read_scenario((fs::path(dir) / "scenario.toml").string());
   const Checkpoint c = read_checkpoint((fs::path(dir) / "checkpoint.bin").string());
+  if (!c.scenario_name.empty()) sc.name = c.scenario_name;
   if (opt.checkpoint_every == 0) opt.checkpoint_every = c.checkpoint_every;
   if (c.k > sc.integrator.steps)
     throw InvalidInput(dir + "/checkpoint.bin: step " + std::to_string(c.k) + " is beyond the scenario's " +

@@ -89,6 +89,7 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, TrajectorySink& 
     c.stats.wall_seconds_before += elapsed();
     c.sink = sink.sync();
     c.checkpoint_every = opt.checkpoint_every;
+    c.scenario_name = sc.name;
     write_checkpoint(opt.checkpoint_path, c);
   };
   std::int64_t reached = k0;
@@ -187,10 +188,12 @@ constexpr std::int64_t checkpoint_version = 1;
 
 }  // namespace
 
-SimulationResult simulate(const Scenario& sc, TrajectorySink& sink, const SimulationOptions& opt) {
+namespace {
+template <class AnyP>
+SimulationResult simulate_with(const Scenario& sc, const AnyP& potential, TrajectorySink& sink,
+                               const SimulationOptions& opt) {
   if (opt.checkpoint_every > 0 && opt.checkpoint_path.empty())
     throw InvalidInput("checkpoint_every is set but no checkpoint path is given");
-  const AnyPotential potential = make_potential(sc);
   return std::visit(
       [&](const auto& pot) {
         using P = std::decay_t<decltype(pot)>;
@@ -202,6 +205,16 @@ SimulationResult simulate(const Scenario& sc, TrajectorySink& sink, const Simula
         return run_with(stepper, sc, sink, opt);
       },
       potential);
+}
+}  // namespace
+
+SimulationResult simulate(const Scenario& sc, TrajectorySink& sink, const SimulationOptions& opt) {
+  return simulate_with(sc, make_potential(sc), sink, opt);
+}
+
+SimulationResult simulate(const Scenario& sc, const CallablePotential& potential, TrajectorySink& sink,
+                          const SimulationOptions& opt) {
+  return simulate_with(sc, std::variant<CallablePotential>(potential), sink, opt);
 }
 
 std::string summary_json(const Scenario& sc, const SimulationResult& r) {
@@ -257,6 +270,8 @@ void write_checkpoint(const std::string& path, const Checkpoint& c) {
   put(c.sink.bytes);
   put(static_cast<std::int64_t>(c.sink.crc32));
   put(c.checkpoint_every);
+  put(static_cast<std::int64_t>(c.scenario_name.size()));
+  bytes += c.scenario_name;
   write_file_atomically(path, bytes);
 }
 
@@ -318,7 +333,10 @@ Checkpoint read_checkpoint(const std::string& path) {
   get(crc);
   c.sink.crc32 = static_cast<std::uint32_t>(crc);
   get(c.checkpoint_every);
-  if (pos != bytes.size()) fail();
+  std::int64_t name_size = 0;
+  get(name_size);
+  if (name_size < 0 || pos + static_cast<std::size_t>(name_size) != bytes.size()) fail();
+  c.scenario_name = bytes.substr(pos, static_cast<std::size_t>(name_size));
   return c;
 }
 

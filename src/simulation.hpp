@@ -7,6 +7,7 @@
 #include "scenario.hpp"
 #include "trajectory_sink.hpp"
 
+#include <lgvi/potential.hpp>
 #include <lgvi/state.hpp>
 
 #include <csignal>
@@ -41,6 +42,7 @@ struct Checkpoint {
   RunStatistics stats;
   SinkPosition sink;
   std::int64_t checkpoint_every = 0;
+  std::string scenario_name;  ///< the original file's stem (the copy in the run folder is scenario.toml)
 };
 
 /// Writes `path` atomically (temporary file + rename). Binary, native
@@ -76,6 +78,11 @@ struct SimulationResult {
 /// the last) to `sink`. Integration failures are reported in the result, not
 /// thrown; the sink then holds the trajectory up to the last good step.
 SimulationResult simulate(const Scenario& scenario, TrajectorySink& sink, const SimulationOptions& options = {});
+
+/// The same with a user's potential (e.g. written in Python) in place of the
+/// scenario's [potential].
+SimulationResult simulate(const Scenario& scenario, const CallablePotential& potential, TrajectorySink& sink,
+                          const SimulationOptions& options = {});
 
 /// The summary of a run as JSON text (the CLI's summary.json).
 std::string summary_json(const Scenario& scenario, const SimulationResult& result);

@@ -338,15 +338,21 @@ class RotationSolver {
 
   /// No convergence. The first-order estimate of the rotation per step,
   /// |Omega| h ~ 2 |J^{-1} b| (b = h J Omega / 2), tells whether the step is
-  /// simply too large for a root with a rotation below pi to exist.
+  /// simply too large for a root to exist: for an isotropic J the equation is
+  /// sin(2 theta) = |Omega| h (rotation 2 theta per step), with no solution
+  /// beyond |Omega| h = 1; the same scale holds for other inertias.
   StepFailure not_converged(const Vector3<double>& r, double scale, const Vector3<double>& b) const {
     const double rotation = 2.0 * eq_.inertia().ldlt().solve(b).norm();
     const std::string estimate = "estimated rotation per step |Omega| h = " + std::to_string(rotation) + " rad";
-    if (rotation >= 3.14159) {
+    const std::string hint = "take a smaller step, so that the rotation |Omega| h per step stays well below 1 rad";
+    if (rotation >= 3.14159)
       return StepFailure("the rotation in one step reached pi (" + estimate +
                              "), where the discrete flow is not defined; the solver found no root",
-                         "take a smaller step, so that the rotation |Omega| h per step stays well below pi");
-    }
+                         hint);
+    if (rotation > 0.9)
+      return StepFailure("the rotation equation has no root for this step (" + estimate +
+                             "; the discrete equations admit about 1 rad at most)",
+                         hint);
     return StepFailure(std::string(to_string(opt_.kind)) + " iteration for the rotation did not converge in " +
                            std::to_string(opt_.max_iterations) + " iterations (relative residual " +
                            std::to_string(r.lpNorm<Eigen::Infinity>() / std::max(scale, 1e-300)) + ", " + estimate +

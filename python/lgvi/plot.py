@@ -1,15 +1,17 @@
-"""Figures for one lgvi run: ``python3 -m lgvi.plot RUN_DIR [--out OUT_DIR]``.
+"""The paper's figures for one lgvi run: ``python3 -m lgvi.plot RUN_DIR [--out OUT_DIR]``.
 
-Reads ``RUN_DIR/trajectory.csv`` and ``RUN_DIR/summary.json`` and writes
-trajectory.png, body_motion.png, energy_error.png, quaternion_error.png and
-momentum_error.png. Quaternions are scalar-first (qw, qx, qy, qz).
+Draws trajectory.png, body_motion.png, energy_error.png, quaternion_error.png
+and momentum_error.png from a trajectory on disk (a run folder of the CLI,
+with trajectory.csv, trajectory.npz or trajectory.h5 and summary.json) or in
+memory (an ``lgvi.Result`` from ``lgvi.simulate``): ``draw_figures(source,
+out_dir)``. The CLI (``lgvi run``) draws its figures through this same code,
+so there is one plotting path. Quaternions are scalar-first (qw, qx, qy, qz).
+Needs numpy and matplotlib only (not the compiled lgvi._core).
 """
 
 import argparse
-import json
 import os
 import sys
-import warnings
 
 import numpy as np
 
@@ -31,24 +33,13 @@ def _pyplot():
 def load_run(run_dir):
     """Load a run directory.
 
-    Returns ``(columns, summary)``: a dict mapping each trajectory.csv header
-    name to a 1-D float array, and the parsed summary.json. Raises OSError for
-    missing files and ValueError for a malformed or empty trajectory.
+    Returns ``(columns, summary)``: a dict mapping each trajectory header
+    name to a 1-D float array, and the parsed summary.json. Reads
+    trajectory.csv, or else trajectory.npz or trajectory.h5. Raises OSError
+    for missing files and ValueError for a malformed or empty trajectory.
     """
-    csv_path = os.path.join(run_dir, "trajectory.csv")
-    with open(csv_path, encoding="utf-8") as f:
-        names = [n.strip() for n in f.readline().strip().split(",")]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # "input contained no data": checked below
-        data = np.loadtxt(csv_path, delimiter=",", skiprows=1, ndmin=2)
-    if data.shape[0] == 0:
-        raise ValueError(f"{csv_path}: trajectory has no rows")
-    if data.shape[1] != len(names):
-        raise ValueError(f"{csv_path}: header has {len(names)} columns, rows have {data.shape[1]}")
-    columns = {name: data[:, i] for i, name in enumerate(names)}
-    with open(os.path.join(run_dir, "summary.json"), encoding="utf-8") as f:
-        summary = json.load(f)
-    return columns, summary
+    from ._io import load_columns
+    return load_columns(run_dir)
 
 
 def rotation_matrix(q):
@@ -122,7 +113,7 @@ def _body_motion(plt, c, summary, out_dir, written):
         idx = np.linspace(0, min(i_end, len(t) - 1), N_INSTANTS, endpoint=False)
         title = f"Body motion, one orbit (period T = {period:.6g})"
     idx = np.unique(np.round(idx).astype(int))
-    balls = (summary.get("body") or {}).get("balls") or []
+    balls = _body(summary).get("balls") or []
     rho = np.array([b["position"] for b in balls], dtype=float).reshape(-1, 3)
     radii = np.array([b.get("radius", 0.0) for b in balls], dtype=float)
     quats = np.column_stack([c["qw"], c["qx"], c["qy"], c["qz"]])
@@ -172,16 +163,51 @@ def _max_abs(values):
     return float(np.max(np.abs(values)))
 
 
-def draw_figures(run_dir, out_dir=None):
-    """Draw the five PNG figures of a run into out_dir (default run_dir).
+def _body(summary):
+    """The body of a summary: the CLI's setup.body, or a top-level body."""
+    from ._result import _body as body
+    return body(summary)
 
-    Returns the list of written paths. Raises OSError/ValueError on bad input.
+
+def _columns_and_summary(source):
+    """(columns, summary, default out_dir) of a run folder/trajectory file or an in-memory result."""
+    if isinstance(source, (str, bytes, os.PathLike)):
+        path = os.fsdecode(source)
+        if os.path.isdir(path):
+            columns, summary = load_run(path)
+            return columns, summary, path
+        from ._io import load
+        result = load(path)
+        return result.columns, result.summary, os.path.dirname(path) or "."
+    columns = getattr(source, "columns", None)
+    summary = getattr(source, "summary", None)
+    if not isinstance(columns, dict) or not isinstance(summary, dict):
+        raise TypeError("draw_figures: source must be a run folder, a trajectory file or an lgvi.Result "
+                        f"(with .columns and .summary), got {type(source).__name__}")
+    return columns, summary, None
+
+
+def draw_figures(source, out_dir=None):
+    """Draw the paper's five PNG figures of a run into out_dir.
+
+    ``source`` is a run folder (trajectory.csv, .npz or .h5 plus
+    summary.json), a trajectory file, or an in-memory ``lgvi.Result`` (any
+    object with ``.columns``, a dict of 1-D arrays named as in the CSV
+    header, and ``.summary``, the summary dict). ``out_dir`` defaults to the
+    run folder; it is required for an in-memory result. Quaternion columns
+    are scalar-first (qw, qx, qy, qz). Returns the list of written paths.
+    Raises OSError/ValueError on bad input.
     """
-    c, summary = load_run(run_dir)
+    c, summary, default_out = _columns_and_summary(source)
     missing = [n for n in REQUIRED_COLUMNS if n not in c]
     if missing:
         raise ValueError(f"trajectory.csv: missing column(s) {', '.join(missing)}")
-    out_dir = run_dir if out_dir is None else out_dir
+    if len(c["t"]) == 0:
+        raise ValueError("draw_figures: the trajectory has no rows")
+    if out_dir is None:
+        if default_out is None:
+            raise ValueError("out_dir: required when drawing an in-memory result")
+        out_dir = default_out
     os.makedirs(out_dir, exist_ok=True)
     plt = _pyplot()
     written = []
@@ -210,7 +236,7 @@ def main(argv=None):
     to stderr and returns 1.
     """
     parser = argparse.ArgumentParser(prog="lgvi.plot", description="Draw the figures of an lgvi run.")
-    parser.add_argument("run_dir", help="directory holding trajectory.csv and summary.json")
+    parser.add_argument("run_dir", help="run folder (trajectory.csv, .npz or .h5 and summary.json)")
     parser.add_argument("--out", dest="out_dir", default=None, help="output directory (default RUN_DIR)")
     args = parser.parse_args(argv)
     try:

@@ -73,7 +73,7 @@ def test_signal_stops_at_a_step_boundary_and_resume_is_byte_identical(tmp_path, 
     assert (out / "trajectory.csv").read_bytes() == (uninterrupted / "trajectory.csv").read_bytes()
     resumed, full = json.loads((out / "summary.json").read_text()), json.loads((uninterrupted / "summary.json").read_text())
     assert resumed["completed"] is True
-    for key in ["steps", "max_abs_energy_error", "max_abs_quat_norm_error", "max_momentum_error",
+    for key in ["scenario", "steps", "max_abs_energy_error", "max_abs_quat_norm_error", "max_momentum_error",
                 "solver_iterations_mean", "solver_iterations_max", "final"]:
         assert resumed[key] == full[key], key
     assert not (out / "checkpoint.bin").exists()  # complete: nothing left to resume
@@ -100,11 +100,11 @@ def test_resume_without_checkpoint_is_a_clear_error(tmp_path):
 
 
 def test_failed_run_never_claims_success(tmp_path):
-    text = (SOURCE / "tests" / "cli" / "bad" / "pi-rotation.toml").read_text()
+    text = (SOURCE / "tests" / "cli" / "bad" / "no-root.toml").read_text()
     path = tmp_path / "pi.toml"
     path.write_text(text)
     out = tmp_path / "run"
     proc = run(path, "--out", out)
     assert proc.returncode == 1
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["completed"] is False and "reached pi" in summary["error"]
+    assert summary["completed"] is False and "no root" in summary["error"]

@@ -1,0 +1,54 @@
+// libFuzzer target: the scenario reader and the run it describes (what
+// `lgvi run` does with a file), on arbitrary bytes.
+//
+// Contract checked: any input either is rejected with lgvi::InvalidInput (one
+// line, starting with the file name), or runs (at most 200 steps, to bound
+// the time per input) to completion or to a reported IntegrationFailure
+// whose rows are all finite. Any other exception, crash, sanitizer report or
+// hang is a finding; each becomes a file in fuzz/regressions/.
+#include "scenario.hpp"
+#include "simulation.hpp"
+
+#include <lgvi/error.hpp>
+
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <string>
+
+namespace {
+
+struct CheckingSink final : lgvi::app::TrajectorySink {
+  void row(const double* v) override {
+    for (int i = 0; i < lgvi::app::trajectory_columns; ++i)
+      if (!std::isfinite(v[i])) std::abort();  // a non-finite row must never be written
+  }
+  lgvi::app::SinkPosition sync() override { return {}; }
+  void close(const std::string&, const std::string&) override {}
+};
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  const std::string text(reinterpret_cast<const char*>(data), size);
+  lgvi::app::Scenario scenario = [&] {
+    try {
+      return std::optional(lgvi::app::parse_scenario(text, "fuzz.toml"));
+    } catch (const lgvi::InvalidInput& e) {
+      const std::string m = e.what();
+      if (m.find('\n') != std::string::npos || m.rfind("fuzz.toml", 0) != 0) std::abort();
+      return std::optional<lgvi::app::Scenario>();
+    }
+  }()
+                                           .value_or(lgvi::app::parse_scenario(
+                                               "[body]\nmass = 1.0\ninertia = [[1,0,0],[0,1,0],[0,0,1]]\n"
+                                               "[potential]\nkind = \"none\"\n[initial]\nposition = [0,0,0]\n"
+                                               "quaternion = [1,0,0,0]\nmomentum = [0,0,0]\nw = [0,0,0]\n"
+                                               "[integrator]\nstep = 0.1\nduration = 0.0\n",
+                                               "fallback.toml"));
+  scenario.integrator.steps = std::min<std::int64_t>(scenario.integrator.steps, 200);
+  CheckingSink sink;
+  const lgvi::app::SimulationResult r = lgvi::app::simulate(scenario, sink);
+  if (!r.completed && r.error.empty()) std::abort();  // a failure must say why
+  return 0;
+}

@@ -1,0 +1,165 @@
+"""Reading trajectories: a run folder of the CLI, or a trajectory file
+(.csv, .npz, .h5). Pure numpy (h5py only for .h5), no compiled code.
+
+Layouts (src/formats/formats.hpp, src/trajectory_sink.hpp):
+
+* trajectory.csv: the header line, then rows of 21 numbers with 17
+  significant digits; the summary and the scenario are the side files
+  summary.json and scenario.toml of the run folder;
+* trajectory.npz: entries trajectory.npy (float64, (rows, 21)), columns.npy
+  (the 21 names), scenario.npy and summary.npy (0-d unicode arrays: TOML and
+  JSON text; written when the run closes the file);
+* trajectory.h5: dataset /trajectory (float64, (rows, 21)) with attribute
+  `columns`, root attributes `scenario` and `summary` (strings).
+"""
+
+import json
+import os
+import warnings
+
+import numpy as np
+
+from ._result import COLUMNS, Result
+
+TRAJECTORY_FILES = ("trajectory.csv", "trajectory.npz", "trajectory.h5")
+
+
+def _text(value):
+    """A string from a numpy 0-d unicode array, bytes or str."""
+    if isinstance(value, np.ndarray):
+        value = value[()]
+    if isinstance(value, bytes):
+        value = value.decode("utf-8")
+    return str(value)
+
+
+def _check_columns(names, path):
+    names = [_text(n).strip() for n in names]
+    if tuple(names) != COLUMNS:
+        raise ValueError(f"{path}: columns are {','.join(names)}; expected {','.join(COLUMNS)}")
+
+
+def _read_side_file(folder, name):
+    path = os.path.join(folder, name)
+    if not os.path.isfile(path):
+        return None
+    with open(path, encoding="utf-8") as f:
+        return f.read()
+
+
+def read_csv(path):
+    """(data (N, 21), names) of a trajectory.csv; ValueError if malformed or empty."""
+    with open(path, encoding="utf-8") as f:
+        names = [n.strip() for n in f.readline().strip().split(",")]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # "input contained no data": checked below
+        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    if data.shape[0] == 0:
+        raise ValueError(f"{path}: trajectory has no rows")
+    if data.shape[1] != len(names):
+        raise ValueError(f"{path}: header has {len(names)} columns, rows have {data.shape[1]}")
+    return data, names
+
+
+def read_npz(path):
+    """(data, names, scenario TOML or None, summary JSON text or None) of a trajectory.npz."""
+    try:
+        archive = np.load(path, allow_pickle=False)
+    except (OSError, ValueError) as e:
+        raise ValueError(f"{path}: not a readable npz file ({e}); a run that was killed before it closed "
+                         f"the file leaves no central directory: resume it with `lgvi run --resume`") from None
+    with archive as z:
+        if "trajectory" not in z.files:
+            raise ValueError(f"{path}: no trajectory.npy entry")
+        data = np.array(z["trajectory"], dtype=float)
+        names = list(z["columns"]) if "columns" in z.files else list(COLUMNS)
+        scenario = _text(z["scenario"]) if "scenario" in z.files else None
+        summary = _text(z["summary"]) if "summary" in z.files else None
+    return data, names, scenario, summary
+
+
+def read_h5(path):
+    """(data, names, scenario TOML or None, summary JSON text or None) of a trajectory.h5 (needs h5py)."""
+    try:
+        import h5py
+    except ImportError:
+        raise ImportError(f"{path}: reading HDF5 needs h5py (Debian: apt-get install python3-h5py)") from None
+    with h5py.File(path, "r") as f:
+        if "trajectory" not in f:
+            raise ValueError(f"{path}: no /trajectory dataset")
+        ds = f["trajectory"]
+        data = np.array(ds[...], dtype=float)
+        names = list(ds.attrs["columns"]) if "columns" in ds.attrs else list(COLUMNS)
+        scenario = _text(f.attrs["scenario"]) if "scenario" in f.attrs else None
+        summary = _text(f.attrs["summary"]) if "summary" in f.attrs else None
+    return data, names, scenario, summary
+
+
+def _trajectory_in(folder):
+    for name in TRAJECTORY_FILES:
+        path = os.path.join(folder, name)
+        if os.path.isfile(path):
+            return path
+    raise FileNotFoundError(f"{folder}: no trajectory file here (looked for {', '.join(TRAJECTORY_FILES)})")
+
+
+def load(path):
+    """Load a run folder of the CLI, or a trajectory file (.csv, .npz, .h5), into a Result.
+
+    A folder is read through its trajectory.csv, trajectory.npz or trajectory.h5
+    and its summary.json; a file's summary and scenario come from the file
+    itself (npz, HDF5) or from summary.json and scenario.toml next to it.
+    Quaternions (Result.q) are scalar-first (w, x, y, z). Numbers round-trip
+    exactly: lgvi.load(dir).data equals the arrays of lgvi.simulate() bit for
+    bit. FileNotFoundError if nothing is there; ValueError if the file is
+    malformed; ImportError for .h5 without h5py.
+    """
+    path = os.fspath(path)
+    if os.path.isdir(path):
+        folder, file = path, _trajectory_in(path)
+    elif os.path.isfile(path):
+        folder, file = os.path.dirname(path) or ".", path
+    else:
+        raise FileNotFoundError(f"{path}: no such run folder or trajectory file")
+    scenario = summary_text = None
+    ext = os.path.splitext(file)[1].lower()
+    if ext == ".csv":
+        data, names = read_csv(file)
+    elif ext == ".npz":
+        data, names, scenario, summary_text = read_npz(file)
+    elif ext in (".h5", ".hdf5"):
+        data, names, scenario, summary_text = read_h5(file)
+    else:
+        raise ValueError(f"{file}: unknown trajectory format (expected .csv, .npz or .h5)")
+    _check_columns(names, file)
+    if data.ndim != 2 or data.shape[1] != len(COLUMNS):
+        raise ValueError(f"{file}: trajectory has shape {data.shape}, expected (rows, {len(COLUMNS)})")
+    if summary_text is None:
+        summary_text = _read_side_file(folder, "summary.json")
+    if scenario is None:
+        scenario = _read_side_file(folder, "scenario.toml")
+    try:
+        summary = json.loads(summary_text) if summary_text else {}
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{folder}: summary is not valid JSON ({e})") from None
+    return Result(data, summary, scenario, source=file)
+
+
+def load_columns(path):
+    """(columns dict, summary dict) of a run folder (any format) for lgvi.plot.
+
+    OSError if the trajectory or summary.json is missing, ValueError if malformed.
+    """
+    path = os.fspath(path)
+    if os.path.isdir(path) and os.path.isfile(os.path.join(path, "trajectory.csv")):
+        # The CLI's own layout: header names as written (checked by the plot's caller).
+        data, names = read_csv(os.path.join(path, "trajectory.csv"))
+        with open(os.path.join(path, "summary.json"), encoding="utf-8") as f:
+            summary = json.load(f)
+        return {name: data[:, i] for i, name in enumerate(names)}, summary
+    result = load(path)
+    if not result.summary and os.path.isdir(path):
+        raise FileNotFoundError(2, "No such file or directory", os.path.join(path, "summary.json"))
+    if len(result) == 0:
+        raise ValueError(f"{result.source}: trajectory has no rows")
+    return result.columns, result.summary

@@ -1,0 +1,676 @@
+// lgvi._core: the compiled half of the Python package `lgvi` (pybind11 +
+// numpy). It runs the CLI's own run loop, app::simulate() from lgvi_app, so
+// that a scenario gives the same numbers to the last bit from Python and
+// from `lgvi run`. The public API (argument checking with messages naming
+// the argument, Result objects, plotting) is the pure-Python layer in
+// python/lgvi; this module is private to it.
+//
+// Quaternions cross this boundary scalar-first, (w, x, y, z), as numpy
+// arrays of shape (4,).
+//
+// The GIL: released while a run with a built-in potential integrates; held
+// throughout when the potential is written in Python (every evaluation calls
+// into the interpreter). Either way Ctrl-C (SIGINT) is noticed every 4096
+// steps and stops the run at a step boundary with KeyboardInterrupt.
+
+#include "memory_sink.hpp"
+#include "scenario.hpp"
+#include "simulation.hpp"
+
+#include <lgvi/error.hpp>
+#include <lgvi/lgvi.hpp>
+#include <lgvi/potential.hpp>
+#include <lgvi/rigid_body.hpp>
+#include <lgvi/s3.hpp>
+#include <lgvi/state.hpp>
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <csignal>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <utility>
+#include <variant>
+#include <vector>
+
+namespace py = pybind11;
+
+namespace lgvi::app {
+namespace {
+
+// ---------------------------------------------------------------------------
+// numpy conversions
+
+py::array_t<double> array3(const Vector3<double>& v) {
+  py::array_t<double> a(3);
+  double* d = a.mutable_data();
+  d[0] = v.x();
+  d[1] = v.y();
+  d[2] = v.z();
+  return a;
+}
+
+/// Scalar-first (w, x, y, z).
+py::array_t<double> quaternion_array(const S3d& q) {
+  py::array_t<double> a(4);
+  double* d = a.mutable_data();
+  d[0] = q.w();
+  d[1] = q.vec().x();
+  d[2] = q.vec().y();
+  d[3] = q.vec().z();
+  return a;
+}
+
+py::array_t<double> matrix_array(const Matrix3<double>& m) {
+  py::array_t<double> a({3, 3});
+  auto r = a.mutable_unchecked<2>();
+  for (py::ssize_t i = 0; i < 3; ++i)
+    for (py::ssize_t j = 0; j < 3; ++j) r(i, j) = m(i, j);
+  return a;
+}
+
+void make_read_only(py::array& a) {
+  py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
+}
+
+std::string shape_text(const py::array& a) {
+  std::string s = "(";
+  for (py::ssize_t i = 0; i < a.ndim(); ++i) s += (i ? ", " : "") + std::to_string(a.shape(i));
+  return s + (a.ndim() == 1 ? ",)" : ")");
+}
+
+using Numbers = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+/// `obj` as float64 numbers of shape (n,) (or (n, n) with `matrix`), all
+/// finite; ValueError naming `name` otherwise.
+Numbers numbers(py::handle obj, const std::string& name, py::ssize_t n, bool matrix = false) {
+  Numbers a = Numbers::ensure(obj);
+  const std::string want = matrix ? "(" + std::to_string(n) + ", " + std::to_string(n) + ")"
+                                  : "(" + std::to_string(n) + ",)";
+  if (!a) throw py::value_error(name + ": must be numbers of shape " + want + ", got " +
+                                std::string(py::str(py::type::handle_of(obj).attr("__name__"))) + " " +
+                                std::string(py::repr(obj)));
+  const bool ok = matrix ? (a.ndim() == 2 && a.shape(0) == n && a.shape(1) == n) : (a.ndim() == 1 && a.shape(0) == n);
+  if (!ok) throw py::value_error(name + ": must have shape " + want + ", got shape " + shape_text(a));
+  for (py::ssize_t i = 0; i < a.size(); ++i)
+    if (!std::isfinite(a.data()[i])) throw py::value_error(name + ": must be finite, got " + std::string(py::repr(obj)));
+  return a;
+}
+
+Vector3<double> vec3(py::handle obj, const std::string& name) {
+  const Numbers a = numbers(obj, name, 3);
+  return {a.data()[0], a.data()[1], a.data()[2]};
+}
+
+/// A unit quaternion, scalar-first; within 1e-6 of unit norm, then normalized
+/// (as the scenario reader does).
+S3d unit_quaternion(py::handle obj, const std::string& name) {
+  const Numbers a = numbers(obj, name, 4);
+  const double* d = a.data();
+  const double n = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] + d[3] * d[3]);
+  if (!(std::abs(n - 1.0) <= 1e-6))
+    throw py::value_error(name + ": must be a unit quaternion, scalar-first (w, x, y, z); its norm is " +
+                          std::to_string(n) + ", more than 1e-6 from 1");
+  return S3d(d[0] / n, d[1] / n, d[2] / n, d[3] / n);
+}
+
+/// The trajectory rows as an (rows, 21) float64 array owning the vector.
+py::array_t<double> rows_array(std::vector<double>&& data, std::int64_t rows) {
+  if (rows == 0) return py::array_t<double>(std::vector<py::ssize_t>{0, trajectory_columns});
+  auto* heap = new std::vector<double>(std::move(data));
+  py::capsule owner(heap, [](void* p) { delete static_cast<std::vector<double>*>(p); });
+  return py::array_t<double>({static_cast<py::ssize_t>(rows), py::ssize_t{trajectory_columns}},
+                             {py::ssize_t{trajectory_columns * sizeof(double)}, py::ssize_t{sizeof(double)}},
+                             heap->data(), owner);
+}
+
+// ---------------------------------------------------------------------------
+// A potential written in Python
+
+/// Calls Python: either one callable (x, q) -> (energy, force, torque), or
+/// three callables energy(x, q), force(x, q), torque(x, q). x is the centre
+/// of mass (3,), q the attitude, scalar-first (w, x, y, z) (4,), both
+/// read-only float64 arrays; force is -dV/dx (inertial frame) and torque the
+/// body-frame torque M (F(q) dV/dq = -2 M). The GIL must be held.
+class PythonPotential {
+ public:
+  explicit PythonPotential(py::object spec) {
+    if (py::isinstance<py::tuple>(spec) && py::len(spec) == 3) {
+      py::tuple t = spec.cast<py::tuple>();
+      energy_ = t[0];
+      force_ = t[1];
+      torque_ = t[2];
+      for (const auto& [f, name] : {std::pair{&energy_, "energy"}, {&force_, "force"}, {&torque_, "torque"}})
+        if (!PyCallable_Check(f->ptr()))
+          throw py::value_error(std::string("potential: ") + name + " must be callable as " + name + "(x, q)");
+    } else if (PyCallable_Check(spec.ptr())) {
+      combined_ = spec;
+    } else {
+      throw py::value_error(
+          "potential: must be a PythonPotential, a callable (x, q) -> (energy, force, torque), or None for the "
+          "scenario's own; got " +
+          std::string(py::repr(spec)));
+    }
+  }
+
+  PotentialEvaluation operator()(const Vector3<double>& x, const S3d& q) const {
+    py::array xa = array3(x), qa = quaternion_array(q);
+    make_read_only(xa);
+    make_read_only(qa);
+    PotentialEvaluation e;
+    if (combined_) {
+      const py::object r = combined_(xa, qa);
+      if (!(py::isinstance<py::tuple>(r) || py::isinstance<py::list>(r)) || py::len(r) != 3)
+        throw py::value_error("potential: must return (energy, force, torque), got " + std::string(py::repr(r)));
+      const py::sequence s = r.cast<py::sequence>();
+      e.energy = scalar(s[0], "energy");
+      e.force = vec3(s[1], "potential: the returned force");
+      e.torque = vec3(s[2], "potential: the returned torque");
+    } else {
+      e.energy = scalar(energy_(xa, qa), "energy");
+      e.force = vec3(force_(xa, qa), "potential: the returned force");
+      e.torque = vec3(torque_(xa, qa), "potential: the returned torque");
+    }
+    return e;
+  }
+
+ private:
+  static double scalar(py::handle v, const char* name) {
+    const double d = PyFloat_AsDouble(v.ptr());
+    if (d == -1.0 && PyErr_Occurred()) {
+      PyErr_Clear();
+      throw py::value_error(std::string("potential: the returned ") + name + " must be a number, got " +
+                            std::string(py::repr(v)));
+    }
+    return d;
+  }
+
+  py::object combined_, energy_, force_, torque_;
+};
+
+CallablePotential make_python_potential(py::object spec) { return CallablePotential(PythonPotential(std::move(spec))); }
+
+// ---------------------------------------------------------------------------
+// Built-in potentials and type-erased steppers
+
+using AnyPotential = std::variant<NoPotential, CentralGravity, UniformGravity, CallablePotential>;
+
+/// The scenario's [potential], as simulate() builds it.
+AnyPotential scenario_potential(const Scenario& s) {
+  switch (s.potential.kind) {
+    case PotentialKind::Central: return CentralGravity(s.body, s.potential.mu);
+    case PotentialKind::Uniform: return UniformGravity(s.body, s.potential.g);
+    case PotentialKind::None: break;
+  }
+  return NoPotential{};
+}
+
+class AnyStepper {
+ public:
+  virtual ~AnyStepper() = default;
+  virtual void initialize(const RigidBodyState& s) = 0;
+  virtual void step(RigidBodyState& s) = 0;
+  virtual const PotentialEvaluation& evaluation() const = 0;
+  virtual SolveReport last_solve() const = 0;
+  virtual std::vector<double> internal_state() const = 0;
+  virtual void resume(const RigidBodyState& s, const std::vector<double>& internal) = 0;
+};
+
+template <class S>
+class StepperModel final : public AnyStepper {
+ public:
+  template <class... A>
+  explicit StepperModel(A&&... a) : s_(std::forward<A>(a)...) {}
+  void initialize(const RigidBodyState& s) override { s_.initialize(s); }
+  void step(RigidBodyState& s) override { s_.step(s); }
+  const PotentialEvaluation& evaluation() const override { return s_.evaluation(); }
+  SolveReport last_solve() const override { return s_.last_solve(); }
+  std::vector<double> internal_state() const override { return s_.internal_state(); }
+  void resume(const RigidBodyState& s, const std::vector<double>& internal) override { s_.resume(s, internal); }
+
+ private:
+  S s_;
+};
+
+std::unique_ptr<AnyStepper> make_stepper(const Scenario& sc, const AnyPotential& potential) {
+  return std::visit(
+      [&](const auto& pot) -> std::unique_ptr<AnyStepper> {
+        using P = std::decay_t<decltype(pot)>;
+        const IntegratorSpec& i = sc.integrator;
+        if (i.method == Method::Hamiltonian)
+          return std::make_unique<StepperModel<LieGroupVariationalIntegrator<P>>>(sc.body, pot, i.step, i.solver);
+        return std::make_unique<StepperModel<LagrangianLieGroupVariationalIntegrator<P>>>(sc.body, pot, i.step,
+                                                                                          i.solver);
+      },
+      potential);
+}
+
+// ---------------------------------------------------------------------------
+// simulate
+
+/// Checks for Ctrl-C between legs of a run (simulate() calls `progress`
+/// every `progress_every` steps); a pending KeyboardInterrupt (or whatever a
+/// Python signal handler raised) stops the run and is re-raised afterwards.
+struct InterruptWatch {
+  volatile std::sig_atomic_t stop = 0;
+  std::shared_ptr<py::error_already_set> pending;
+
+  void install(SimulationOptions& o) {
+    o.stop_flag = &stop;
+    o.progress_every = 4096;
+    o.progress = [this](std::int64_t, double) {
+      py::gil_scoped_acquire gil;
+      if (PyErr_CheckSignals() != 0) {
+        pending = std::make_shared<py::error_already_set>();
+        stop = 1;
+      }
+    };
+  }
+};
+
+py::tuple run_simulation(const Scenario& sc, py::object potential) {
+  const std::int64_t every = sc.output_every;
+  MemorySink sink(sc.integrator.steps / every + 2);
+  SimulationResult r;
+  InterruptWatch watch;
+  SimulationOptions opt;
+  watch.install(opt);
+  if (potential.is_none()) {
+    py::gil_scoped_release release;
+    r = simulate(sc, sink, opt);
+  } else {
+    const CallablePotential p = make_python_potential(potential);
+    r = simulate(sc, p, sink, opt);
+  }
+  if (watch.pending) throw *watch.pending;
+  const std::string summary = summary_json(sc, r);
+  sink.close(sc.source_text, summary);
+  const std::int64_t rows = sink.rows();
+  return py::make_tuple(rows_array(sink.take(), rows), summary, r.completed, r.error);
+}
+
+// ---------------------------------------------------------------------------
+// The stepping object
+
+class PyStepper {
+ public:
+  PyStepper(const Scenario& sc, py::object potential) : sc_(sc) {
+    set_potential_impl(std::move(potential));
+    state_ = sc_.initial;
+    initialize_at(state_, "initial state");
+    energy0_ = energy();
+    momentum0_ = angular_momentum(state_);
+  }
+
+  void step(std::int64_t n) {
+    if (n < 0) throw py::value_error("n: must be >= 0, got " + std::to_string(n));
+    if (python_ || n < 64) {
+      advance(n);
+    } else {
+      py::gil_scoped_release release;
+      advance(n);
+    }
+  }
+
+  /// Re-evaluates the potential at the current state (after the parameters
+  /// of a Python potential changed), keeping the solver's warm start.
+  void refresh() { resume_at(state_, impl_->internal_state()); }
+
+  void set_potential(py::object potential) {
+    const std::vector<double> internal = impl_->internal_state();
+    py::object old_object = python_object_;
+    std::unique_ptr<AnyStepper> old = std::move(impl_);
+    const bool old_python = python_;
+    try {
+      set_potential_impl(std::move(potential));
+      resume_at(state_, internal);
+    } catch (...) {
+      impl_ = std::move(old);
+      python_ = old_python;
+      python_object_ = old_object;
+      throw;
+    }
+  }
+
+  void set_state(py::object x, py::object q, py::object p, py::object w) {
+    RigidBodyState s = state_;
+    if (!x.is_none()) s.x = vec3(x, "position");
+    if (!q.is_none()) s.q = unit_quaternion(q, "quaternion");
+    if (!p.is_none()) s.p = vec3(p, "momentum");
+    if (!w.is_none()) s.w = vec3(w, "w");
+    initialize_at(s, "state");
+    state_ = s;
+  }
+
+  std::int64_t k() const { return k_; }
+  double t() const { return static_cast<double>(k_) * sc_.integrator.step; }
+  double h() const { return sc_.integrator.step; }
+  const RigidBodyState& state() const { return state_; }
+  const PotentialEvaluation& evaluation() const { return impl_->evaluation(); }
+  double energy() const { return total_energy(state_, sc_.body, impl_->evaluation()); }
+  double energy0() const { return energy0_; }
+  const Vector3<double>& momentum0() const { return momentum0_; }
+  const Scenario& scenario() const { return sc_; }
+  SolveReport last_solve() const { return impl_->last_solve(); }
+  bool python_potential() const { return python_; }
+
+  /// The trajectory row simulate() would write at this step.
+  py::array_t<double> row() const {
+    const RigidBodyState& s = state_;
+    const double e = energy();
+    const Vector3<double> L = angular_momentum(s);
+    const auto& q = s.q.quaternion();
+    const double v[trajectory_columns] = {t(),   s.x.x(), s.x.y(), s.x.z(), q.w(),      q.x(),   q.y(),
+                                          q.z(), s.p.x(), s.p.y(), s.p.z(), s.w.x(),    s.w.y(), s.w.z(),
+                                          e,     e - energy0_, s.q.norm_error(), L.x(), L.y(), L.z(),
+                                          (L - momentum0_).norm()};
+    py::array_t<double> a(trajectory_columns);
+    std::copy(v, v + trajectory_columns, a.mutable_data());
+    return a;
+  }
+
+ private:
+  void set_potential_impl(py::object potential) {
+    if (potential.is_none()) {
+      impl_ = make_stepper(sc_, scenario_potential(sc_));
+      python_ = false;
+      python_object_ = py::none();
+    } else {
+      impl_ = make_stepper(sc_, make_python_potential(potential));
+      python_ = true;
+      python_object_ = potential;
+    }
+  }
+
+  void initialize_at(const RigidBodyState& s, const char* what) {
+    try {
+      impl_->initialize(s);
+    } catch (const StepFailure& f) {
+      throw py::value_error(std::string(what) + ": " + f.what() + (f.hint().empty() ? "" : "; " + f.hint()));
+    }
+  }
+
+  void resume_at(const RigidBodyState& s, const std::vector<double>& internal) {
+    try {
+      impl_->resume(s, internal);
+    } catch (const StepFailure& f) {
+      throw py::value_error(std::string("potential at the current state: ") + f.what());
+    }
+  }
+
+  /// Steps as integrate_range() does: on a copy, so that a failure leaves
+  /// the last good state; a failure re-initializes the integrator there.
+  void advance(std::int64_t n) {
+    const double h = sc_.integrator.step;
+    for (std::int64_t i = 0; i < n; ++i) {
+      RigidBodyState next = state_;
+      try {
+        impl_->step(next);
+      } catch (const StepFailure& f) {
+        recover();
+        throw IntegrationFailure(k_, static_cast<double>(k_) * h, f);
+      } catch (...) {  // an exception raised by a Python potential
+        recover();
+        throw;
+      }
+      state_ = next;
+      ++k_;
+      if (python_ && PyErr_CheckSignals() != 0) throw py::error_already_set();
+    }
+  }
+
+  void recover() noexcept {
+    try {
+      impl_->initialize(state_);
+    } catch (...) {  // the potential fails at the last good state too: nothing better to do
+    }
+  }
+
+  Scenario sc_;
+  std::unique_ptr<AnyStepper> impl_;
+  py::object python_object_ = py::none();
+  bool python_ = false;
+  RigidBodyState state_;
+  std::int64_t k_ = 0;
+  double energy0_ = 0.0;
+  Vector3<double> momentum0_ = Vector3<double>::Zero();
+};
+
+// ---------------------------------------------------------------------------
+// Bodies
+
+double number(py::handle v, const std::string& name) {
+  const double d = PyFloat_AsDouble(v.ptr());
+  if (d == -1.0 && PyErr_Occurred()) {
+    PyErr_Clear();
+    throw py::value_error(name + ": must be a number, got " + std::string(py::repr(v)));
+  }
+  return d;
+}
+
+RigidBody make_body(py::object mass, py::object inertia) {
+  const double m = number(mass, "mass");
+  const Numbers j = numbers(inertia, "inertia", 3, true);
+  Matrix3<double> J;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) J(r, c) = j.data()[3 * r + c];
+  return RigidBody(m, J);
+}
+
+RigidBody body_from_balls(const py::sequence& balls) {
+  std::vector<Ball> v;
+  for (std::size_t i = 0; i < balls.size(); ++i) {
+    const std::string name = "balls[" + std::to_string(i) + "]";
+    py::object b = balls[i];
+    if (!(py::isinstance<py::tuple>(b) || py::isinstance<py::list>(b)) || py::len(b) != 3)
+      throw py::value_error(name + ": must be (position, mass, radius)");
+    const py::sequence s = b.cast<py::sequence>();
+    Ball ball;
+    ball.position = vec3(s[0], name + ".position");
+    ball.mass = number(s[1], name + ".mass");
+    ball.radius = number(s[2], name + ".radius");
+    v.push_back(ball);
+  }
+  return RigidBody::from_balls(std::move(v));
+}
+
+py::list balls_list(const RigidBody& b) {
+  py::list out;
+  for (const Ball& ball : b.balls()) {
+    py::dict d;
+    d["position"] = array3(ball.position);
+    d["mass"] = ball.mass;
+    d["radius"] = ball.radius;
+    out.append(d);
+  }
+  return out;
+}
+
+py::tuple evaluation_tuple(const PotentialEvaluation& e) {
+  return py::make_tuple(e.energy, array3(e.force), array3(e.torque));
+}
+
+}  // namespace
+}  // namespace lgvi::app
+
+PYBIND11_MODULE(_core, m) {
+  using namespace lgvi;
+  using namespace lgvi::app;
+  m.doc() =
+      "lgvi._core: the compiled part of the Python package lgvi (private; use `import lgvi`).\n\n"
+      "Runs the same compiled run loop as the `lgvi` command line, so results are bit-identical.\n"
+      "Quaternions are scalar-first (w, x, y, z) numpy arrays of shape (4,).";
+  m.attr("__version__") = LGVI_VERSION;
+  m.attr("TRAJECTORY_HEADER") = trajectory_header;
+
+  // lgvi::IntegrationFailure -> IntegrationError(RuntimeError) with .step, .time and .result (None here).
+  static py::exception<IntegrationFailure> integration_error(m, "IntegrationError", PyExc_RuntimeError);
+  integration_error.doc() =
+      "A step of the integration failed (the rotation equation has no root for this step, the solver did not "
+      "converge, or a value became non-finite).\n\n"
+      "Attributes: step (the index k of the failed step, from t_k to t_k+1), time (t_k), and result: for "
+      "lgvi.simulate, the Result up to the last good step; None from Stepper.step().";
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const IntegrationFailure& e) {
+      py::object type = integration_error;
+      py::object inst = type(e.what());
+      inst.attr("step") = e.step();
+      inst.attr("time") = e.time();
+      inst.attr("result") = py::none();
+      PyErr_SetObject(type.ptr(), inst.ptr());
+    }
+  });
+
+  py::class_<RigidBody>(m, "Body",
+                        "A rigid body (C++ lgvi::RigidBody): mass, standard inertia J about the centre of mass in body "
+                        "axes, and the uniform balls it is made of (if any). Validated on construction.")
+      .def(py::init(&make_body), py::arg("mass"), py::arg("inertia"),
+           "Body from mass m > 0 and the 3x3 inertia J (symmetric positive definite, principal moments with "
+           "J1 + J2 >= J3). ValueError naming `mass` or `inertia` otherwise.")
+      .def_static("from_balls", &body_from_balls, py::arg("balls"),
+                  "Body from a sequence of (position (3,), mass > 0, radius >= 0) uniform balls; positions are "
+                  "shifted so that the centre of mass is the body origin.")
+      .def_property_readonly("mass", &RigidBody::mass, "Total mass m.")
+      .def_property_readonly("inertia", [](const RigidBody& b) { return matrix_array(b.inertia()); },
+                             "Standard inertia J (3x3, body axes, about the centre of mass).")
+      .def_property_readonly("inertia_inverse", [](const RigidBody& b) { return matrix_array(b.inertia_inverse()); },
+                             "J^-1 (3x3).")
+      .def_property_readonly("balls", &balls_list,
+                             "The balls as dicts {position (3,) relative to the centre of mass, mass, radius}; "
+                             "empty for a body given by mass and inertia.");
+
+  py::class_<Scenario>(m, "Scenario",
+                       "A parsed and validated scenario (C++ lgvi::app::Scenario), as the CLI reads it. Created by "
+                       "parse_scenario() or read_scenario().")
+      .def_readonly("name", &Scenario::name, "The scenario's name (the file's stem).")
+      .def_readonly("toml", &Scenario::source_text, "The TOML text it was read from.")
+      .def_property_readonly("body", [](const Scenario& s) { return s.body; }, "The body (a copy).")
+      .def_property_readonly("potential_kind", [](const Scenario& s) { return std::string(to_string(s.potential.kind)); },
+                             "\"none\", \"central\" or \"uniform\".")
+      .def_property_readonly("mu", [](const Scenario& s) { return s.potential.mu; }, "mu of a central potential.")
+      .def_property_readonly("g", [](const Scenario& s) { return array3(s.potential.g); },
+                             "g of a uniform potential (3,).")
+      .def_property_readonly("position", [](const Scenario& s) { return array3(s.initial.x); },
+                             "Initial centre of mass x0 (3,).")
+      .def_property_readonly("quaternion", [](const Scenario& s) { return quaternion_array(s.initial.q); },
+                             "Initial attitude q0 (4,), scalar-first (w, x, y, z), normalized.")
+      .def_property_readonly("momentum", [](const Scenario& s) { return array3(s.initial.p); },
+                             "Initial linear momentum p0 = m v0 (3,).")
+      .def_property_readonly("w", [](const Scenario& s) { return array3(s.initial.w); },
+                             "Initial w0 = 2 J Omega0 (3,), the paper's angular momentum variable.")
+      .def_property_readonly("step", [](const Scenario& s) { return s.integrator.step; }, "Step size h.")
+      .def_property_readonly("duration", [](const Scenario& s) { return s.integrator.duration; }, "Duration.")
+      .def_property_readonly("steps", [](const Scenario& s) { return s.integrator.steps; },
+                             "Number of steps, ceil(duration / step).")
+      .def_property_readonly("method", [](const Scenario& s) { return std::string(to_string(s.integrator.method)); },
+                             "\"lgvi\" or \"lgvi-lagrangian\".")
+      .def_property_readonly("solver",
+                             [](const Scenario& s) { return std::string(to_string(s.integrator.solver.kind)); },
+                             "\"newton\", \"newton-exp\" or \"broyden\".")
+      .def_property_readonly("tolerance", [](const Scenario& s) { return s.integrator.solver.tolerance; },
+                             "Solver's relative tolerance.")
+      .def_property_readonly("max_iterations", [](const Scenario& s) { return s.integrator.solver.max_iterations; },
+                             "Solver's iteration limit.")
+      .def_property_readonly("predictor_order", [](const Scenario& s) { return s.integrator.solver.predictor_order; },
+                             "Degree of the initial-guess extrapolation (0..3).")
+      .def_readonly("every", &Scenario::output_every, "A row every this many steps (plus the first and last).")
+      .def_property_readonly("output_format",
+                             [](const Scenario& s) {
+                               return std::string(s.output_format == TrajectoryFormat::Csv   ? "csv"
+                                                  : s.output_format == TrajectoryFormat::Npz ? "npz"
+                                                                                             : "hdf5");
+                             },
+                             "The CLI's trajectory format: \"csv\", \"npz\" or \"hdf5\".")
+      .def(
+          "evaluate_potential",
+          [](const Scenario& s, py::object x, py::object q) {
+            const Vector3<double> xv = vec3(x, "position");
+            const S3d qv = unit_quaternion(q, "quaternion");
+            return std::visit([&](const auto& p) { return evaluation_tuple(p.evaluate(xv, qv)); },
+                              scenario_potential(s));
+          },
+          py::arg("position"), py::arg("quaternion"),
+          "The scenario's potential at (x, q), q scalar-first (w, x, y, z): (energy, force (3,), body torque (3,)).");
+
+  m.def("parse_scenario", &parse_scenario, py::arg("text"), py::arg("name"),
+        "Parses and validates scenario TOML text exactly as the CLI does; ValueError with the CLI's message "
+        "(\"NAME: key 'K': ...\") otherwise.");
+  m.def("read_scenario", &read_scenario, py::arg("path"),
+        "Reads a scenario file exactly as the CLI does; ValueError with the CLI's message otherwise.");
+
+  m.def("simulate", &run_simulation, py::arg("scenario"), py::arg("potential") = py::none(),
+        "Runs the scenario with the CLI's run loop: returns (rows (N, 21) float64, summary JSON text, completed, "
+        "error). `potential`: None (the scenario's own; the GIL is released), one callable (x, q) -> (energy, "
+        "force, torque) or a tuple of three callables (x, q) -> energy / force / torque, q scalar-first "
+        "(w, x, y, z). Ctrl-C stops the run with KeyboardInterrupt.");
+
+  m.def(
+      "check_potential",
+      [](py::object potential, py::object x, py::object q) {
+        const Vector3<double> xv = vec3(x, "position");
+        const S3d qv = unit_quaternion(q, "quaternion");
+        const CallablePotential p = make_python_potential(std::move(potential));
+        const DerivativeCheck c = check_potential_derivatives(p, xv, qv);
+        return py::make_tuple(c.force_error, c.torque_error);
+      },
+      py::arg("potential"), py::arg("position"), py::arg("quaternion"),
+      "Relative errors (force, torque) of a Python potential's force and torque against 4th-order finite "
+      "differences of its energy at (x, q), q scalar-first (w, x, y, z) (C++ check_potential_derivatives).");
+
+  py::class_<PyStepper>(m, "Stepper",
+                        "One step at a time (C++ integrator of the scenario's method and solver). Quaternions "
+                        "scalar-first (w, x, y, z).")
+      .def(py::init<const Scenario&, py::object>(), py::arg("scenario"), py::arg("potential") = py::none(),
+           "Initializes the integrator at the scenario's initial state (k = 0).")
+      .def("step", &PyStepper::step, py::arg("n") = 1,
+           "Takes n steps (IntegrationError on failure; the state stays at the last good step).")
+      .def("refresh", &PyStepper::refresh,
+           "Re-evaluates the potential at the current state (after changing what a Python potential depends "
+           "on), keeping the solver's warm start.")
+      .def("set_potential", &PyStepper::set_potential, py::arg("potential"),
+           "Replaces the potential (None: the scenario's own) from the current step on.")
+      .def("set_state", &PyStepper::set_state, py::arg("position") = py::none(), py::arg("quaternion") = py::none(),
+           py::arg("momentum") = py::none(), py::arg("w") = py::none(),
+           "Replaces parts of the state (quaternion scalar-first (w, x, y, z)) and re-initializes the integrator.")
+      .def_property_readonly("k", &PyStepper::k, "Steps taken.")
+      .def_property_readonly("t", &PyStepper::t, "Time k h (never accumulated).")
+      .def_property_readonly("h", &PyStepper::h, "Step size.")
+      .def_property_readonly("position", [](const PyStepper& s) { return array3(s.state().x); }, "x (3,).")
+      .def_property_readonly("quaternion", [](const PyStepper& s) { return quaternion_array(s.state().q); },
+                             "q (4,), scalar-first (w, x, y, z).")
+      .def_property_readonly("momentum", [](const PyStepper& s) { return array3(s.state().p); }, "p (3,).")
+      .def_property_readonly("w", [](const PyStepper& s) { return array3(s.state().w); }, "w = 2 J Omega (3,).")
+      .def_property_readonly(
+          "omega",
+          [](const PyStepper& s) { return array3(project(s.state(), s.scenario().body).omega); },
+          "Body angular velocity Omega = J^-1 w / 2 (3,).")
+      .def_property_readonly(
+          "velocity", [](const PyStepper& s) { return array3(project(s.state(), s.scenario().body).xdot); },
+          "Velocity p / m (3,).")
+      .def_property_readonly("rotation_matrix",
+                             [](const PyStepper& s) { return matrix_array(s.state().q.matrix()); },
+                             "R = pi(q) (3x3), body to inertial.")
+      .def_property_readonly("energy", &PyStepper::energy, "Total energy (kinetic + potential).")
+      .def_property_readonly("initial_energy", &PyStepper::energy0, "Energy at k = 0.")
+      .def_property_readonly("initial_angular_momentum", [](const PyStepper& s) { return array3(s.momentum0()); },
+                             "L at k = 0.")
+      .def_property_readonly("potential_energy", [](const PyStepper& s) { return s.evaluation().energy; },
+                             "V at the current state.")
+      .def_property_readonly("force", [](const PyStepper& s) { return array3(s.evaluation().force); },
+                             "Force -dV/dx at the current state (3,), inertial frame.")
+      .def_property_readonly("torque", [](const PyStepper& s) { return array3(s.evaluation().torque); },
+                             "Body-frame torque M at the current state (3,).")
+      .def_property_readonly("angular_momentum", [](const PyStepper& s) { return array3(angular_momentum(s.state())); },
+                             "Total angular momentum about the origin L = x cross p + R w / 2 (3,).")
+      .def_property_readonly("solver_iterations", [](const PyStepper& s) { return s.last_solve().iterations; },
+                             "Iterations of the last step's rotation solve.")
+      .def_property_readonly("python_potential", &PyStepper::python_potential,
+                             "Whether the potential is written in Python.")
+      .def("row", &PyStepper::row, "The 21 trajectory columns at the current step, as simulate() writes them.");
+}
