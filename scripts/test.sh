@@ -1,9 +1,27 @@
 #!/usr/bin/env bash
-# The whole test suite: set up and build (scripts/setup.sh), then every test
-# through ctest (GoogleTest, command-line checks, pytest, the downstream
-# find_package check).
+# The whole test suite, in this order:
+#   1. set up and build (scripts/setup.sh);
+#   2. clang-tidy over the project's sources, clean (scripts/tidy.sh);
+#   3. the libFuzzer target, bounded to LGVI_FUZZ_SECONDS (default 60) (scripts/fuzz.sh);
+#   4. the C++ and command-line tests again under AddressSanitizer +
+#      UndefinedBehaviorSanitizer (build-asan/), with zero reports allowed;
+#   5. every test through ctest (GoogleTest, command-line, pytest with
+#      /usr/bin/python3, downstream find_package).
+# LGVI_QUICK=1 skips 2-4.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+jobs=$(nproc 2>/dev/null || echo 2)
 scripts/setup.sh
+if [[ "${LGVI_QUICK:-0}" != 1 ]]; then
+  scripts/tidy.sh
+  scripts/fuzz.sh "${LGVI_FUZZ_SECONDS:-60}"
+  echo "lgvi: building and running the tests under ASan + UBSan (build-asan/)"
+  cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLGVI_SANITIZE=ON -DLGVI_BUILD_BENCHMARKS=OFF \
+    -DLGVI_BUILD_PYTHON=OFF >/dev/null
+  cmake --build build-asan -j"$jobs" >build-asan.log 2>&1 || { tail -40 build-asan.log; exit 1; }
+  # Python and the downstream build are outside what the sanitizers instrument.
+  (cd build-asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+     ctest -j"$jobs" -E "^(python|downstream)" --output-on-failure)
+fi
 cd build
-ctest --output-on-failure -j"$(nproc 2>/dev/null || echo 2)"
+ctest --output-on-failure -j"$jobs"

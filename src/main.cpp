@@ -1,6 +1,7 @@
 // The lgvi command-line tool.
 #include "run.hpp"
 #include "scenario.hpp"
+#include "show.hpp"
 
 #include <lgvi/error.hpp>
 
@@ -8,7 +9,8 @@
 
 #include <iostream>
 
-int main(int argc, char** argv) {
+namespace {
+int run_cli(int argc, char** argv) {
   CLI::App app{"lgvi: rigid-body simulation with the quaternion Lie group variational integrator (Shen & Leok)"};
   app.set_version_flag("--version", std::string("lgvi ") + LGVI_VERSION);
   app.require_subcommand(1);
@@ -36,6 +38,11 @@ int main(int argc, char** argv) {
       "Exit status: 0 success, 1 the run failed (the error names the step), 2 bad usage or bad input,\n"
       "130/143 stopped by SIGINT/SIGTERM (the files are valid up to the last step; summary.json says so)");
 
+  auto* show = app.add_subcommand("show", "Print the summary of a run folder as a table");
+  std::string show_dir;
+  show->add_option("DIR", show_dir, "Run folder (written by lgvi run)")->required();
+  show->footer("Example:\n  lgvi show results/paper-orbit");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -51,6 +58,10 @@ int main(int argc, char** argv) {
   }
   options.figures = !no_figures;
   try {
+    if (show->parsed()) {
+      lgvi::app::show_run(show_dir, std::cout);
+      return lgvi::app::kSuccess;
+    }
     if (!resume_dir.empty()) return lgvi::app::resume_run(resume_dir, options);
     if (scenario_path.empty()) throw CLI::RequiredError("SCENARIO (or --resume DIR)");
     const lgvi::app::Scenario scenario = lgvi::app::read_scenario(scenario_path);
@@ -65,4 +76,17 @@ int main(int argc, char** argv) {
     std::cerr << "lgvi: error: " << e.what() << "\n";
     return lgvi::app::kRunFailed;
   }
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  // Nothing escapes main: an unexpected exception is still one line and status 1.
+  try {
+    return run_cli(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "lgvi: error: " << e.what() << "\n";
+  } catch (...) {
+    std::cerr << "lgvi: error: unknown failure\n";
+  }
+  return 1;
 }

@@ -58,7 +58,11 @@ std::string JsonObject::str(int indent) const {
       nested += c;
       if (c == '\n') nested += std::string(static_cast<std::size_t>(indent + 2), ' ');
     }
-    s += pad + json_string(items_[i].first) + ": " + nested + (i + 1 < items_.size() ? ",\n" : "\n");
+    s += pad;
+    s += json_string(items_[i].first);
+    s += ": ";
+    s += nested;
+    s += i + 1 < items_.size() ? ",\n" : "\n";
   }
   return s + std::string(static_cast<std::size_t>(indent), ' ') + "}";
 }

@@ -95,7 +95,7 @@ class Reader {
     for (auto a : allowed) list += (list.empty() ? "\"" : ", \"") + std::string(a) + "\"";
     if (!n) fail(key, "missing; one of " + list);
     if (!n->is_string()) fail(key, std::string("must be a string, one of ") + list + ", got a " + type_name(*n));
-    const std::string v = n->value<std::string>().value();
+    std::string v = n->value<std::string>().value();
     for (auto a : allowed)
       if (v == a) return v;
     fail(key, "\"" + printable(v) + "\" is not one of " + list);

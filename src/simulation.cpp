@@ -293,7 +293,7 @@ Checkpoint read_checkpoint(const std::string& path) {
     v.resize(static_cast<std::size_t>(n));
     for (double& d : v) get(d);
   };
-  if (bytes.size() < sizeof checkpoint_magic || std::memcmp(bytes.data(), checkpoint_magic, sizeof checkpoint_magic))
+  if (bytes.size() < sizeof checkpoint_magic || std::memcmp(bytes.data(), checkpoint_magic, sizeof checkpoint_magic) != 0)
     fail();
   pos = sizeof checkpoint_magic;
   std::int64_t version = 0;

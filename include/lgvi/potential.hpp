@@ -70,7 +70,7 @@ class CentralGravity {
  public:
   CentralGravity(const RigidBody& body, double mu) : mu_(mu) {
     if (body.balls().empty()) {
-      rho_.push_back(Vector3<double>::Zero());
+      rho_.emplace_back(Vector3<double>::Zero());
       mass_.push_back(body.mass());
     } else {
       for (const Ball& b : body.balls()) {

@@ -90,7 +90,7 @@ class RigidBody {
     if ((inertia_ - inertia_.transpose()).cwiseAbs().maxCoeff() > 8 * eps * scale)
       throw InvalidInput("body.inertia: must be symmetric");
     const Eigen::SelfAdjointEigenSolver<Matrix3<double>> es(inertia_);
-    const Vector3<double> l = es.eigenvalues();  // ascending
+    const Vector3<double>& l = es.eigenvalues();  // ascending
     // Positive definite, with a margin of round-off relative to the largest
     // moment (a body whose balls lie on one line has a zero moment).
     if (!(l(0) > 16 * eps * l(2)))

@@ -273,7 +273,7 @@ class RotationSolver {
     for (;;) {
       double c, sinc;
       S3d::cos_and_sinc(xi.norm(), c, sinc);
-      const S3d f(c, sinc * xi.x(), sinc * xi.y(), sinc * xi.z());
+      S3d f(c, sinc * xi.x(), sinc * xi.y(), sinc * xi.z());
       const Vector3<double> r = eq_.g(f) - b;
       ++report.residual_evaluations;
       if (r.lpNorm<Eigen::Infinity>() <= opt_.tolerance * b_scale) return f;

@@ -181,6 +181,7 @@ class Hdf5Trajectory final : public TrajectorySink {
         p = q + 1;
       }
     std::vector<const char*> pointers;
+    pointers.reserve(names.size());
     for (const auto& n : names) pointers.push_back(n.c_str());
     const hsize_t count = pointers.size();
     Handle type = utf8_string_type();

@@ -179,7 +179,7 @@ std::string npy_header(const std::string& dict, std::size_t total = 0) {
 }
 
 constexpr std::size_t trajectory_header_bytes = 128;
-constexpr std::int64_t row_bytes = 8 * trajectory_columns;
+constexpr std::int64_t row_bytes = std::int64_t{8} * trajectory_columns;
 
 std::string trajectory_npy_header(std::int64_t rows) {
   return npy_header("{'descr': '<f8', 'fortran_order': False, 'shape': (" + std::to_string(rows) + ", " +

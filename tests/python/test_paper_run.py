@@ -71,3 +71,22 @@ def test_two_runs_are_byte_identical(paper_orbit, tmp_path):
                            "-q", "--no-figures"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     assert (tmp_path / "trajectory.csv").read_bytes() == (paper_orbit / "trajectory.csv").read_bytes()
+
+
+def test_show_prints_the_summary_as_a_table(paper_orbit):
+    proc = subprocess.run([BINARY, "show", str(paper_orbit)], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    s = json.loads((paper_orbit / "summary.json").read_text())
+    assert "paper-orbit  (completed)" in proc.stdout
+    assert f"max |E - E0| = {s['max_abs_energy_error']:.3e}" in proc.stdout
+    assert "(scalar first)" in proc.stdout
+    bad = subprocess.run([BINARY, "show", str(paper_orbit / "nope")], capture_output=True, text=True)
+    assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "summary.json" in bad.stderr
+
+
+def test_help_and_version():
+    for args in (["--help"], ["run", "--help"], ["show", "--help"]):
+        proc = subprocess.run([BINARY, *args], capture_output=True, text=True)
+        assert proc.returncode == 0 and "Example" in proc.stdout, args
+    version = subprocess.run([BINARY, "--version"], capture_output=True, text=True)
+    assert version.returncode == 0 and version.stdout.startswith("lgvi ")
