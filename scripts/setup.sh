@@ -8,7 +8,8 @@ cd "$(dirname "$0")/.."
 
 packages=(g++ make cmake libeigen3-dev libcli11-dev libtomlplusplus-dev libfmt-dev
           libgtest-dev libgmock-dev libbenchmark-dev
-          python3 python3-numpy python3-matplotlib python3-pytest)
+          python3 python3-numpy python3-matplotlib python3-pytest pybind11-dev python3-dev
+          libhdf5-dev python3-h5py clang clang-tidy libclang-rt-14-dev time libboost-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -28,3 +29,18 @@ fi
 jobs=$(nproc 2>/dev/null || echo 2)
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build -j"$jobs"
+
+# `import lgvi` for Debian's /usr/bin/python3 with no further step: a .pth
+# file in its site-packages naming the built package folder build/python
+# (the compiled lgvi._core next to the pure-Python files). Written only when
+# that folder is writable (root); otherwise the PYTHONPATH to use is printed.
+site=$(/usr/bin/python3 -c 'import site; print(site.getsitepackages()[0])')
+pkg="$(pwd)/build/python"
+pth="$site/lgvi.pth"
+if [[ -f "$pth" && "$(cat "$pth")" == "$pkg" ]]; then
+  :  # already registered
+elif mkdir -p "$site" 2>/dev/null && [[ -w "$site" ]] && printf '%s\n' "$pkg" >"$pth"; then
+  echo "lgvi setup: /usr/bin/python3 imports lgvi from $pkg (through $pth)"
+else
+  echo "lgvi setup: cannot write $pth (not root); to import lgvi use: export PYTHONPATH=$pkg"
+fi

@@ -66,16 +66,24 @@ class UniformGravity {
 /// over the body's balls:  V = -mu sum_i m_i / |x + pi(q) rho_i|.
 /// (A uniform ball attracts as a point mass, so this is exact for balls
 /// outside the source.) A body with no balls is a point mass m at x.
+///
+/// Close encounters: a ball whose centre comes within its radius of the
+/// source (or a point mass that reaches it) makes the evaluation throw
+/// StepFailure naming the ball and the distance: the formula no longer
+/// holds there, and the run stops at that step instead of producing
+/// meaningless or non-finite numbers.
 class CentralGravity {
  public:
   CentralGravity(const RigidBody& body, double mu) : mu_(mu) {
     if (body.balls().empty()) {
       rho_.emplace_back(Vector3<double>::Zero());
       mass_.push_back(body.mass());
+      radius2_.push_back(0.0);
     } else {
       for (const Ball& b : body.balls()) {
         rho_.push_back(b.position);
         mass_.push_back(b.mass);
+        radius2_.push_back(b.radius * b.radius);
       }
     }
   }
@@ -88,6 +96,7 @@ class CentralGravity {
       const Vector3<double> arm = r * rho_[i];  // pi(q) rho_i
       const Vector3<double> pos = x + arm;
       const double d2 = pos.squaredNorm();
+      if (!(d2 > radius2_[i])) close_encounter(i, d2);
       const double inv_d = 1.0 / std::sqrt(d2);
       const double mu_m_inv_d = mu_ * mass_[i] * inv_d;
       e.energy -= mu_m_inv_d;
@@ -100,9 +109,21 @@ class CentralGravity {
   }
 
  private:
+  [[noreturn]] void close_encounter(std::size_t i, double d2) const {
+    if (std::isnan(d2)) throw StepFailure("the state became non-finite", "try a smaller step");
+    throw StepFailure((rho_.size() == 1 && radius2_[0] == 0.0 ? std::string("the point-mass body")
+                                                             : "ball " + std::to_string(i)) +
+                          " reached the centre of the central field (distance " + std::to_string(std::sqrt(d2)) +
+                          (radius2_[i] > 0.0 ? " <= its radius " + std::to_string(std::sqrt(radius2_[i])) : "") +
+                          "): a collision with the attracting point, where the potential is not defined",
+                      "the motion itself ends here; if the approach was not expected, a smaller step resolves "
+                      "close passes better");
+  }
+
   double mu_;
   std::vector<Vector3<double>> rho_;
   std::vector<double> mass_;
+  std::vector<double> radius2_;
 };
 
 /// A potential given by a user's C++ callable (x, q) -> PotentialEvaluation.

@@ -108,3 +108,25 @@ def test_failed_run_never_claims_success(tmp_path):
     assert proc.returncode == 1
     summary = json.loads((out / "summary.json").read_text())
     assert summary["completed"] is False and "no root" in summary["error"]
+
+
+def test_close_encounter_stops_with_step_time_and_cause(tmp_path):
+    """The paper's body released at rest at x = 3 falls radially into the
+    centre: when a ball comes within its radius of it, the run stops, naming
+    the step, the time and the ball; the rows up to the last good step stay."""
+    text = (SOURCE / "scenarios" / "paper-orbit.toml").read_text()
+    text = text.replace("position = [8.0, 0.0, 0.0]", "position = [3.0, 0.0, 0.0]")
+    text = text.replace("momentum = [0.0, 1.0, 0.0]", "momentum = [0.0, 0.0, 0.0]").replace("every = 10", "every = 1")
+    path = tmp_path / "fall.toml"
+    path.write_text(text)
+    out = tmp_path / "fall"
+    proc = run(path, "--out", out)
+    assert proc.returncode == 1
+    first = proc.stderr.splitlines()[0]
+    assert "reached the centre of the central field" in first and first.startswith("lgvi: error: step ")
+    step = int(first.split()[3])
+    assert step > 100  # it fell for a while first
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["completed"] is False and summary["steps"] == step
+    rows = rows_are_whole(out / "trajectory.csv")
+    assert rows == step + 1  # every step up to the last good one, t = 0 included
