@@ -234,9 +234,15 @@ IntegratorSpec read_integrator(const Reader& r, const toml::table& root) {
   const toml::table& t = r.table(root, "", "integrator");
   r.only_keys(t, "integrator", {"method", "solver", "step", "duration", "tolerance", "max_iterations", "predictor_order"});
   IntegratorSpec s;
-  if (t.contains("method"))
-    s.method = r.string(t, "integrator", "method", {"lgvi", "lgvi-lagrangian"}) == "lgvi" ? Method::Hamiltonian
-                                                                                          : Method::Lagrangian;
+  if (t.contains("method")) {
+    const toml::node* n = t.get("method");
+    if (!n->is_string()) r.fail("integrator.method", "must be a string naming the method");
+    try {
+      s.method = method_from_string(n->value<std::string>().value(), "integrator.method");
+    } catch (const InvalidInput& e) {
+      r.fail("", e.what());
+    }
+  }
   if (t.contains("solver")) {
     const std::string k = r.string(t, "integrator", "solver", {"newton", "newton-exp", "broyden"});
     s.solver.kind = k == "newton" ? SolverKind::Newton : k == "newton-exp" ? SolverKind::NewtonExp : SolverKind::Broyden;
@@ -384,6 +390,19 @@ const char* to_string(PotentialKind k) {
   return "?";
 }
 
-const char* to_string(Method m) { return m == Method::Hamiltonian ? "lgvi" : "lgvi-lagrangian"; }
+const char* to_string(Method m) {
+  for (const auto& [method, name] : method_names)
+    if (method == m) return name;
+  return "?";
+}
+
+Method method_from_string(const std::string& name, const std::string& where) {
+  std::string list;
+  for (const auto& [method, n] : method_names) {
+    if (name == n) return method;
+    list += (list.empty() ? "\"" : ", \"") + std::string(n) + "\"";
+  }
+  throw InvalidInput("key '" + where + "': \"" + printable(name) + "\" is not one of " + list);
+}
 
 }  // namespace lgvi::app

@@ -12,11 +12,35 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 
 namespace lgvi::app {
 
 enum class PotentialKind { None, Central, Uniform };
-enum class Method { Hamiltonian, Lagrangian };
+/// Integration methods (`[integrator] method`). The first two are the
+/// paper's; the others are what users would pick instead, for comparison.
+enum class Method {
+  Hamiltonian,       ///< "lgvi": the quaternion LGVI, Hamiltonian side (default)
+  Lagrangian,        ///< "lgvi-lagrangian": its position-position form
+  So3Lgvi,           ///< "so3-lgvi": rotation-matrix LGVI (Lee, Leok & McClamroch)
+  RattleQuaternion,  ///< "rattle-quaternion": Wendlandt & Marsden, unit length by a multiplier
+  Rk4Normalized,     ///< "rk4-normalized": classical RK4, q normalized each step
+  EulerExp,          ///< "euler-exp": semi-implicit Euler with the exponential map
+  NoSquish,          ///< "no-squish": Miller et al. (2002) symplectic splitting
+  SplittingDlm,      ///< "splitting-dlm": Dullweber, Leimkuhler & McLachlan (1997)
+  Exact              ///< "exact": the free rigid body's exact flow (potential none only)
+};
+
+/// Every method with its scenario name, in display order.
+inline constexpr std::pair<Method, const char*> method_names[] = {
+    {Method::Hamiltonian, "lgvi"},         {Method::Lagrangian, "lgvi-lagrangian"},
+    {Method::So3Lgvi, "so3-lgvi"},         {Method::RattleQuaternion, "rattle-quaternion"},
+    {Method::Rk4Normalized, "rk4-normalized"}, {Method::EulerExp, "euler-exp"},
+    {Method::NoSquish, "no-squish"},       {Method::SplittingDlm, "splitting-dlm"},
+    {Method::Exact, "exact"}};
+
+/// The method named `name`; throws InvalidInput listing the names otherwise.
+Method method_from_string(const std::string& name, const std::string& where);
 
 struct PotentialSpec {
   PotentialKind kind = PotentialKind::None;

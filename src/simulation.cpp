@@ -184,25 +184,50 @@ JsonObject state_json(const RigidBodyState& s) {
 
 // Checkpoint file: magic, version, then fixed fields and length-prefixed arrays.
 constexpr char checkpoint_magic[8] = {'L', 'G', 'V', 'I', 'C', 'K', 'P', 'T'};
-constexpr std::int64_t checkpoint_version = 1;
+constexpr std::int64_t checkpoint_version = 2;
 
 }  // namespace
 
 namespace {
+
+/// Counts evaluations (reported as potential_evaluations: the cost measure
+/// of `lgvi compare`), at the price of one increment each.
+template <Potential P>
+struct CountingPotential {
+  P inner;
+  std::int64_t* count;
+  PotentialEvaluation evaluate(const Vector3<double>& x, const S3d& q) const {
+    ++*count;
+    return inner.evaluate(x, q);
+  }
+};
+
+template <template <class> class S, class P>
+SimulationResult run_method(const Scenario& sc, const P& pot, TrajectorySink& sink, const SimulationOptions& opt) {
+  std::int64_t count = 0;
+  S<CountingPotential<P>> stepper(sc.body, CountingPotential<P>{pot, &count}, sc.integrator.step,
+                                  sc.integrator.solver);
+  SimulationResult r = run_with(stepper, sc, sink, opt);
+  r.stats.potential_evaluations += count;
+  return r;
+}
+
 template <class AnyP>
 SimulationResult simulate_with(const Scenario& sc, const AnyP& potential, TrajectorySink& sink,
                                const SimulationOptions& opt) {
   if (opt.checkpoint_every > 0 && opt.checkpoint_path.empty())
     throw InvalidInput("checkpoint_every is set but no checkpoint path is given");
   return std::visit(
-      [&](const auto& pot) {
+      [&](const auto& pot) -> SimulationResult {
         using P = std::decay_t<decltype(pot)>;
-        if (sc.integrator.method == Method::Hamiltonian) {
-          LieGroupVariationalIntegrator<P> stepper(sc.body, pot, sc.integrator.step, sc.integrator.solver);
-          return run_with(stepper, sc, sink, opt);
+        switch (sc.integrator.method) {
+          case Method::Hamiltonian: return run_method<LieGroupVariationalIntegrator>(sc, pot, sink, opt);
+          case Method::Lagrangian: return run_method<LagrangianLieGroupVariationalIntegrator>(sc, pot, sink, opt);
+          default: break;
         }
-        LagrangianLieGroupVariationalIntegrator<P> stepper(sc.body, pot, sc.integrator.step, sc.integrator.solver);
-        return run_with(stepper, sc, sink, opt);
+        (void)sizeof(P);
+        throw InvalidInput(std::string("integrator.method: \"") + to_string(sc.integrator.method) +
+                           "\" is not available in this build");
       },
       potential);
 }
@@ -240,6 +265,7 @@ std::string summary_json(const Scenario& sc, const SimulationResult& r) {
                                                               static_cast<double>(st.steps_solved)
                                                         : 0.0)
       .integer("solver_iterations_max", st.iterations_max)
+      .integer("potential_evaluations", st.potential_evaluations)
       .object("final", state_json(r.final_state))
       .object("setup", setup_json(sc));
   return s.str() + "\n";
@@ -262,6 +288,7 @@ void write_checkpoint(const std::string& path, const Checkpoint& c) {
   put_vec({s.energy0, s.momentum0.x(), s.momentum0.y(), s.momentum0.z(), s.max_energy_error, s.max_quat_error,
            s.max_momentum_error, s.last_t, s.wall_seconds_before});
   put(s.iterations_total);
+  put(s.potential_evaluations);
   put(s.steps_solved);
   put(s.iterations_max);
   put(s.last_k);
@@ -323,6 +350,7 @@ Checkpoint read_checkpoint(const std::string& path) {
   r.wall_seconds_before = s[8];
   std::int64_t observed = 0, crc = 0;
   get(r.iterations_total);
+  get(r.potential_evaluations);
   get(r.steps_solved);
   get(r.iterations_max);
   get(r.last_k);

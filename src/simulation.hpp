@@ -25,6 +25,7 @@ struct RunStatistics {
   Vector3<double> momentum0 = Vector3<double>::Zero();
   double max_energy_error = 0.0, max_quat_error = 0.0, max_momentum_error = 0.0;
   std::int64_t iterations_total = 0, steps_solved = 0;
+  std::int64_t potential_evaluations = 0;  ///< the cost measure of method comparisons
   std::int64_t iterations_max = 0;
   std::int64_t last_k = 0;  ///< the last step reached (and observed)
   double last_t = 0.0;

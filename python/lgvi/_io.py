@@ -16,6 +16,7 @@ Layouts (src/formats/formats.hpp, src/trajectory_sink.hpp):
 import json
 import os
 import warnings
+import zipfile
 
 import numpy as np
 
@@ -65,7 +66,7 @@ def read_npz(path):
     """(data, names, scenario TOML or None, summary JSON text or None) of a trajectory.npz."""
     try:
         archive = np.load(path, allow_pickle=False)
-    except (OSError, ValueError) as e:
+    except (OSError, ValueError, zipfile.BadZipFile) as e:
         raise ValueError(f"{path}: not a readable npz file ({e}); a run that was killed before it closed "
                          f"the file leaves no central directory: resume it with `lgvi run --resume`") from None
     with archive as z:

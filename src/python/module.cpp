@@ -28,6 +28,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <cmath>
 #include <csignal>
 #include <cstdint>
@@ -86,8 +87,8 @@ std::string shape_text(const py::array& a) {
 using Numbers = py::array_t<double, py::array::c_style | py::array::forcecast>;
 
 /// `obj` as float64 numbers of shape (n,) (or (n, n) with `matrix`), all
-/// finite; ValueError naming `name` otherwise.
-Numbers numbers(py::handle obj, const std::string& name, py::ssize_t n, bool matrix = false) {
+/// finite unless `any_value`; ValueError naming `name` otherwise.
+Numbers numbers(py::handle obj, const std::string& name, py::ssize_t n, bool matrix = false, bool any_value = false) {
   Numbers a = Numbers::ensure(obj);
   const std::string want = matrix ? "(" + std::to_string(n) + ", " + std::to_string(n) + ")"
                                   : "(" + std::to_string(n) + ",)";
@@ -96,26 +97,27 @@ Numbers numbers(py::handle obj, const std::string& name, py::ssize_t n, bool mat
                                 std::string(py::repr(obj)));
   const bool ok = matrix ? (a.ndim() == 2 && a.shape(0) == n && a.shape(1) == n) : (a.ndim() == 1 && a.shape(0) == n);
   if (!ok) throw py::value_error(name + ": must have shape " + want + ", got shape " + shape_text(a));
-  for (py::ssize_t i = 0; i < a.size(); ++i)
+  for (py::ssize_t i = 0; i < a.size() && !any_value; ++i)
     if (!std::isfinite(a.data()[i])) throw py::value_error(name + ": must be finite, got " + std::string(py::repr(obj)));
   return a;
 }
 
-Vector3<double> vec3(py::handle obj, const std::string& name) {
-  const Numbers a = numbers(obj, name, 3);
+Vector3<double> vec3(py::handle obj, const std::string& name, bool any_value = false) {
+  const Numbers a = numbers(obj, name, 3, false, any_value);
   return {a.data()[0], a.data()[1], a.data()[2]};
 }
 
-/// A unit quaternion, scalar-first; within 1e-6 of unit norm, then normalized
-/// (as the scenario reader does).
-S3d unit_quaternion(py::handle obj, const std::string& name) {
+/// A unit quaternion, scalar-first; within 1e-6 of unit norm, then
+/// normalized as the scenario reader does (or, with `normalize` false, taken
+/// as given: a state from a trajectory, whose |q| - 1 is round-off).
+S3d unit_quaternion(py::handle obj, const std::string& name, bool normalize = true) {
   const Numbers a = numbers(obj, name, 4);
   const double* d = a.data();
   const double n = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] + d[3] * d[3]);
   if (!(std::abs(n - 1.0) <= 1e-6))
     throw py::value_error(name + ": must be a unit quaternion, scalar-first (w, x, y, z); its norm is " +
                           std::to_string(n) + ", more than 1e-6 from 1");
-  return S3d(d[0] / n, d[1] / n, d[2] / n, d[3] / n);
+  return normalize ? S3d(d[0] / n, d[1] / n, d[2] / n, d[3] / n) : S3d(d[0], d[1], d[2], d[3]);
 }
 
 /// The trajectory rows as an (rows, 21) float64 array owning the vector.
@@ -157,6 +159,8 @@ class PythonPotential {
     }
   }
 
+  /// Non-finite values are returned as they are: the integrator reports
+  /// them as a failed step, naming the step.
   PotentialEvaluation operator()(const Vector3<double>& x, const S3d& q) const {
     py::array xa = array3(x), qa = quaternion_array(q);
     make_read_only(xa);
@@ -168,12 +172,12 @@ class PythonPotential {
         throw py::value_error("potential: must return (energy, force, torque), got " + std::string(py::repr(r)));
       const py::sequence s = r.cast<py::sequence>();
       e.energy = scalar(s[0], "energy");
-      e.force = vec3(s[1], "potential: the returned force");
-      e.torque = vec3(s[2], "potential: the returned torque");
+      e.force = vec3(s[1], "potential: the returned force", true);
+      e.torque = vec3(s[2], "potential: the returned torque", true);
     } else {
       e.energy = scalar(energy_(xa, qa), "energy");
-      e.force = vec3(force_(xa, qa), "potential: the returned force");
-      e.torque = vec3(torque_(xa, qa), "potential: the returned torque");
+      e.force = vec3(force_(xa, qa), "potential: the returned force", true);
+      e.torque = vec3(torque_(xa, qa), "potential: the returned torque", true);
     }
     return e;
   }
@@ -310,9 +314,18 @@ class PyStepper {
     if (n < 0) throw py::value_error("n: must be >= 0, got " + std::to_string(n));
     if (python_ || n < 64) {
       advance(n);
-    } else {
-      py::gil_scoped_release release;
-      advance(n);
+      return;
+    }
+    // A built-in potential: without the GIL, in legs of 4096 steps with a
+    // check for Ctrl-C between them.
+    for (std::int64_t done = 0; done < n;) {
+      const std::int64_t leg = std::min<std::int64_t>(n - done, 4096);
+      {
+        py::gil_scoped_release release;
+        advance(leg);
+      }
+      done += leg;
+      if (PyErr_CheckSignals() != 0) throw py::error_already_set();
     }
   }
 
@@ -419,7 +432,7 @@ class PyStepper {
       }
       state_ = next;
       ++k_;
-      if (python_ && PyErr_CheckSignals() != 0) throw py::error_already_set();
+      if (python_ && PyErr_CheckSignals() != 0) throw py::error_already_set();  // Ctrl-C
     }
   }
 
@@ -591,12 +604,17 @@ PYBIND11_MODULE(_core, m) {
           "evaluate_potential",
           [](const Scenario& s, py::object x, py::object q) {
             const Vector3<double> xv = vec3(x, "position");
-            const S3d qv = unit_quaternion(q, "quaternion");
-            return std::visit([&](const auto& p) { return evaluation_tuple(p.evaluate(xv, qv)); },
-                              scenario_potential(s));
+            const S3d qv = unit_quaternion(q, "quaternion", false);
+            try {
+              return std::visit([&](const auto& p) { return evaluation_tuple(p.evaluate(xv, qv)); },
+                                scenario_potential(s));
+            } catch (const StepFailure& f) {  // e.g. a ball at the centre of central gravity
+              throw py::value_error("position: the potential is not defined here: " + std::string(f.what()));
+            }
           },
           py::arg("position"), py::arg("quaternion"),
-          "The scenario's potential at (x, q), q scalar-first (w, x, y, z): (energy, force (3,), body torque (3,)).");
+          "The scenario's potential at (x, q), q scalar-first (w, x, y, z) within 1e-6 of unit norm, used as given: "
+          "(energy, force (3,), body torque (3,)).");
 
   m.def("parse_scenario", &parse_scenario, py::arg("text"), py::arg("name"),
         "Parses and validates scenario TOML text exactly as the CLI does; ValueError with the CLI's message "
@@ -614,7 +632,7 @@ PYBIND11_MODULE(_core, m) {
       "check_potential",
       [](py::object potential, py::object x, py::object q) {
         const Vector3<double> xv = vec3(x, "position");
-        const S3d qv = unit_quaternion(q, "quaternion");
+        const S3d qv = unit_quaternion(q, "quaternion", false);
         const CallablePotential p = make_python_potential(std::move(potential));
         const DerivativeCheck c = check_potential_derivatives(p, xv, qv);
         return py::make_tuple(c.force_error, c.torque_error);

@@ -1,0 +1,719 @@
+"""The public API on top of the compiled lgvi._core: bodies, scenarios,
+simulate() and the stepping object. Quaternions are scalar-first (w, x, y,
+z) numpy arrays everywhere."""
+
+import copy
+import json
+import math
+import os
+import tomllib
+
+import numpy as np
+
+from . import _check, _core
+from . import potential as _potential
+from ._result import Result
+
+__version__ = _core.__version__
+
+#: Integrator methods: the Hamiltonian side (default) and the Lagrangian (position-position) side.
+METHODS = ("lgvi", "lgvi-lagrangian")
+#: Solvers of the implicit rotation equation (all find the same root).
+SOLVERS = ("newton", "newton-exp", "broyden")
+#: Trajectory formats of the CLI ([output] format).
+FORMATS = ("csv", "npz", "hdf5")
+
+IntegrationError = _core.IntegrationError
+
+
+def _value_error(e):
+    """A C++ InvalidInput (already a ValueError) re-raised without the C++ frames."""
+    return ValueError(str(e))
+
+
+# ---------------------------------------------------------------------------
+# TOML text for the C++ reader (so that code-built scenarios get exactly the
+# file reader's validation and messages)
+
+def _toml_value(v):
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):  # checked before; TOML's own spelling keeps the reader's message
+            return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf")
+        return repr(v)  # shortest text that round-trips exactly
+    if isinstance(v, str):
+        return json.dumps(v)  # a TOML basic string (JSON escapes are TOML escapes)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(f"cannot write {v!r} as TOML")
+
+
+def _toml_text(doc):
+    """TOML text of a scenario document (tables of scalars/arrays; body.ball an array of tables)."""
+    lines = []
+    for table in ("body", "potential", "initial", "integrator", "output"):
+        if table not in doc:
+            continue
+        t = doc[table]
+        lines.append(f"[{table}]")
+        for k, v in t.items():
+            if table == "body" and k == "ball":
+                continue
+            lines.append(f"{k} = {_toml_value(v)}")
+        for ball in t.get("ball", []) if table == "body" else []:
+            lines.append("[[body.ball]]")
+            lines.extend(f"{k} = {_toml_value(v)}" for k, v in ball.items())
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _floats(a):
+    return [float(v) for v in np.asarray(a, dtype=float).ravel()]
+
+
+# ---------------------------------------------------------------------------
+# Bodies
+
+def _ball(b, i):
+    name = f"balls[{i}]"
+    if isinstance(b, dict):
+        unknown = set(b) - {"position", "mass", "radius"}
+        if unknown:
+            raise ValueError(f"{name}: unknown key(s) {', '.join(sorted(map(str, unknown)))}; "
+                             f"a ball has position, mass, radius")
+        if "position" not in b or "mass" not in b:
+            raise ValueError(f"{name}: needs position and mass (radius defaults to 0)")
+        position, mass, radius = b["position"], b["mass"], b.get("radius", 0.0)
+    elif isinstance(b, (tuple, list)) and len(b) in (2, 3):
+        position, mass, radius = b[0], b[1], (b[2] if len(b) == 3 else 0.0)
+    else:
+        raise ValueError(f"{name}: must be (position, mass, radius) or a dict with position, mass, radius; "
+                         f"got {b!r}")
+    return {"position": _floats(_check.vector3(position, f"{name}.position")),
+            "mass": _check.positive(mass, f"{name}.mass"),
+            "radius": _check.non_negative(radius, f"{name}.radius")}
+
+
+class Body:
+    """A rigid body: mass, standard inertia J, and optionally the uniform balls it is made of.
+
+    ``Body(mass=m, inertia=J)``: mass m > 0 and the standard inertia J
+    (3x3, body axes, about the centre of mass; symmetric positive definite,
+    principal moments with J1 + J2 >= J3).
+
+    ``Body(balls=[...])`` or ``Body.from_balls([...])``: uniform balls, each
+    a tuple ``(position, mass, radius)`` or a dict ``{"position": (3,),
+    "mass": m, "radius": r}`` (radius defaults to 0, a point mass). The
+    centre of mass is moved to the body origin; J = sum m_i (|rho_i|^2 I -
+    rho_i rho_i^T) + 2/5 m_i r_i^2 I. Central gravity acts on each ball.
+
+    Invalid input raises ValueError naming the argument (``mass``,
+    ``inertia``, ``balls[1].radius``, ...).
+    """
+
+    def __init__(self, mass=None, inertia=None, balls=None):
+        if balls is not None:
+            if mass is not None or inertia is not None:
+                raise ValueError("balls: give either mass and inertia, or balls, not both")
+            if isinstance(balls, (str, bytes, dict)) or not hasattr(balls, "__len__") or len(balls) == 0:
+                raise ValueError(f"balls: must be a non-empty list of (position, mass, radius), got {balls!r}")
+            spec = {"ball": [_ball(b, i) for i, b in enumerate(balls)]}
+            try:
+                core = _core.Body.from_balls([(b["position"], b["mass"], b["radius"]) for b in spec["ball"]])
+            except ValueError as e:
+                raise _value_error(str(e).replace("body.ball[", "balls[")
+                                   .replace("body.inertia:", "balls: the inertia of these balls")) from None
+        else:
+            if mass is None or inertia is None:
+                raise ValueError("mass, inertia: give both (or balls=[...])")
+            m = _check.positive(mass, "mass")
+            J = _check.matrix3(inertia, "inertia")
+            spec = {"mass": m, "inertia": [_floats(row) for row in J]}
+            try:
+                core = _core.Body(m, J)
+            except ValueError as e:
+                raise _value_error(str(e).replace("body.inertia", "inertia").replace("body.mass", "mass")) from None
+        self._spec = spec
+        self._core = core
+
+    @classmethod
+    def from_balls(cls, balls):
+        """A body made of uniform balls: (position, mass, radius) tuples or dicts; see Body."""
+        return cls(balls=balls)
+
+    @classmethod
+    def _from_table(cls, table):
+        """From a scenario's [body] table (as read by tomllib)."""
+        if "ball" in table:
+            return cls(balls=[dict(b) for b in table["ball"]])
+        return cls(mass=table["mass"], inertia=table["inertia"])
+
+    @property
+    def mass(self):
+        """Total mass m."""
+        return self._core.mass
+
+    @property
+    def inertia(self):
+        """Standard inertia J, 3x3 ndarray (body axes, about the centre of mass)."""
+        return self._core.inertia
+
+    @property
+    def inertia_inverse(self):
+        """J^-1, 3x3 ndarray."""
+        return self._core.inertia_inverse
+
+    @property
+    def balls(self):
+        """The balls as dicts {"position": (3,) relative to the centre of mass, "mass", "radius"}; [] if none."""
+        return self._core.balls
+
+    def __repr__(self):
+        if "ball" in self._spec:
+            return f"lgvi.Body(balls={len(self._spec['ball'])} balls, mass={self.mass!r})"
+        return f"lgvi.Body(mass={self.mass!r}, inertia={self.inertia.tolist()!r})"
+
+
+# ---------------------------------------------------------------------------
+# Scenarios
+
+_INITIAL_PAIRS = (("momentum", "velocity"), ("w", "omega"))
+_INTEGRATOR_KEYS = ("method", "solver", "step", "duration", "tolerance", "max_iterations", "predictor_order")
+
+
+def _apply(doc, changes):
+    """Validates `changes` (Scenario keyword arguments) and writes them into the TOML document `doc`."""
+    doc.setdefault("initial", {})
+    doc.setdefault("integrator", {})
+    if "body" in changes:
+        body = changes["body"]
+        if isinstance(body, dict):
+            body = Body(**body)
+        if not isinstance(body, Body):
+            raise ValueError(f"body: must be an lgvi.Body, got {body!r}")
+        doc["body"] = copy.deepcopy(body._spec)
+    if "potential" in changes:
+        doc["potential"] = _potential.spec(changes["potential"])
+    init = doc["initial"]
+    if "position" in changes:
+        init["position"] = _floats(_check.vector3(changes["position"], "position"))
+    if "quaternion" in changes:
+        init["quaternion"] = _floats(_check.quaternion(changes["quaternion"], "quaternion"))
+    for a, b in _INITIAL_PAIRS:
+        if changes.get(a) is not None and changes.get(b) is not None:
+            raise ValueError(f"{a}, {b}: give one of them, not both")
+        for key, other in ((a, b), (b, a)):
+            if changes.get(key) is not None:
+                init[key] = _floats(_check.vector3(changes[key], key))
+                init.pop(other, None)
+    integ = doc["integrator"]
+    if "method" in changes:
+        integ["method"] = _check.choice(changes["method"], "method", METHODS)
+    if "solver" in changes:
+        integ["solver"] = _check.choice(changes["solver"], "solver", SOLVERS)
+    if "step" in changes:
+        integ["step"] = _check.positive(changes["step"], "step")
+    if "duration" in changes:
+        integ["duration"] = _check.non_negative(changes["duration"], "duration")
+    for key, check in (("tolerance", lambda v: _check.positive(v, "tolerance")),
+                       ("max_iterations", lambda v: _check.integer(v, "max_iterations", 1, 10000)),
+                       ("predictor_order", lambda v: _check.integer(v, "predictor_order", 0, 3))):
+        if key in changes:
+            if changes[key] is None:
+                integ.pop(key, None)
+            else:
+                integ[key] = check(changes[key])
+    if "every" in changes or "output_format" in changes:
+        out = doc.setdefault("output", {})
+        if "every" in changes:
+            out["every"] = _check.integer(changes["every"], "every", 1)
+        if "output_format" in changes:
+            out["format"] = _check.choice(changes["output_format"], "output_format", FORMATS)
+    return doc
+
+
+class Scenario:
+    """One run: body, potential, initial state, integrator and output, as in a scenario file.
+
+    Build one in code (keyword arguments; quaternion **scalar-first (w, x,
+    y, z)**)::
+
+        lgvi.Scenario(body=lgvi.Body(mass=1.0, inertia=np.diag([1.0, 2.0, 3.0])),
+                      potential=lgvi.potential.central(1.0),
+                      position=(8, 0, 0), quaternion=(1, 0, 0, 0),
+                      momentum=(0, 1, 0), w=(1, 2, 3), step=0.01, duration=100.0)
+
+    or read one: ``Scenario.from_toml(path)``, ``Scenario.from_string(text)``.
+
+    Arguments: ``body`` (lgvi.Body, required); ``potential``
+    (``lgvi.potential.none()`` (default), ``central(mu)``, ``uniform(g)``, a
+    dict ``{"kind": ..}`` or "none"); ``position`` x0 (3,) (default 0);
+    ``quaternion`` q0 (4,), scalar-first (w, x, y, z), within 1e-6 of unit
+    norm (then normalized) (default (1, 0, 0, 0)); ``momentum`` p0 or
+    ``velocity`` v0 = p0 / m (3,) (default p0 = 0); ``w`` w0 = 2 J Omega0
+    (the paper's variable) or ``omega`` Omega0, the body angular velocity
+    (3,) (default 0); ``step`` h > 0 and ``duration`` >= 0 (required; the
+    run takes ceil(duration / step) steps); ``method`` "lgvi" (Hamiltonian,
+    default) or "lgvi-lagrangian"; ``solver`` "newton" (default),
+    "newton-exp" or "broyden"; ``tolerance``, ``max_iterations``,
+    ``predictor_order`` (solver options; None = the default); ``every`` (a
+    trajectory row every this many steps, plus the first and last; default
+    1); ``output_format`` for the CLI ("csv", "npz", "hdf5"); ``name``.
+
+    The scenario is written as TOML (``.toml``) and read by the CLI's own
+    reader, so a code-built scenario is validated exactly like a file and
+    ``lgvi run`` on ``scenario.save(path)`` gives the same run. Invalid
+    arguments raise ValueError naming the argument.
+    """
+
+    def __init__(self, *, body, step, duration, potential=None, position=(0.0, 0.0, 0.0),
+                 quaternion=(1.0, 0.0, 0.0, 0.0), momentum=None, velocity=None, w=None, omega=None,
+                 method="lgvi", solver="newton", tolerance=None, max_iterations=None, predictor_order=None,
+                 every=1, output_format="csv", name="scenario"):
+        changes = dict(body=body, potential=potential, position=position, quaternion=quaternion,
+                       momentum=momentum, velocity=velocity, w=w, omega=omega, method=method, solver=solver,
+                       step=step, duration=duration, tolerance=tolerance, max_iterations=max_iterations,
+                       predictor_order=predictor_order, every=every)
+        if output_format != "csv":
+            changes["output_format"] = output_format
+        if momentum is None and velocity is None:
+            changes["momentum"] = (0.0, 0.0, 0.0)
+        if w is None and omega is None:
+            changes["w"] = (0.0, 0.0, 0.0)
+        doc = _apply({}, changes)
+        self._init(_parse(_toml_text(doc), _check_name(name)), doc)
+
+    def _init(self, core, doc=None):
+        self._core = core
+        self._doc = doc
+
+    @classmethod
+    def _wrap(cls, core):
+        self = cls.__new__(cls)
+        self._init(core)
+        return self
+
+    @classmethod
+    def from_toml(cls, path):
+        """Read a scenario file exactly as ``lgvi run`` does (its name is the file's stem).
+
+        FileNotFoundError if there is no such file; ValueError with the CLI's
+        message ("FILE: key 'integrator.step': must be > 0, ...") if it is invalid.
+        """
+        path = os.fspath(path)
+        if not os.path.exists(path):
+            raise FileNotFoundError(2, "No such scenario file", path)
+        try:
+            return cls._wrap(_core.read_scenario(path))
+        except ValueError as e:
+            raise _value_error(e) from None
+
+    @classmethod
+    def from_string(cls, text, name="scenario"):
+        """Parse scenario TOML text exactly as ``lgvi run`` reads a file; ValueError with the CLI's message."""
+        if not isinstance(text, str):
+            raise ValueError(f"text: must be a str of TOML, got {type(text).__name__}")
+        return cls._wrap(_parse(text, _check_name(name)))
+
+    def replace(self, **changes):
+        """A copy with some arguments changed, e.g. ``scenario.replace(step=0.005, duration=10)``.
+
+        Takes the constructor's keyword arguments (``velocity`` replaces
+        ``momentum`` and ``omega`` replaces ``w``, and vice versa). The rest of
+        the scenario, balls included, is kept as written.
+        """
+        unknown = set(changes) - {"body", "potential", "position", "quaternion", "momentum", "velocity", "w",
+                                  "omega", "method", "solver", "step", "duration", "tolerance", "max_iterations",
+                                  "predictor_order", "every", "output_format", "name"}
+        if unknown:
+            raise ValueError(f"{', '.join(sorted(unknown))}: not a scenario argument")
+        name = _check_name(changes.pop("name", self.name))
+        doc = _apply(copy.deepcopy(self.document), changes)
+        return Scenario._wrap(_parse(_toml_text(doc), name))
+
+    @property
+    def document(self):
+        """The scenario as a dict of TOML tables (body, potential, initial, integrator, output)."""
+        if self._doc is None:
+            self._doc = tomllib.loads(self._core.toml)
+        return self._doc
+
+    @property
+    def name(self):
+        """The scenario's name (a file's stem; summary["scenario"])."""
+        return self._core.name
+
+    @property
+    def toml(self):
+        """The scenario as TOML text (for a file: its text as read)."""
+        return self._core.toml
+
+    @property
+    def body(self):
+        """The body (lgvi.Body)."""
+        return Body._from_table(self.document["body"])
+
+    @property
+    def potential(self):
+        """The built-in potential as a dict: {"kind": "none"}, {"kind": "central", "mu": ..} or {"kind": "uniform", "g": [..]}."""
+        kind = self._core.potential_kind
+        if kind == "central":
+            return {"kind": kind, "mu": self._core.mu}
+        if kind == "uniform":
+            return {"kind": kind, "g": self._core.g.tolist()}
+        return {"kind": kind}
+
+    @property
+    def position(self):
+        """Initial centre of mass x0 (3,)."""
+        return self._core.position
+
+    @property
+    def quaternion(self):
+        """Initial attitude q0 (4,), scalar-first (w, x, y, z), normalized."""
+        return self._core.quaternion
+
+    @property
+    def momentum(self):
+        """Initial linear momentum p0 (3,)."""
+        return self._core.momentum
+
+    @property
+    def velocity(self):
+        """Initial velocity p0 / m (3,)."""
+        return self._core.momentum / self._core.body.mass
+
+    @property
+    def w(self):
+        """Initial w0 = 2 J Omega0 (3,), the paper's angular momentum variable."""
+        return self._core.w
+
+    @property
+    def omega(self):
+        """Initial body angular velocity Omega0 = J^-1 w0 / 2 (3,)."""
+        return 0.5 * (self._core.body.inertia_inverse @ self._core.w)
+
+    @property
+    def step(self):
+        """Step size h."""
+        return self._core.step
+
+    @property
+    def duration(self):
+        """Duration as given; the run ends at steps * step."""
+        return self._core.duration
+
+    @property
+    def steps(self):
+        """Number of steps, ceil(duration / step) (forgiving round-off: 1000 / 0.01 is 100000)."""
+        return self._core.steps
+
+    @property
+    def method(self):
+        """"lgvi" (Hamiltonian side) or "lgvi-lagrangian"."""
+        return self._core.method
+
+    @property
+    def solver(self):
+        """"newton", "newton-exp" or "broyden"."""
+        return self._core.solver
+
+    @property
+    def tolerance(self):
+        """The solver's relative tolerance (default 4 eps)."""
+        return self._core.tolerance
+
+    @property
+    def max_iterations(self):
+        """The solver's iteration limit."""
+        return self._core.max_iterations
+
+    @property
+    def predictor_order(self):
+        """Degree of the solver's initial-guess extrapolation, 0..3."""
+        return self._core.predictor_order
+
+    @property
+    def every(self):
+        """A trajectory row every this many steps (plus the first and the last)."""
+        return self._core.every
+
+    @property
+    def output_format(self):
+        """The CLI's trajectory format: "csv", "npz" or "hdf5"."""
+        return self._core.output_format
+
+    def evaluate_potential(self, position, quaternion):
+        """The built-in potential at x (3,), q (4,) scalar-first (w, x, y, z): (energy, force (3,), torque (3,))."""
+        x = _check.vector3(position, "position")
+        q = _check.quaternion(quaternion, "quaternion")
+        return self._core.evaluate_potential(x, q)
+
+    def save(self, path):
+        """Write the scenario's TOML to `path` (for ``lgvi run``). Returns path."""
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(self.toml)
+        return path
+
+    def __repr__(self):
+        return (f"<lgvi.Scenario {self.name!r}: {self.potential['kind']} potential, {self.method}/{self.solver}, "
+                f"step {self.step!r}, {self.steps} steps>")
+
+
+def _check_name(name):
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"name: must be a non-empty str, got {name!r}")
+    return name
+
+
+def _parse(text, name):
+    try:
+        return _core.parse_scenario(text, name)
+    except ValueError as e:
+        raise _value_error(e) from None
+
+
+def _scenario(scenario, name="scenario"):
+    if isinstance(scenario, Scenario):
+        return scenario
+    if isinstance(scenario, (str, os.PathLike)):
+        return Scenario.from_toml(scenario)
+    raise ValueError(f"{name}: must be an lgvi.Scenario or the path of a scenario file, got {scenario!r}")
+
+
+# ---------------------------------------------------------------------------
+# Running
+
+def simulate(scenario, potential=None, *, check=True):
+    """Run a scenario with the CLI's own run loop; returns an lgvi.Result.
+
+    ``scenario``: an lgvi.Scenario or the path of a scenario file.
+    ``potential``: None for the scenario's built-in potential (the run is
+    then bit-identical to ``lgvi run`` and releases the GIL), or a potential
+    written in Python: an ``lgvi.PythonPotential`` or a callable ``(x, q) ->
+    (energy, force, torque)`` with q scalar-first (w, x, y, z) (it replaces
+    the scenario's; see PythonPotential for what it costs per step).
+
+    The Result holds numpy arrays of the written rows (``t``, ``x``, ``q``
+    scalar-first (w, x, y, z), ``p``, ``w``, ``energy``, ``energy_error``,
+    ``quat_norm_error``, ``L``, ``momentum_error``; ``columns`` by CSV header
+    name) and ``summary``, the dict of the CLI's summary.json (the same
+    except wall_seconds and ns_per_step; with a Python potential,
+    summary["setup"]["potential"] is {"kind": "python"}).
+
+    A failed step (no root of the rotation equation, solver not converged,
+    non-finite values) raises lgvi.IntegrationError, a RuntimeError whose
+    ``result`` is the Result up to the last good step (``completed`` False),
+    ``step`` the failed step's index k and ``time`` its t_k. With
+    ``check=False`` that Result is returned instead. Ctrl-C stops the run
+    with KeyboardInterrupt. Exceptions raised by a Python potential
+    propagate unchanged.
+    """
+    sc = _scenario(scenario)
+    core_pot = _potential.core_potential(potential)
+    data, summary_text, completed, error = _core.simulate(sc._core, core_pot)
+    summary = json.loads(summary_text)
+    if core_pot is not None:
+        summary["setup"]["potential"] = {"kind": "python", "function": repr(potential)}
+    result = Result(data, summary, sc.toml)
+    if not completed and check:
+        e = IntegrationError(error)
+        e.step = summary.get("steps", 0)
+        e.time = summary.get("last_time", 0.0)
+        e.result = result
+        raise e
+    return result
+
+
+class Stepper:
+    """Step a scenario one step (or n) at a time, for control loops that change forces between steps.
+
+    ``Stepper(scenario, potential=None)`` starts at the scenario's initial
+    state (k = 0) with its method and solver; ``potential`` as in
+    lgvi.simulate (None: the scenario's built-in one). ``step()`` /
+    ``step(n)`` advance; k steps give exactly simulate()'s rows (``row``).
+
+    State, as numpy arrays: ``position`` x (3,), ``quaternion`` q (4,)
+    **scalar-first (w, x, y, z)**, ``momentum`` p (3,), ``w`` = 2 J Omega
+    (3,), ``omega`` Omega (3,), ``velocity`` (3,), ``rotation_matrix`` (3,
+    3); time ``t`` = k h (never accumulated), step index ``k``; diagnostics
+    ``energy``, ``energy_error`` (against k = 0), ``angular_momentum``,
+    ``potential_energy``, ``force`` and ``torque`` at the current state;
+    ``state`` (all as a dict).
+
+    Changing forces between steps:
+
+    * ``set_potential(p)`` replaces the potential (a PythonPotential, a
+      callable, or None for the scenario's own) from the current step on;
+    * a Python potential may read parameters that you change between steps
+      (a closure or an attribute); call ``refresh()`` after changing them, so
+      the next step starts from forces evaluated with the new values (the
+      integrator otherwise reuses the force at the current state, computed
+      at the end of the previous step);
+    * ``set_state(...)`` changes the state itself (an impulse:
+      ``set_state(momentum=stepper.momentum + dp)``).
+
+    On the Lagrangian side (method "lgvi-lagrangian") the next configuration
+    is computed one step ahead, so a change of forces takes effect one step
+    later. A failed step raises lgvi.IntegrationError and leaves the state at
+    the last good step.
+    """
+
+    def __init__(self, scenario, potential=None):
+        self._scenario = _scenario(scenario)
+        self._potential = potential
+        try:
+            self._core = _core.Stepper(self._scenario._core, _potential.core_potential(potential))
+        except ValueError as e:
+            raise _value_error(e) from None
+
+    def step(self, n=1):
+        """Take n >= 1 steps (default 1); IntegrationError on failure (the state stays at the last good step)."""
+        self._core.step(_check.integer(n, "n", 0))
+
+    def refresh(self):
+        """Re-evaluate the potential at the current state (after changing what a Python potential reads)."""
+        self._core.refresh()
+
+    def set_potential(self, potential):
+        """Replace the potential from the current step on: a PythonPotential, a callable (x, q) -> (energy,
+        force, torque) with q scalar-first (w, x, y, z), or None for the scenario's own."""
+        self._core.set_potential(_potential.core_potential(potential))
+        self._potential = potential
+
+    def set_state(self, position=None, quaternion=None, momentum=None, w=None, *, velocity=None, omega=None):
+        """Replace parts of the state (the others stay); re-initializes the integrator there.
+
+        ``position`` (3,), ``quaternion`` (4,) scalar-first (w, x, y, z) within
+        1e-6 of unit norm (then normalized), ``momentum`` or ``velocity``,
+        ``w`` or ``omega``. k and t are unchanged; energy_error stays
+        relative to k = 0.
+        """
+        for a, b, va, vb in (("momentum", "velocity", momentum, velocity), ("w", "omega", w, omega)):
+            if va is not None and vb is not None:
+                raise ValueError(f"{a}, {b}: give one of them, not both")
+        x = None if position is None else _check.vector3(position, "position")
+        q = None if quaternion is None else _check.quaternion(quaternion, "quaternion")
+        p = None if momentum is None else _check.vector3(momentum, "momentum")
+        if velocity is not None:
+            p = self._scenario._core.body.mass * _check.vector3(velocity, "velocity")
+        ww = None if w is None else _check.vector3(w, "w")
+        if omega is not None:
+            ww = 2.0 * (self._scenario._core.body.inertia @ _check.vector3(omega, "omega"))
+        try:
+            self._core.set_state(x, q, p, ww)
+        except ValueError as e:
+            raise _value_error(e) from None
+
+    @property
+    def scenario(self):
+        """The scenario (lgvi.Scenario)."""
+        return self._scenario
+
+    @property
+    def potential(self):
+        """The Python potential in use, or None for the scenario's built-in one."""
+        return self._potential
+
+    @property
+    def k(self):
+        """Steps taken."""
+        return self._core.k
+
+    @property
+    def t(self):
+        """Time k h (never accumulated)."""
+        return self._core.t
+
+    @property
+    def h(self):
+        """Step size."""
+        return self._core.h
+
+    @property
+    def position(self):
+        """Centre of mass x (3,)."""
+        return self._core.position
+
+    @property
+    def quaternion(self):
+        """Attitude q (4,), scalar-first (w, x, y, z)."""
+        return self._core.quaternion
+
+    @property
+    def momentum(self):
+        """Linear momentum p (3,)."""
+        return self._core.momentum
+
+    @property
+    def velocity(self):
+        """Velocity p / m (3,)."""
+        return self._core.velocity
+
+    @property
+    def w(self):
+        """The paper's w = 2 J Omega (3,)."""
+        return self._core.w
+
+    @property
+    def omega(self):
+        """Body angular velocity Omega = J^-1 w / 2 (3,)."""
+        return self._core.omega
+
+    @property
+    def rotation_matrix(self):
+        """R = pi(q) (3x3), body to inertial frame."""
+        return self._core.rotation_matrix
+
+    @property
+    def energy(self):
+        """Total energy at the current state."""
+        return self._core.energy
+
+    @property
+    def energy_error(self):
+        """Energy minus the energy at k = 0."""
+        return self._core.energy - self._core.initial_energy
+
+    @property
+    def potential_energy(self):
+        """V at the current state."""
+        return self._core.potential_energy
+
+    @property
+    def force(self):
+        """Force -dV/dx at the current state (3,), inertial frame."""
+        return self._core.force
+
+    @property
+    def torque(self):
+        """Body-frame torque M at the current state (3,)."""
+        return self._core.torque
+
+    @property
+    def angular_momentum(self):
+        """Total angular momentum about the origin, L = x cross p + R w / 2 (3,)."""
+        return self._core.angular_momentum
+
+    @property
+    def solver_iterations(self):
+        """Iterations of the last step's rotation solve."""
+        return self._core.solver_iterations
+
+    @property
+    def row(self):
+        """The 21 trajectory columns at the current step (lgvi.COLUMNS order), exactly as simulate() writes them."""
+        return self._core.row()
+
+    @property
+    def state(self):
+        """The current state as a dict: t, k, position, quaternion (scalar-first (w, x, y, z)), momentum, w, omega."""
+        c = self._core
+        return {"t": c.t, "k": c.k, "position": c.position, "quaternion": c.quaternion, "momentum": c.momentum,
+                "w": c.w, "omega": c.omega}
+
+    def __repr__(self):
+        return f"<lgvi.Stepper {self._scenario.name!r}: k = {self.k}, t = {self.t:.6g}>"

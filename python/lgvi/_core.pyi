@@ -1,0 +1,80 @@
+"""Type stubs of lgvi._core (private: use `import lgvi`). Quaternions are scalar-first (w, x, y, z)."""
+
+from typing import Any, Dict, List, Optional, Tuple
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+TRAJECTORY_HEADER: str
+Array = npt.NDArray[np.float64]
+
+class IntegrationError(RuntimeError):
+    step: int
+    time: float
+    result: Any
+
+class Body:
+    def __init__(self, mass: float, inertia: Any) -> None: ...
+    @staticmethod
+    def from_balls(balls: Any) -> Body: ...
+    mass: float
+    inertia: Array
+    inertia_inverse: Array
+    balls: List[Dict[str, Any]]
+
+class Scenario:
+    name: str
+    toml: str
+    body: Body
+    potential_kind: str
+    mu: float
+    g: Array
+    position: Array
+    quaternion: Array
+    momentum: Array
+    w: Array
+    step: float
+    duration: float
+    steps: int
+    method: str
+    solver: str
+    tolerance: float
+    max_iterations: int
+    predictor_order: int
+    every: int
+    output_format: str
+    def evaluate_potential(self, position: Any, quaternion: Any) -> Tuple[float, Array, Array]: ...
+
+def parse_scenario(text: str, name: str) -> Scenario: ...
+def read_scenario(path: str) -> Scenario: ...
+def simulate(scenario: Scenario, potential: Any = ...) -> Tuple[Array, str, bool, str]: ...
+def check_potential(potential: Any, position: Any, quaternion: Any) -> Tuple[float, float]: ...
+
+class Stepper:
+    def __init__(self, scenario: Scenario, potential: Any = ...) -> None: ...
+    def step(self, n: int = ...) -> None: ...
+    def refresh(self) -> None: ...
+    def set_potential(self, potential: Any) -> None: ...
+    def set_state(self, position: Optional[Any] = ..., quaternion: Optional[Any] = ...,
+                  momentum: Optional[Any] = ..., w: Optional[Any] = ...) -> None: ...
+    def row(self) -> Array: ...
+    k: int
+    t: float
+    h: float
+    position: Array
+    quaternion: Array
+    momentum: Array
+    w: Array
+    omega: Array
+    velocity: Array
+    rotation_matrix: Array
+    energy: float
+    initial_energy: float
+    initial_angular_momentum: Array
+    potential_energy: float
+    force: Array
+    torque: Array
+    angular_momentum: Array
+    solver_iterations: int
+    python_potential: bool

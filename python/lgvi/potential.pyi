@@ -1,0 +1,37 @@
+"""Type stubs of lgvi.potential. Quaternions are scalar-first (w, x, y, z)."""
+
+from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+KINDS: Tuple[str, ...]
+
+Vector3 = Union[Sequence[float], npt.NDArray[np.float64]]
+#: x (3,), q (4,) scalar-first (w, x, y, z)
+Function = Callable[[npt.NDArray[np.float64], npt.NDArray[np.float64]], Any]
+
+def none() -> Dict[str, Any]:
+    """The free body, {"kind": "none"}."""
+    ...
+def central(mu: float) -> Dict[str, Any]:
+    """Central gravity, {"kind": "central", "mu": mu}."""
+    ...
+def uniform(g: Vector3) -> Dict[str, Any]:
+    """Uniform gravity, {"kind": "uniform", "g": [gx, gy, gz]}."""
+    ...
+def spec(potential: Any, name: str = ...) -> Dict[str, Any]: ...
+def core_potential(potential: Any, name: str = ...) -> Any: ...
+
+class PythonPotential:
+    """A potential written in Python: function(x, q) -> (energy, force, torque), q scalar-first (w, x, y, z)."""
+    function: Optional[Function]
+    energy: Optional[Function]
+    force: Optional[Function]
+    torque: Optional[Function]
+    def __init__(self, function: Optional[Function] = ..., *, energy: Optional[Function] = ...,
+                 force: Optional[Function] = ..., torque: Optional[Function] = ...) -> None: ...
+    def __call__(self, x: npt.NDArray[np.float64], q: npt.NDArray[np.float64]) -> Tuple[Any, Any, Any]: ...
+    def check(self, position: Vector3, quaternion: Vector3) -> Dict[str, float]:
+        """Relative force/torque errors against finite differences of the energy."""
+        ...
