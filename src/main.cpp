@@ -2,6 +2,9 @@
 #include "run.hpp"
 #include "scenario.hpp"
 #include "show.hpp"
+#include "compare.hpp"
+
+#include <sstream>
 
 #include <lgvi/error.hpp>
 
@@ -38,6 +41,25 @@ int run_cli(int argc, char** argv) {
       "Exit status: 0 success, 1 the run failed (the error names the step), 2 bad usage or bad input,\n"
       "130/143 stopped by SIGINT/SIGTERM (the files are valid up to the last step; summary.json says so)");
 
+  auto* compare = app.add_subcommand(
+      "compare", "Compare integration methods on a scenario: work-precision, long-time behaviour, tables, figures");
+  std::string compare_scenario, compare_methods_list = "lgvi,lgvi-lagrangian";
+  lgvi::app::CompareOptions compare_options;
+  bool compare_no_figures = false;
+  compare->add_option("SCENARIO", compare_scenario, "Scenario file (TOML)")->required();
+  compare->add_option("--methods", compare_methods_list, "Comma-separated methods (see README 'Methods')");
+  compare->add_option("--out", compare_options.out_dir, "Output folder (default: SCENARIO-compare)");
+  compare->add_option("--ladder", compare_options.ladder, "Number of step sizes h, h/2, ... (default 5)");
+  compare->add_option("--error-time", compare_options.error_time,
+                      "Time of the work-precision runs (default: min(duration, 1e4 h))");
+  compare->add_option("--long-steps", compare_options.long_steps,
+                      "Length of the equal-cost long runs, in steps of h (default 1e6)");
+  compare->add_flag("--no-figures", compare_no_figures, "Do not draw the PNG figures");
+  compare->add_flag("-q,--quiet", compare_options.quiet, "Print nothing on success");
+  compare->footer(
+      "Example:\n  lgvi compare scenarios/free-body-manchester-peck.toml --methods lgvi,so3-lgvi,rk4-normalized "
+      "--out results/compare");
+
   auto* show = app.add_subcommand("show", "Print the summary of a run folder as a table");
   std::string show_dir;
   show->add_option("DIR", show_dir, "Run folder (written by lgvi run)")->required();
@@ -58,6 +80,14 @@ int run_cli(int argc, char** argv) {
   }
   options.figures = !no_figures;
   try {
+    if (compare->parsed()) {
+      const lgvi::app::Scenario scenario = lgvi::app::read_scenario(compare_scenario);
+      std::stringstream list(compare_methods_list);
+      for (std::string name; std::getline(list, name, ',');)
+        compare_options.methods.push_back(lgvi::app::method_from_string(name, "--methods"));
+      compare_options.figures = !compare_no_figures;
+      return lgvi::app::compare_methods(scenario, compare_options);
+    }
     if (show->parsed()) {
       lgvi::app::show_run(show_dir, std::cout);
       return lgvi::app::kSuccess;

@@ -186,7 +186,9 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
 
 }  // namespace
 
-void draw_figures(const std::string& run_dir) {
+namespace {
+/// Runs `python -m MODULE DIR` with the lgvi package on PYTHONPATH.
+void run_python_module(const std::string& module, const std::string& run_dir) {
   const char* py_env = std::getenv("LGVI_PYTHON");
   const std::string python = py_env ? py_env : "/usr/bin/python3";
   std::string pythonpath = python_dir();
@@ -198,7 +200,7 @@ void draw_figures(const std::string& run_dir) {
   envp.reserve(env_strings.size() + 1);
   for (auto& e : env_strings) envp.push_back(e.data());
   envp.push_back(nullptr);
-  std::vector<std::string> args{python, "-m", "lgvi.plot", run_dir};
+  std::vector<std::string> args{python, "-m", module, run_dir};
   std::vector<char*> argv;
   argv.reserve(args.size() + 1);
   for (auto& a : args) argv.push_back(a.data());
@@ -210,9 +212,13 @@ void draw_figures(const std::string& run_dir) {
   int status = 0;
   waitpid(pid, &status, 0);
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    throw std::runtime_error("drawing the figures with " + python +
-                             " -m lgvi.plot failed (see its message above; --no-figures skips them)");
+    throw std::runtime_error("drawing the figures with " + python + " -m " + module +
+                             " failed (see its message above; --no-figures skips them)");
 }
+}  // namespace
+
+void draw_figures(const std::string& run_dir) { run_python_module("lgvi.plot", run_dir); }
+void draw_compare_figures(const std::string& dir) { run_python_module("lgvi.compare_plot", dir); }
 
 int run_scenario(const Scenario& sc, const RunOptions& opt) {
   return execute(sc, opt.out_dir.empty() ? sc.name : opt.out_dir, opt, nullptr);

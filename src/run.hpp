@@ -37,4 +37,7 @@ int resume_run(const std::string& dir, RunOptions options);
 /// matplotlib). Throws std::runtime_error if the plotting process fails.
 void draw_figures(const std::string& run_dir);
 
+/// Draws the figures of `lgvi compare` in `dir` with `lgvi.compare_plot`.
+void draw_compare_figures(const std::string& dir);
+
 }  // namespace lgvi::app

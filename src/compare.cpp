@@ -1,0 +1,224 @@
+#include "compare.hpp"
+
+#include "memory_sink.hpp"
+#include "output.hpp"
+#include "run.hpp"
+#include "simulation.hpp"
+
+#include <lgvi/continuous.hpp>
+#include <lgvi/error.hpp>
+#include <lgvi/potential.hpp>
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <variant>
+
+namespace lgvi::app {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+/// The reference state at time T: RK4 of the continuous equations with step
+/// h_ref (its error C h_ref^4 is then far below every method's).
+RigidBodyState reference_state(const Scenario& sc, double T, double h_ref) {
+  const auto n = static_cast<long>(std::ceil(T / h_ref - 1e-9));
+  const double h = T / static_cast<double>(n);
+  auto run = [&](const auto& potential) {
+    const ContinuousEquations eqs(sc.body, potential);
+    return from_continuous(eqs.rk4(to_continuous(sc.initial, sc.body), h, n), sc.body);
+  };
+  switch (sc.potential.kind) {
+    case PotentialKind::Central: return run(CentralGravity(sc.body, sc.potential.mu));
+    case PotentialKind::Uniform: return run(UniformGravity(sc.body, sc.potential.g));
+    case PotentialKind::None: break;
+  }
+  return run(NoPotential{});
+}
+
+/// max(|x - x'|, |R - R'|_F, |p - p'|, |w - w'|): the sign of q does not matter.
+double state_error(const RigidBodyState& a, const RigidBodyState& b) {
+  return std::max({(a.x - b.x).norm(), (a.q.matrix() - b.q.matrix()).norm(), (a.p - b.p).norm(), (a.w - b.w).norm()});
+}
+
+struct LadderPoint {
+  double h = 0, error = 0, wall = 0, max_energy_error = 0;
+  std::int64_t steps = 0, evaluations = 0;
+  bool completed = false;
+  std::string failure;
+};
+
+struct LongRun {
+  double h = 0, wall = 0, max_energy_error = 0, final_energy_error = 0, max_quat = 0, max_rel_momentum = 0;
+  std::int64_t steps = 0, evaluations = 0;
+  bool completed = false;
+  std::string failure;
+  std::vector<double> rows;  // t, energy_error, quat_norm_error, momentum_error
+};
+
+SimulationResult run_quiet(const Scenario& sc, MemorySink& sink) {
+  SimulationResult r = simulate(sc, sink);
+  return r;
+}
+
+std::string fmt_e(double v) { return std::isfinite(v) ? fmt::format("{:.3e}", v) : "-"; }
+
+}  // namespace
+
+int compare_methods(const Scenario& base, const CompareOptions& opt) {
+  if (opt.methods.empty()) throw InvalidInput("--methods: name at least one method");
+  if (opt.ladder < 2 || opt.ladder > 12) throw InvalidInput("--ladder: must be between 2 and 12");
+  if (opt.long_steps < 1) throw InvalidInput("--long-steps: must be >= 1");
+  for (Method m : opt.methods)
+    if (m == Method::Exact && base.potential.kind != PotentialKind::None)
+      throw InvalidInput("--methods: \"exact\" is the free body's flow; the scenario's potential is not \"none\"");
+  const std::string dir = opt.out_dir.empty() ? base.name + "-compare" : opt.out_dir;
+  fs::create_directories(dir);
+  const double h = base.integrator.step;
+  const double T = opt.error_time > 0 ? opt.error_time : std::min(base.integrator.duration, 1e4 * h);
+  if (!(T > 0)) throw InvalidInput("--error-time: the scenario's duration is 0; give --error-time T > 0");
+  const double h_min = h / std::pow(2.0, opt.ladder - 1);
+  if (!opt.quiet) std::cerr << fmt::format("lgvi compare: reference (RK4, step {:.3g}) to t = {}\n", h_min / 8, T);
+  const RigidBodyState reference = reference_state(base, T, h_min / 8);
+
+  std::map<Method, std::vector<LadderPoint>> ladder;
+  std::map<Method, LongRun> long_runs;
+  for (Method m : opt.methods) {
+    if (!opt.quiet) std::cerr << fmt::format("lgvi compare: {}\n", to_string(m));
+    for (int j = 0; j < opt.ladder; ++j) {
+      Scenario sc = base;
+      sc.integrator.method = m;
+      sc.integrator.step = h / std::pow(2.0, j);
+      sc.integrator.steps = std::llround(T / sc.integrator.step);
+      sc.output_every = sc.integrator.steps + 1;  // first and last rows only
+      MemorySink sink(2);
+      LadderPoint p;
+      p.h = sc.integrator.step;
+      const SimulationResult r = run_quiet(sc, sink);
+      p.completed = r.completed;
+      p.failure = r.error;
+      p.error = r.completed ? state_error(r.final_state, reference) : std::nan("");
+      p.wall = r.wall_seconds;
+      p.steps = r.stats.last_k;
+      p.evaluations = r.stats.potential_evaluations;
+      p.max_energy_error = r.stats.max_energy_error;
+      ladder[m].push_back(p);
+    }
+    // Long run at equal cost: e evaluations per step -> step e h.
+    const auto& first = ladder[m].front();
+    const double per_step =
+        first.steps > 0 ? static_cast<double>(first.evaluations - 1) / static_cast<double>(first.steps) : 1.0;
+    const double cost_factor = std::max(1.0, std::round(per_step));
+    Scenario sc = base;
+    sc.integrator.method = m;
+    sc.integrator.step = h * cost_factor;
+    sc.integrator.steps = static_cast<std::int64_t>(static_cast<double>(opt.long_steps) / cost_factor);
+    sc.output_every = std::max<std::int64_t>(1, sc.integrator.steps / 2000);
+    MemorySink sink(2100);
+    const SimulationResult r = run_quiet(sc, sink);
+    LongRun& L = long_runs[m];
+    L.h = sc.integrator.step;
+    L.completed = r.completed;
+    L.failure = r.error;
+    L.wall = r.wall_seconds;
+    L.steps = r.stats.last_k;
+    L.evaluations = r.stats.potential_evaluations;
+    L.max_energy_error = r.stats.max_energy_error;
+    L.max_quat = r.stats.max_quat_error;
+    const double l0 = r.stats.momentum0.norm();
+    L.max_rel_momentum = l0 > 0 ? r.stats.max_momentum_error / l0 : r.stats.max_momentum_error;
+    const std::vector<double> rows = sink.take();
+    for (std::size_t i = 0; i + trajectory_columns <= rows.size(); i += trajectory_columns)
+      L.rows.insert(L.rows.end(), {rows[i], rows[i + 15], rows[i + 16], rows[i + 20]});
+    L.final_energy_error = L.rows.size() >= 4 ? L.rows[L.rows.size() - 3] : std::nan("");
+  }
+
+  // Files.
+  std::string wp = "method,h,steps,potential_evaluations,wall_seconds,error,max_abs_energy_error,completed\n";
+  for (Method m : opt.methods)
+    for (const LadderPoint& p : ladder[m])
+      wp += fmt::format("{},{},{},{},{},{},{},{}\n", to_string(m), json_number(p.h), p.steps, p.evaluations,
+                        json_number(p.wall), json_number(p.error), json_number(p.max_energy_error),
+                        p.completed ? "true" : "false");
+  write_file_atomically((fs::path(dir) / "work_precision.csv").string(), wp);
+  std::string lt = "method,t,energy_error,quat_norm_error,momentum_error\n";
+  for (Method m : opt.methods) {
+    const auto& rows = long_runs[m].rows;
+    for (std::size_t i = 0; i + 4 <= rows.size(); i += 4)
+      lt += fmt::format("{},{},{},{},{}\n", to_string(m), json_number(rows[i]), json_number(rows[i + 1]),
+                        json_number(rows[i + 2]), json_number(rows[i + 3]));
+  }
+  write_file_atomically((fs::path(dir) / "long_time.csv").string(), lt);
+
+  const double lgvi_ns = [&] {
+    for (Method m : opt.methods)
+      if (m == Method::Hamiltonian) {
+        const auto& p = ladder[m].back();
+        return p.steps ? p.wall * 1e9 / static_cast<double>(p.steps) : std::nan("");
+      }
+    return std::nan("");
+  }();
+  std::string csv =
+      "method,evaluations_per_step,observed_order,error_at_h,error_at_h_min,ns_per_step,ns_per_step_vs_lgvi,"
+      "long_h,long_max_abs_energy_error,long_final_energy_error,long_max_abs_quat_norm_error,"
+      "long_max_relative_momentum_error,long_completed\n";
+  std::string md = fmt::format(
+      "# Comparison on `{}`\n\nWork-precision: steps h = {} ... {} to t = {}; error = max(|x - x_ref|, "
+      "|R - R_ref|_F, |p - p_ref|, |w - w_ref|) against RK4 with step {:.3g}.\n"
+      "Long time: {} steps of h for one evaluation per step; a method needing e evaluations per step runs "
+      "with step e h (equal cost).\n\n"
+      "| method | evaluations/step | observed order | error at h | error at h/{} | ns/step | vs lgvi | "
+      "long: max abs energy error | long: max abs(abs(q) - 1) | long: max rel. momentum error |\n"
+      "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+      base.name, h, h_min, T, h_min / 8, opt.long_steps, 1 << (opt.ladder - 1));
+  for (Method m : opt.methods) {
+    const auto& pts = ladder[m];
+    const LadderPoint& a = pts[pts.size() - 2];
+    const LadderPoint& b = pts.back();
+    const double order = (a.error > 0 && b.error > 0) ? std::log2(a.error / b.error) : std::nan("");
+    const double per_step = b.steps ? static_cast<double>(b.evaluations - 1) / static_cast<double>(b.steps) : 0.0;
+    const double ns = b.steps ? b.wall * 1e9 / static_cast<double>(b.steps) : std::nan("");
+    const LongRun& L = long_runs[m];
+    csv += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{}\n", to_string(m), json_number(per_step),
+                       json_number(order), json_number(pts.front().error), json_number(b.error), json_number(ns),
+                       json_number(ns / lgvi_ns), json_number(L.h), json_number(L.max_energy_error),
+                       json_number(L.final_energy_error), json_number(L.max_quat),
+                       json_number(L.max_rel_momentum), L.completed ? "true" : "false");
+    md += fmt::format("| {} | {:.2f} | {:.2f} | {} | {} | {:.0f} | {:.2f} | {} | {} | {} |\n", to_string(m), per_step,
+                      order, fmt_e(pts.front().error), fmt_e(b.error), ns, ns / lgvi_ns,
+                      L.completed ? fmt_e(L.max_energy_error) : "failed: " + L.failure,
+                      fmt_e(L.max_quat), fmt_e(L.max_rel_momentum));
+  }
+  // Who keeps the energy error below a target at the least cost (from the ladder).
+  md += "\nLeast potential evaluations to keep max |E - E0| over [0, T] below a target (from the ladder):\n\n";
+  for (double target : {1e-4, 1e-6, 1e-8}) {
+    std::string best = "none of the runs";
+    std::int64_t best_cost = -1;
+    for (Method m : opt.methods)
+      for (const LadderPoint& p : ladder[m])
+        if (p.completed && p.max_energy_error <= target && (best_cost < 0 || p.evaluations < best_cost)) {
+          best_cost = p.evaluations;
+          best = fmt::format("{} (h = {}, {} evaluations)", to_string(m), p.h, p.evaluations);
+        }
+    md += fmt::format("* {:.0e}: {}\n", target, best);
+  }
+  write_file_atomically((fs::path(dir) / "comparison.csv").string(), csv);
+  write_file_atomically((fs::path(dir) / "comparison.md").string(), md);
+  if (!opt.quiet) std::cout << md;
+  if (opt.figures) {
+    try {
+      draw_compare_figures(dir);
+    } catch (const std::exception& e) {
+      std::cerr << "lgvi: error: the comparison's tables are written, but " << e.what() << "\n";
+      return kRunFailed;
+    }
+  }
+  return kSuccess;
+}
+
+}  // namespace lgvi::app

@@ -1,0 +1,38 @@
+// `lgvi compare`: the methods side by side on one scenario, honestly measured.
+//
+//  * Work-precision: each method over a ladder of steps h, h/2, ... to a time
+//    T; the error of the final state against a reference (the exact flow for
+//    a free body, else RK4 of the continuous equations with a step 8 times
+//    below the finest), against wall time and against potential evaluations.
+//  * Long-time behaviour at equal cost: every method given the same number of
+//    potential evaluations per unit time (a method needing e evaluations per
+//    step runs with step e h), out to `long_steps` steps of h; energy error,
+//    |q| - 1 and momentum error against time.
+//  * Tables (CSV and Markdown) and PNG figures (matplotlib, lgvi.compare_plot).
+//
+// Every run goes through simulate(), the code `lgvi run` uses.
+#pragma once
+
+#include "scenario.hpp"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace lgvi::app {
+
+struct CompareOptions {
+  std::vector<Method> methods;
+  std::string out_dir;
+  int ladder = 5;                     ///< steps h, h/2, ..., h/2^(ladder-1)
+  double error_time = 0.0;            ///< T of the work-precision runs (0: min(duration, 1e4 h))
+  std::int64_t long_steps = 1000000;  ///< length of the long runs, in steps of h
+  bool figures = true;
+  bool quiet = false;
+};
+
+/// Runs the comparison and writes DIR/{work_precision.csv, long_time.csv,
+/// comparison.csv, comparison.md, *.png}. Returns the exit status.
+int compare_methods(const Scenario& scenario, const CompareOptions& options);
+
+}  // namespace lgvi::app
