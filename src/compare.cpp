@@ -36,6 +36,7 @@ RigidBodyState reference_state(const Scenario& sc, double T, double h_ref) {
   switch (sc.potential.kind) {
     case PotentialKind::Central: return run(CentralGravity(sc.body, sc.potential.mu));
     case PotentialKind::Uniform: return run(UniformGravity(sc.body, sc.potential.g));
+    case PotentialKind::HeavyTop: return run(HeavyTop(sc.body, sc.potential.g, sc.potential.pivot_to_com));
     case PotentialKind::None: break;
   }
   return run(NoPotential{});

@@ -153,7 +153,12 @@ class Reader {
 
 RigidBody read_body(const Reader& r, const toml::table& root) {
   const toml::table& t = r.table(root, "", "body");
-  r.only_keys(t, "body", {"mass", "inertia", "ball"});
+  r.only_keys(t, "body", {"mass", "inertia", "ball", "physical"});
+  bool physical = true;
+  if (const toml::node* n = t.get("physical")) {
+    if (!n->is_boolean()) r.fail("body.physical", "must be true or false");
+    physical = n->value<bool>().value();
+  }
   const bool has_balls = t.contains("ball");
   const bool has_mass = t.contains("mass") || t.contains("inertia");
   if (has_balls && has_mass)
@@ -170,7 +175,10 @@ RigidBody read_body(const Reader& r, const toml::table& root) {
     if (!has_mass) r.fail("body", "missing: give mass + inertia, or one or more [[body.ball]]");
     const double mass = r.number(t, "body", "mass");
     const Matrix3<double> inertia = r.matrix3(t, "body", "inertia");
-    return checked([&] { return RigidBody(mass, inertia); });
+    return checked([&] {
+      return RigidBody(mass, inertia,
+                       physical ? RigidBody::TriangleInequality::Require : RigidBody::TriangleInequality::Waive);
+    });
   }
   const toml::array* arr = t.get("ball")->as_array();
   if (!arr || arr->empty() || !arr->is_array_of_tables())
@@ -189,7 +197,7 @@ RigidBody read_body(const Reader& r, const toml::table& root) {
 PotentialSpec read_potential(const Reader& r, const toml::table& root) {
   const toml::table& t = r.table(root, "", "potential");
   PotentialSpec p;
-  const std::string kind = r.string(t, "potential", "kind", {"none", "central", "uniform"});
+  const std::string kind = r.string(t, "potential", "kind", {"none", "central", "uniform", "heavy-top"});
   if (kind == "none") {
     r.only_keys(t, "potential", {"kind"});
   } else if (kind == "central") {
@@ -197,10 +205,15 @@ PotentialSpec read_potential(const Reader& r, const toml::table& root) {
     p.kind = PotentialKind::Central;
     p.mu = r.number(t, "potential", "mu");
     if (!(p.mu > 0.0)) r.fail("potential.mu", "must be > 0 (attracting centre of strength mu)");
-  } else {
+  } else if (kind == "uniform") {
     r.only_keys(t, "potential", {"kind", "g"});
     p.kind = PotentialKind::Uniform;
     p.g = r.vector<3>(t, "potential", "g");
+  } else {
+    r.only_keys(t, "potential", {"kind", "g", "pivot_to_com"});
+    p.kind = PotentialKind::HeavyTop;
+    p.g = r.vector<3>(t, "potential", "g");
+    p.pivot_to_com = r.vector<3>(t, "potential", "pivot_to_com");
   }
   return p;
 }
@@ -345,6 +358,16 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   PotentialSpec potential = read_potential(r, root);
   RigidBodyState initial = read_initial(r, root, body);
   IntegratorSpec integrator = read_integrator(r, root);
+  if (integrator.method == Method::Exact && potential.kind != PotentialKind::None)
+    r.fail("integrator.method", "\"exact\" is the free body's exact flow: it needs [potential] kind = \"none\"");
+  if (integrator.method == Method::NoSquish || integrator.method == Method::SplittingDlm) {
+    const Matrix3<double>& J = body.inertia();
+    const double off = std::max({std::abs(J(0, 1)), std::abs(J(0, 2)), std::abs(J(1, 2))});
+    if (off > 8 * std::numeric_limits<double>::epsilon() * J.diagonal().maxCoeff())
+      r.fail("integrator.method", std::string("\"") + to_string(integrator.method) +
+                                      "\" rotates about the principal axes: body.inertia must be diagonal in body "
+                                      "axes (give the body in its principal axes)");
+  }
   // The rotation per step |Omega| h: at pi the discrete flow is undefined
   // (and the rotation equation has no root well before, near 1 rad).
   const double rotation = (0.5 * body.inertia_inverse() * initial.w).norm() * integrator.step;
@@ -386,6 +409,7 @@ const char* to_string(PotentialKind k) {
     case PotentialKind::None: return "none";
     case PotentialKind::Central: return "central";
     case PotentialKind::Uniform: return "uniform";
+    case PotentialKind::HeavyTop: return "heavy-top";
   }
   return "?";
 }

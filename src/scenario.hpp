@@ -16,7 +16,7 @@
 
 namespace lgvi::app {
 
-enum class PotentialKind { None, Central, Uniform };
+enum class PotentialKind { None, Central, Uniform, HeavyTop };
 /// Integration methods (`[integrator] method`). The first two are the
 /// paper's; the others are what users would pick instead, for comparison.
 enum class Method {
@@ -45,7 +45,8 @@ Method method_from_string(const std::string& name, const std::string& where);
 struct PotentialSpec {
   PotentialKind kind = PotentialKind::None;
   double mu = 0.0;                                   // central
-  Vector3<double> g = Vector3<double>::Zero();     // uniform
+  Vector3<double> g = Vector3<double>::Zero();     // uniform, heavy-top
+  Vector3<double> pivot_to_com = Vector3<double>::Zero();  // heavy-top: chi, body frame
 };
 
 struct IntegratorSpec {

@@ -1,5 +1,6 @@
 #include "simulation.hpp"
 
+#include "method_dispatch.hpp"
 #include "output.hpp"
 
 #include <lgvi/error.hpp>
@@ -19,16 +20,19 @@ namespace lgvi::app {
 
 namespace {
 
-using AnyPotential = std::variant<NoPotential, CentralGravity, UniformGravity>;
+}  // namespace
 
-AnyPotential make_potential(const Scenario& s) {
+ScenarioPotential scenario_potential(const Scenario& s) {
   switch (s.potential.kind) {
     case PotentialKind::Central: return CentralGravity(s.body, s.potential.mu);
     case PotentialKind::Uniform: return UniformGravity(s.body, s.potential.g);
+    case PotentialKind::HeavyTop: return HeavyTop(s.body, s.potential.g, s.potential.pivot_to_com);
     case PotentialKind::None: break;
   }
   return NoPotential{};
 }
+
+namespace {
 
 /// The observer: diagnostics at every step, a row every `output_every` steps.
 struct Recorder {
@@ -160,7 +164,9 @@ JsonObject setup_json(const Scenario& s) {
   JsonObject pot;
   pot.string("kind", to_string(s.potential.kind));
   if (s.potential.kind == PotentialKind::Central) pot.number("mu", s.potential.mu);
-  if (s.potential.kind == PotentialKind::Uniform) pot.array("g", to_vector(s.potential.g));
+  if (s.potential.kind == PotentialKind::Uniform || s.potential.kind == PotentialKind::HeavyTop)
+    pot.array("g", to_vector(s.potential.g));
+  if (s.potential.kind == PotentialKind::HeavyTop) pot.array("pivot_to_com", to_vector(s.potential.pivot_to_com));
   JsonObject integ;
   integ.string("method", to_string(s.integrator.method))
       .string("solver", to_string(s.integrator.solver.kind))
@@ -202,16 +208,6 @@ struct CountingPotential {
   }
 };
 
-template <template <class> class S, class P>
-SimulationResult run_method(const Scenario& sc, const P& pot, TrajectorySink& sink, const SimulationOptions& opt) {
-  std::int64_t count = 0;
-  S<CountingPotential<P>> stepper(sc.body, CountingPotential<P>{pot, &count}, sc.integrator.step,
-                                  sc.integrator.solver);
-  SimulationResult r = run_with(stepper, sc, sink, opt);
-  r.stats.potential_evaluations += count;
-  return r;
-}
-
 template <class AnyP>
 SimulationResult simulate_with(const Scenario& sc, const AnyP& potential, TrajectorySink& sink,
                                const SimulationOptions& opt) {
@@ -220,21 +216,19 @@ SimulationResult simulate_with(const Scenario& sc, const AnyP& potential, Trajec
   return std::visit(
       [&](const auto& pot) -> SimulationResult {
         using P = std::decay_t<decltype(pot)>;
-        switch (sc.integrator.method) {
-          case Method::Hamiltonian: return run_method<LieGroupVariationalIntegrator>(sc, pot, sink, opt);
-          case Method::Lagrangian: return run_method<LagrangianLieGroupVariationalIntegrator>(sc, pot, sink, opt);
-          default: break;
-        }
-        (void)sizeof(P);
-        throw InvalidInput(std::string("integrator.method: \"") + to_string(sc.integrator.method) +
-                           "\" is not available in this build");
+        std::int64_t count = 0;
+        const CountingPotential<P> counted{pot, &count};
+        SimulationResult r = with_stepper<std::is_same_v<P, NoPotential>>(
+            sc, counted, [&](auto& stepper) { return run_with(stepper, sc, sink, opt); });
+        r.stats.potential_evaluations += count;
+        return r;
       },
       potential);
 }
 }  // namespace
 
 SimulationResult simulate(const Scenario& sc, TrajectorySink& sink, const SimulationOptions& opt) {
-  return simulate_with(sc, make_potential(sc), sink, opt);
+  return simulate_with(sc, scenario_potential(sc), sink, opt);
 }
 
 SimulationResult simulate(const Scenario& sc, const CallablePotential& potential, TrajectorySink& sink,

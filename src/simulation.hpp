@@ -14,10 +14,17 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <variant>
 #include <string>
 #include <vector>
 
 namespace lgvi::app {
+
+/// The built-in potentials a scenario can name.
+using ScenarioPotential = std::variant<NoPotential, CentralGravity, UniformGravity, HeavyTop>;
+
+/// The scenario's [potential].
+ScenarioPotential scenario_potential(const Scenario& s);
 
 /// Diagnostics over every step, written or not.
 struct RunStatistics {

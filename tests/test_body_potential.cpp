@@ -165,3 +165,20 @@ TEST(Potential, DerivativeCheckCatchesAWrongTorque) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(Potential, HeavyTopTorqueMatchesFiniteDifferencesAndForceIsZero) {
+  // V = -m g . (R chi): torque chi x R^T (m g) against 4th-order differences
+  // (round-off ~1e-13 |V| / |M|, |M| ~ |V| here), no force on the pivot's x.
+  const RigidBody body(1.5, M3(V3(0.3, 0.35, 0.05).asDiagonal()));
+  const lgvi::HeavyTop top(body, V3(0, 0, -9.81), V3(0.1, -0.05, 0.5));
+  for (int trial = 0; trial < 10; ++trial) {
+    const S3d q = lgvi::test::random_unit_quaternion();
+    const auto check = lgvi::check_potential_derivatives(top, V3::Zero(), q);
+    EXPECT_LE(check.torque_error, 1e-9);
+    EXPECT_EQ(top.evaluate(V3::Zero(), q).force, V3::Zero());
+  }
+}
+
+}  // namespace

@@ -658,3 +658,20 @@ TEST(ScenarioRegression, NonAsciiOutsideCommentsIsRejectedBeforeToml) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(ScenarioInput, PhysicalFalseWaivesOnlyTheTriangleInequality) {
+  const std::string hlw = "inertia = [[2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.6666666666666666]]";
+  const std::string from = "inertia = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.5]]";
+  EXPECT_NE(parse_error(mutate(from, hlw), "h.toml").find("triangle inequality"), std::string::npos);
+  EXPECT_NO_THROW(lgvi::app::parse_scenario(mutate(from, hlw + "\nphysical = false"), "h.toml"));
+  // Still symmetric positive definite, whatever `physical` says.
+  EXPECT_NE(parse_error(mutate(from, "inertia = [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0]]\nphysical = false"),
+                        "h.toml")
+                .find("positive definite"),
+            std::string::npos);
+  EXPECT_NE(parse_error(mutate(from, from + "\nphysical = 1"), "h.toml").find("body.physical"), std::string::npos);
+}
+
+}  // namespace

@@ -223,7 +223,7 @@ class LagrangianLieGroupVariationalIntegrator {
   PotentialEvaluation eval_;
   RotationPredictor predictor_;
   SolveReport report_;
-  Vector3<double> x_prev_, x_next_;
+  Vector3<double> x_prev_ = Vector3<double>::Zero(), x_next_ = Vector3<double>::Zero();
   S3d q_prev_, q_next_;
 };
 

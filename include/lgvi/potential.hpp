@@ -62,6 +62,29 @@ class UniformGravity {
   Vector3<double> g_;
 };
 
+/// A heavy top: the body turns about a fixed pivot in a uniform field g,
+/// V = -m g . (pi(q) chi), chi the centre of mass seen from the pivot in body
+/// axes. The pivot's reaction balances the weight, so the force is zero and
+/// x, p stay as they are (put the pivot at x = 0, p = 0); the body torque is
+/// M = chi x (pi(q)^T m g). The body's inertia must then be taken about the
+/// pivot (parallel axes: J_pivot = J_cm + m (|chi|^2 I - chi chi^T)). Only the
+/// angular momentum about g is conserved.
+class HeavyTop {
+ public:
+  HeavyTop(const RigidBody& body, const Vector3<double>& g, const Vector3<double>& chi)
+      : weight_(body.mass() * g), chi_(chi) {}
+  PotentialEvaluation evaluate(const Vector3<double>&, const S3d& q) const {
+    PotentialEvaluation e;
+    const Vector3<double> weight_body = q.inverse().act(weight_);
+    e.energy = -weight_body.dot(chi_);
+    e.torque = chi_.cross(weight_body);
+    return e;
+  }
+
+ private:
+  Vector3<double> weight_, chi_;
+};
+
 /// Central gravity of a point source of strength mu at the origin, summed
 /// over the body's balls:  V = -mu sum_i m_i / |x + pi(q) rho_i|.
 /// (A uniform ball attracts as a point mass, so this is exact for balls

@@ -17,7 +17,8 @@ from ._result import Result
 __version__ = _core.__version__
 
 #: Integrator methods: the Hamiltonian side (default) and the Lagrangian (position-position) side.
-METHODS = ("lgvi", "lgvi-lagrangian")
+METHODS = ("lgvi", "lgvi-lagrangian", "so3-lgvi", "rattle-quaternion", "rk4-normalized", "euler-exp",
+           "no-squish", "splitting-dlm", "exact")
 #: Solvers of the implicit rotation equation (all find the same root).
 SOLVERS = ("newton", "newton-exp", "broyden")
 #: Trajectory formats of the CLI ([output] format).

@@ -14,6 +14,7 @@
 // steps and stops the run at a step boundary with KeyboardInterrupt.
 
 #include "memory_sink.hpp"
+#include "method_dispatch.hpp"
 #include "scenario.hpp"
 #include "simulation.hpp"
 
@@ -201,16 +202,11 @@ CallablePotential make_python_potential(py::object spec) { return CallablePotent
 // ---------------------------------------------------------------------------
 // Built-in potentials and type-erased steppers
 
-using AnyPotential = std::variant<NoPotential, CentralGravity, UniformGravity, CallablePotential>;
+using AnyPotential = std::variant<NoPotential, CentralGravity, UniformGravity, HeavyTop, CallablePotential>;
 
 /// The scenario's [potential], as simulate() builds it.
-AnyPotential scenario_potential(const Scenario& s) {
-  switch (s.potential.kind) {
-    case PotentialKind::Central: return CentralGravity(s.body, s.potential.mu);
-    case PotentialKind::Uniform: return UniformGravity(s.body, s.potential.g);
-    case PotentialKind::None: break;
-  }
-  return NoPotential{};
+AnyPotential builtin_potential(const Scenario& s) {
+  return std::visit([](const auto& p) -> AnyPotential { return p; }, lgvi::app::scenario_potential(s));
 }
 
 class AnyStepper {
@@ -244,11 +240,11 @@ std::unique_ptr<AnyStepper> make_stepper(const Scenario& sc, const AnyPotential&
   return std::visit(
       [&](const auto& pot) -> std::unique_ptr<AnyStepper> {
         using P = std::decay_t<decltype(pot)>;
-        const IntegratorSpec& i = sc.integrator;
-        if (i.method == Method::Hamiltonian)
-          return std::make_unique<StepperModel<LieGroupVariationalIntegrator<P>>>(sc.body, pot, i.step, i.solver);
-        return std::make_unique<StepperModel<LagrangianLieGroupVariationalIntegrator<P>>>(sc.body, pot, i.step,
-                                                                                          i.solver);
+        // The same method table as the CLI's run loop (method_dispatch.hpp).
+        return lgvi::app::with_stepper<std::is_same_v<P, NoPotential>>(
+            sc, pot, [](auto& stepper) -> std::unique_ptr<AnyStepper> {
+              return std::make_unique<StepperModel<std::decay_t<decltype(stepper)>>>(std::move(stepper));
+            });
       },
       potential);
 }
@@ -389,7 +385,7 @@ class PyStepper {
  private:
   void set_potential_impl(py::object potential) {
     if (potential.is_none()) {
-      impl_ = make_stepper(sc_, scenario_potential(sc_));
+      impl_ = make_stepper(sc_, builtin_potential(sc_));
       python_ = false;
       python_object_ = py::none();
     } else {
@@ -607,7 +603,7 @@ PYBIND11_MODULE(_core, m) {
             const S3d qv = unit_quaternion(q, "quaternion", false);
             try {
               return std::visit([&](const auto& p) { return evaluation_tuple(p.evaluate(xv, qv)); },
-                                scenario_potential(s));
+                                lgvi::app::scenario_potential(s));
             } catch (const StepFailure& f) {  // e.g. a ball at the centre of central gravity
               throw py::value_error("position: the potential is not defined here: " + std::string(f.what()));
             }

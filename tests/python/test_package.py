@@ -103,8 +103,12 @@ def test_simulate_equals_the_cli_bit_for_bit_on_the_paper_orbit(paper_orbit_cli,
     assert r.completed and r.error == ""
 
 
+# "exact" needs a free body; these tests run the orbit.
+ORBIT_METHODS = [m for m in lgvi.METHODS if m != "exact"]
+
+
 @needs_cli
-@pytest.mark.parametrize("method", lgvi.METHODS)
+@pytest.mark.parametrize("method", ORBIT_METHODS)
 @pytest.mark.parametrize("solver", lgvi.SOLVERS)
 def test_every_method_and_solver_equals_the_cli(tmp_path, method, solver):
     sc = short_orbit(method=method, solver=solver, duration=5.0, every=7, predictor_order=2, name="variant")
@@ -422,7 +426,7 @@ def test_integration_failure_raises_with_the_partial_result():
 # ---------------------------------------------------------------------------
 # (4) The stepping object
 
-@pytest.mark.parametrize("method", lgvi.METHODS)
+@pytest.mark.parametrize("method", ORBIT_METHODS)
 def test_stepper_rows_equal_simulates(method):
     sc = short_orbit(duration=3.0, every=1, method=method)
     r = lgvi.simulate(sc)
