@@ -1,0 +1,87 @@
+// ns per step of every method on each standard problem (the scenario files in
+// scenarios/), and of one potential evaluation of each problem's potential
+// (the floor for the methods that need one per step). Every run goes through
+// the same stepper classes `lgvi run` uses, built by the same method table.
+// Run: build/benchmarks/bench_methods --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+// (scripts/bench.sh prints the tables with ratios against the quaternion LGVI).
+#include "method_dispatch.hpp"
+#include "scenario.hpp"
+#include "simulation.hpp"
+
+#include <benchmark/benchmark.h>
+
+#include <string>
+#include <variant>
+
+namespace {
+
+using lgvi::app::Method;
+
+const char* const problems[] = {"paper-orbit", "free-body-manchester-peck", "free-body-hairer", "dzhanibekov",
+                                "heavy-top"};
+
+lgvi::app::Scenario load(const std::string& problem) {
+  return lgvi::app::read_scenario(std::string(LGVI_SCENARIO_DIR) + "/" + problem + ".toml");
+}
+
+void BM_Potential(benchmark::State& st, std::string problem) {
+  const lgvi::app::Scenario sc = load(problem);
+  const auto potential = lgvi::app::scenario_potential(sc);
+  lgvi::RigidBodyState s = sc.initial;
+  std::visit(
+      [&](const auto& p) {
+        for (auto _ : st) {
+          auto e = p.evaluate(s.x, s.q);
+          benchmark::DoNotOptimize(e);
+          s.x.y() += 1e-12;  // defeat hoisting
+        }
+      },
+      potential);
+}
+
+void BM_Method(benchmark::State& st, std::string problem, Method method) {
+  lgvi::app::Scenario sc = load(problem);
+  sc.integrator.method = method;
+  const auto potential = lgvi::app::scenario_potential(sc);
+  std::visit(
+      [&](const auto& p) {
+        using P = std::decay_t<decltype(p)>;
+        lgvi::app::with_stepper<std::is_same_v<P, lgvi::NoPotential>>(sc, p, [&](auto& stepper) {
+          lgvi::RigidBodyState s = sc.initial;
+          stepper.initialize(s);
+          std::int64_t n = 0;
+          for (auto _ : st) {
+            // Restart from the initial state every 1024 steps (amortized
+            // cost 1/1024 of a step): unstable methods (euler-exp) would
+            // otherwise blow up over the millions of steps a benchmark takes.
+            if (++n % 1024 == 0) {
+              s = sc.initial;
+              stepper.initialize(s);
+            }
+            stepper.step(s);
+            benchmark::DoNotOptimize(s);
+          }
+          return 0;
+        });
+      },
+      potential);
+}
+
+const int registered = [] {
+  for (const char* problem : problems) {
+    benchmark::RegisterBenchmark((std::string("potential/") + problem).c_str(), BM_Potential, std::string(problem));
+    const bool free_body = load(problem).potential.kind == lgvi::app::PotentialKind::None;
+    for (const auto& [method, name] : lgvi::app::method_names) {
+      if (method == Method::Exact && !free_body) continue;
+      if ((method == Method::NoSquish || method == Method::SplittingDlm) && !load(problem).body.inertia().isDiagonal())
+        continue;
+      benchmark::RegisterBenchmark((std::string(name) + "/" + problem).c_str(), BM_Method, std::string(problem),
+                                   method);
+    }
+  }
+  return 0;
+}();
+
+}  // namespace
+
+BENCHMARK_MAIN();
