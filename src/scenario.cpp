@@ -201,8 +201,12 @@ PotentialSpec read_potential(const Reader& r, const toml::table& root) {
   if (kind == "none") {
     r.only_keys(t, "potential", {"kind"});
   } else if (kind == "central") {
-    r.only_keys(t, "potential", {"kind", "mu"});
+    r.only_keys(t, "potential", {"kind", "mu", "stop_at_contact"});
     p.kind = PotentialKind::Central;
+    if (const toml::node* n = t.get("stop_at_contact")) {
+      if (!n->is_boolean()) r.fail("potential.stop_at_contact", "must be true or false");
+      p.stop_at_contact = n->value<bool>().value();
+    }
     p.mu = r.number(t, "potential", "mu");
     if (!(p.mu > 0.0)) r.fail("potential.mu", "must be > 0 (attracting centre of strength mu)");
   } else if (kind == "uniform") {

@@ -45,6 +45,7 @@ Method method_from_string(const std::string& name, const std::string& where);
 struct PotentialSpec {
   PotentialKind kind = PotentialKind::None;
   double mu = 0.0;                                   // central
+  bool stop_at_contact = false;                      // central: stop when a ball touches the source
   Vector3<double> g = Vector3<double>::Zero();     // uniform, heavy-top
   Vector3<double> pivot_to_com = Vector3<double>::Zero();  // heavy-top: chi, body frame
 };

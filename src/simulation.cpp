@@ -24,7 +24,7 @@ namespace {
 
 ScenarioPotential scenario_potential(const Scenario& s) {
   switch (s.potential.kind) {
-    case PotentialKind::Central: return CentralGravity(s.body, s.potential.mu);
+    case PotentialKind::Central: return CentralGravity(s.body, s.potential.mu, s.potential.stop_at_contact);
     case PotentialKind::Uniform: return UniformGravity(s.body, s.potential.g);
     case PotentialKind::HeavyTop: return HeavyTop(s.body, s.potential.g, s.potential.pivot_to_com);
     case PotentialKind::None: break;
@@ -163,7 +163,8 @@ JsonObject setup_json(const Scenario& s) {
   body.raw("balls", balls + "]");
   JsonObject pot;
   pot.string("kind", to_string(s.potential.kind));
-  if (s.potential.kind == PotentialKind::Central) pot.number("mu", s.potential.mu);
+  if (s.potential.kind == PotentialKind::Central)
+    pot.number("mu", s.potential.mu).boolean("stop_at_contact", s.potential.stop_at_contact);
   if (s.potential.kind == PotentialKind::Uniform || s.potential.kind == PotentialKind::HeavyTop)
     pot.array("g", to_vector(s.potential.g));
   if (s.potential.kind == PotentialKind::HeavyTop) pot.array("pivot_to_com", to_vector(s.potential.pivot_to_com));

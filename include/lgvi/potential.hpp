@@ -90,14 +90,16 @@ class HeavyTop {
 /// (A uniform ball attracts as a point mass, so this is exact for balls
 /// outside the source.) A body with no balls is a point mass m at x.
 ///
-/// Close encounters: a ball whose centre comes within its radius of the
-/// source (or a point mass that reaches it) makes the evaluation throw
-/// StepFailure naming the ball and the distance: the formula no longer
-/// holds there, and the run stops at that step instead of producing
-/// meaningless or non-finite numbers.
+/// Close encounters: a ball (or point mass) whose centre reaches the source
+/// makes the evaluation throw StepFailure naming the ball and the distance,
+/// so the run stops at that step instead of producing non-finite numbers.
+/// With `stop_at_contact`, it stops already when a ball's centre comes within
+/// its radius of the source, where the point-mass formula no longer holds for
+/// a solid ball; by default (as in the paper) the balls interact as point
+/// masses and their radii only enter the inertia.
 class CentralGravity {
  public:
-  CentralGravity(const RigidBody& body, double mu) : mu_(mu) {
+  CentralGravity(const RigidBody& body, double mu, bool stop_at_contact = false) : mu_(mu) {
     if (body.balls().empty()) {
       rho_.emplace_back(Vector3<double>::Zero());
       mass_.push_back(body.mass());
@@ -106,7 +108,7 @@ class CentralGravity {
       for (const Ball& b : body.balls()) {
         rho_.push_back(b.position);
         mass_.push_back(b.mass);
-        radius2_.push_back(b.radius * b.radius);
+        radius2_.push_back(stop_at_contact ? b.radius * b.radius : 0.0);
       }
     }
   }

@@ -112,9 +112,11 @@ def test_failed_run_never_claims_success(tmp_path):
 
 def test_close_encounter_stops_with_step_time_and_cause(tmp_path):
     """The paper's body released at rest at x = 3 falls radially into the
-    centre: when a ball comes within its radius of it, the run stops, naming
-    the step, the time and the ball; the rows up to the last good step stay."""
+    centre: with stop_at_contact, when a ball comes within its radius of it,
+    the run stops, naming the step, the time and the ball; the rows up to the
+    last good step stay."""
     text = (SOURCE / "scenarios" / "paper-orbit.toml").read_text()
+    text = text.replace("mu = 1.0", "mu = 1.0\nstop_at_contact = true")
     text = text.replace("position = [8.0, 0.0, 0.0]", "position = [3.0, 0.0, 0.0]")
     text = text.replace("momentum = [0.0, 1.0, 0.0]", "momentum = [0.0, 0.0, 0.0]").replace("every = 10", "every = 1")
     path = tmp_path / "fall.toml"
