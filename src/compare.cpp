@@ -197,8 +197,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
       const double e0 = pts[j].error, e1 = pts[j + 1].error;
       if (e0 >= 1e-10 && e0 <= 0.1 && e1 >= 1e-10 && e1 <= 0.1) order = std::log2(e0 / e1);
     }
-    if (std::isnan(order) && pts.size() >= 2 && pts[pts.size() - 2].error > 0 && b.error > 0)
-      order = std::log2(pts[pts.size() - 2].error / b.error);
+    // No pair in range (errors saturated, or a run failed): no order ("nan").
     // The initialize() evaluation is not a step's.
     const double per_step =
         b.steps && b.evaluations > 0 ? static_cast<double>(b.evaluations - 1) / static_cast<double>(b.steps) : 0.0;

@@ -448,12 +448,4 @@ void print_timing(const char* label, const RigidBody& body, const Pot& pot, cons
               label, best[0], best[1], best[2], iters[0], iters[1], iters[2]);
 }
 
-TEST(VariationalTiming, NanosecondsPerStep) {
-  // Informational (no assertion), h = 0.01.
-  const RigidBody body = lgvi::paper::three_ball_body();
-  print_timing("paper orbit, CentralGravity", body, CentralGravity(body, 1.0), lgvi::paper::orbit_initial_state());
-  print_timing("free body", asymmetric_body(), lgvi::NoPotential{}, free_initial_state());
-  SUCCEED();
-}
-
 }  // namespace

@@ -675,3 +675,17 @@ TEST(ScenarioInput, PhysicalFalseWaivesOnlyTheTriangleInequality) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(ScenarioInput, HugeNumberOfBallsIsRejected) {
+  // More than 100000 [[body.ball]] entries: one line asking for mass + inertia instead.
+  std::string text = "[potential]\nkind = \"none\"\n[initial]\nposition = [0,0,0]\nquaternion = [1,0,0,0]\n"
+                     "momentum = [0,0,0]\nw = [0,0,0]\n[integrator]\nstep = 0.1\nduration = 1.0\n[body]\n";
+  for (int i = 0; i <= 100000; ++i) text += "[[body.ball]]\nposition = [0,0,0]\nmass = 1\nradius = 1\n";
+  const std::string m = parse_error(text, "many.toml");
+  EXPECT_NE(m.find("body.ball"), std::string::npos) << m.substr(0, 200);
+  EXPECT_NE(m.find("more than 100000 balls"), std::string::npos) << m.substr(0, 200);
+}
+
+}  // namespace

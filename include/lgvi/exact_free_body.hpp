@@ -190,7 +190,7 @@ class ExactFreeRigidBody {
     M0_ = 0.5 * s0.w;
     G_ = M0_.norm();
     const Eigen::SelfAdjointEigenSolver<Matrix3<double>> es(J);
-    const Vector3<double> I = es.eigenvalues();  // ascending
+    const Vector3<double>& I = es.eigenvalues();  // ascending
     if (!(I(0) > 0.0)) throw InvalidInput("exact free body: the inertia must be positive definite");
     Matrix3<double> V = es.eigenvectors();
     if (V.determinant() < 0.0) V.col(2) = -V.col(2);

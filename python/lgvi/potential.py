@@ -17,10 +17,10 @@ potential=...)`` or ``lgvi.Stepper(scenario, potential=...)``).
 
 from . import _check
 
-__all__ = ["none", "central", "uniform", "PythonPotential", "KINDS"]
+__all__ = ["none", "central", "uniform", "heavy_top", "PythonPotential", "KINDS"]
 
 #: The built-in potentials' kinds.
-KINDS = ("none", "central", "uniform")
+KINDS = ("none", "central", "uniform", "heavy-top")
 
 
 def none():
@@ -28,15 +28,32 @@ def none():
     return {"kind": "none"}
 
 
-def central(mu):
+def central(mu, stop_at_contact=False):
     """Central gravity of a point source of strength mu > 0 at the origin.
 
     V = -mu sum_i m_i / |x + R rho_i| over the body's balls (rho_i relative
     to the centre of mass, R = pi(q)); a body without balls is a point mass.
-    Returns ``{"kind": "central", "mu": mu}``. ValueError naming ``mu``
-    unless it is a finite number > 0.
+    With ``stop_at_contact`` the run stops when a ball's centre comes within
+    its radius of the source (by default the balls interact as point masses).
+    Returns ``{"kind": "central", "mu": mu}`` (plus ``stop_at_contact`` when
+    true). ValueError naming ``mu`` unless it is a finite number > 0.
     """
-    return {"kind": "central", "mu": _check.positive(mu, "mu")}
+    out = {"kind": "central", "mu": _check.positive(mu, "mu")}
+    if stop_at_contact:
+        out["stop_at_contact"] = True
+    return out
+
+
+def heavy_top(g, pivot_to_com):
+    """A heavy top: the body turns about a fixed pivot (keep x = p = 0) in uniform gravity g.
+
+    V = -m g . (R chi) with chi = ``pivot_to_com`` (3,) in body axes; the body's
+    inertia must be given about the pivot. Returns ``{"kind": "heavy-top", "g":
+    [...], "pivot_to_com": [...]}``. ValueError naming ``g`` or
+    ``pivot_to_com`` unless each is 3 finite numbers.
+    """
+    return {"kind": "heavy-top", "g": [float(v) for v in _check.vector3(g, "g")],
+            "pivot_to_com": [float(v) for v in _check.vector3(pivot_to_com, "pivot_to_com")]}
 
 
 def uniform(g):
@@ -61,13 +78,27 @@ def spec(potential, name="potential"):
         raise ValueError(f"{name}: must be lgvi.potential.none(), central(mu), uniform(g), a dict like "
                          f"{{'kind': 'central', 'mu': 1.0}} or \"none\"; got {potential!r}")
     kind = _check.choice(potential.get("kind"), f"{name}.kind", KINDS)
-    extra = set(potential) - {"kind", {"none": None, "central": "mu", "uniform": "g"}[kind]}
+    allowed = {"none": set(), "central": {"mu", "stop_at_contact"}, "uniform": {"g"},
+               "heavy-top": {"g", "pivot_to_com"}}[kind]
+    extra = set(potential) - {"kind"} - allowed
     if extra:
         raise ValueError(f"{name}: unknown key(s) {', '.join(sorted(map(str, extra)))} for kind \"{kind}\"")
     if kind == "central":
         if "mu" not in potential:
             raise ValueError(f"{name}.mu: missing (central gravity needs mu > 0)")
-        return {"kind": "central", "mu": _check.positive(potential["mu"], f"{name}.mu")}
+        out = {"kind": "central", "mu": _check.positive(potential["mu"], f"{name}.mu")}
+        if "stop_at_contact" in potential:
+            if not isinstance(potential["stop_at_contact"], bool):
+                raise ValueError(f"{name}.stop_at_contact: must be True or False")
+            out["stop_at_contact"] = potential["stop_at_contact"]
+        return out
+    if kind == "heavy-top":
+        for key in ("g", "pivot_to_com"):
+            if key not in potential:
+                raise ValueError(f"{name}.{key}: missing (a heavy top needs g and pivot_to_com)")
+        return {"kind": "heavy-top", "g": [float(v) for v in _check.vector3(potential["g"], f"{name}.g")],
+                "pivot_to_com": [float(v) for v in _check.vector3(potential["pivot_to_com"],
+                                                                   f"{name}.pivot_to_com")]}
     if kind == "uniform":
         if "g" not in potential:
             raise ValueError(f"{name}.g: missing (uniform gravity needs g = [gx, gy, gz])")

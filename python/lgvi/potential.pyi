@@ -14,8 +14,11 @@ Function = Callable[[npt.NDArray[np.float64], npt.NDArray[np.float64]], Any]
 def none() -> Dict[str, Any]:
     """The free body, {"kind": "none"}."""
     ...
-def central(mu: float) -> Dict[str, Any]:
+def central(mu: float, stop_at_contact: bool = ...) -> Dict[str, Any]:
     """Central gravity, {"kind": "central", "mu": mu}."""
+    ...
+def heavy_top(g: Vector3, pivot_to_com: Vector3) -> Dict[str, Any]:
+    """A heavy top about a fixed pivot, {"kind": "heavy-top", "g": [...], "pivot_to_com": [...]}."""
     ...
 def uniform(g: Vector3) -> Dict[str, Any]:
     """Uniform gravity, {"kind": "uniform", "g": [gx, gy, gz]}."""

@@ -195,7 +195,7 @@ class So3LieGroupVariationalIntegrator {
       throw InvalidInput("checkpoint: SO(3) integrator data has the wrong size");
     initialize(s);
     for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) R_(i, j) = internal[static_cast<std::size_t>(3 * i + j)];
+      for (int j = 0; j < 3; ++j) R_(i, j) = internal[static_cast<std::size_t>(i) * 3 + static_cast<std::size_t>(j)];
     predictor_.deserialize(internal.data() + 9);
   }
 
