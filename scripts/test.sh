@@ -16,12 +16,19 @@ if [[ "${LGVI_QUICK:-0}" != 1 ]]; then
   scripts/tidy.sh
   scripts/fuzz.sh "${LGVI_FUZZ_SECONDS:-60}"
   echo "lgvi: building and running the tests under ASan + UBSan (build-asan/)"
-  cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLGVI_SANITIZE=ON -DLGVI_BUILD_BENCHMARKS=OFF \
+  cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=None "-DCMAKE_CXX_FLAGS=-O1 -g1" -DLGVI_SANITIZE=ON -DLGVI_BUILD_BENCHMARKS=OFF \
     -DLGVI_BUILD_PYTHON=OFF >/dev/null
   cmake --build build-asan -j"$jobs" >build-asan.log 2>&1 || { tail -40 build-asan.log; exit 1; }
-  # Python and the downstream build are outside what the sanitizers instrument.
-  (cd build-asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
-     ctest -j"$jobs" -E "^(python|downstream)" --output-on-failure)
+  # The Python extension and the downstream build are outside what the
+  # sanitizers instrument; the command-line paths that the pytest files drive
+  # (signals, checkpoints and resume, compare, the paper's
+  # run) are run again here against the sanitized binaries.
+  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
+  (cd build-asan && ctest -j"$jobs" -E "^(python|downstream)" --output-on-failure)
+  LGVI_BINARY=build-asan/lgvi LGVI_GTEST=build-asan/tests/lgvi_tests LGVI_SOURCE_DIR="$PWD" PYTHONPATH="$PWD/python" \
+    /usr/bin/python3 -m pytest -q -p no:cacheprovider tests/python/test_interrupt_resume.py \
+    tests/python/test_paper_run.py tests/python/test_compare.py
+  unset ASAN_OPTIONS UBSAN_OPTIONS
 fi
 cd build
 ctest --output-on-failure -j"$jobs"

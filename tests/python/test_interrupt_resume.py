@@ -132,3 +132,33 @@ def test_close_encounter_stops_with_step_time_and_cause(tmp_path):
     assert summary["completed"] is False and summary["steps"] == step
     rows = rows_are_whole(out / "trajectory.csv")
     assert rows == step + 1  # every step up to the last good one, t = 0 included
+
+
+def read_pty_run(args):
+    """Runs `lgvi run ARGS` with standard error on a pseudo-terminal; returns (status, what it printed there)."""
+    import pty  # noqa: F401  (os.openpty is the POSIX call; pty documents the semantics)
+    master, slave = os.openpty()
+    proc = subprocess.Popen([BINARY, "run", *map(str, args)], stdout=subprocess.DEVNULL, stderr=slave)
+    os.close(slave)
+    chunks = []
+    while True:
+        try:
+            chunk = os.read(master, 4096)
+        except OSError:  # EIO: the child closed the terminal
+            break
+        if not chunk:
+            break
+        chunks.append(chunk)
+    os.close(master)
+    return proc.wait(timeout=60), b"".join(chunks).decode(errors="replace")
+
+
+def test_progress_line_only_on_a_terminal(tmp_path):
+    code, text = read_pty_run([scenario(tmp_path), "--out", tmp_path / "tty", "--no-figures"])
+    assert code == 0
+    assert "steps/s" in text and "ETA" in text and f"/{STEPS}" in text
+    quiet_code, quiet = read_pty_run([scenario(tmp_path), "--out", tmp_path / "tty-q", "--no-figures", "-q"])
+    assert quiet_code == 0 and "steps/s" not in quiet
+    piped = subprocess.run([BINARY, "run", str(scenario(tmp_path)), "--out", str(tmp_path / "pipe"), "--no-figures"],
+                           capture_output=True, text=True)
+    assert piped.returncode == 0 and "steps/s" not in piped.stderr and piped.stderr == ""
