@@ -95,12 +95,17 @@ TEST_P(MethodSymmetry, FlippingMomentaRetracesTheTrajectory) {
   s.w = -s.w;
   s = run(sc, GetParam(), 0.1, 200, s);
   s.w = -s.w;
-  EXPECT_LE(distance(s, sc.initial), 1e-12) << lgvi::app::to_string(GetParam());
+  // The position-position form reports w_k = (4/h) g(q_{k-1}^* q_k) + h M_k,
+  // recomputed from two stored quaternions: each step's rounding of the
+  // product (~eps) is amplified by (4/h)|J| ~ 120, so over 400 steps its
+  // round-off bound is 400 * 120 * eps ~ 1e-11 rather than 1e-12.
+  const double bound = GetParam() == Method::Lagrangian ? 400 * (4 / 0.1) * 3 * 2.2e-16 : 1e-12;
+  EXPECT_LE(distance(s, sc.initial), bound) << lgvi::app::to_string(GetParam());
 }
 
 INSTANTIATE_TEST_SUITE_P(SymmetricMethods, MethodSymmetry,
-                         ::testing::Values(Method::Hamiltonian, Method::So3Lgvi, Method::RattleQuaternion,
-                                           Method::NoSquish, Method::SplittingDlm),
+                         ::testing::Values(Method::Hamiltonian, Method::Lagrangian, Method::So3Lgvi,
+                                           Method::RattleQuaternion, Method::NoSquish, Method::SplittingDlm),
                          [](const auto& info) {
                            std::string n = lgvi::app::to_string(info.param);
                            for (char& c : n)
