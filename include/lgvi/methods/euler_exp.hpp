@@ -21,23 +21,23 @@
 #pragma once
 
 #include <lgvi/lgvi.hpp>
+#include <lgvi/methods/explicit_stepper.hpp>
 
 #include <vector>
 
 namespace lgvi {
 
 template <Potential P>
-class EulerExpIntegrator {
+class EulerExpIntegrator : public detail::ExplicitStepperBase<P> {
+  using Base = detail::ExplicitStepperBase<P>;
+  using Base::body_;
+  using Base::eval_;
+  using Base::h_;
+  using Base::potential_;
+
  public:
   EulerExpIntegrator(const RigidBody& body, P potential, double h, SolverOptions = {})
-      : body_(body), potential_(std::move(potential)), h_(h) {
-    detail::require_valid_step(h);
-  }
-
-  void initialize(const RigidBodyState& s) {
-    eval_ = potential_.evaluate(s.x, s.q);
-    detail::require_finite(s, eval_);
-  }
+      : Base(body, std::move(potential), h, "the Euler integrator") {}
 
   void step(RigidBodyState& s) {
     const double h = h_;
@@ -54,24 +54,6 @@ class EulerExpIntegrator {
     eval_ = potential_.evaluate(s.x, s.q);
     detail::require_finite(s, eval_);
   }
-
-  double step_size() const { return h_; }
-  const PotentialEvaluation& evaluation() const { return eval_; }
-  const SolveReport& last_solve() const { return report_; }
-  const RigidBody& body() const { return body_; }
-  /// Nothing besides the state: a resume re-evaluates the potential there.
-  std::vector<double> internal_state() const { return {}; }
-  void resume(const RigidBodyState& s, const std::vector<double>& internal) {
-    if (!internal.empty()) throw InvalidInput("checkpoint: the Euler integrator has no internal state");
-    initialize(s);
-  }
-
- private:
-  RigidBody body_;
-  P potential_;
-  double h_;
-  PotentialEvaluation eval_;
-  SolveReport report_;
 };
 
 }  // namespace lgvi

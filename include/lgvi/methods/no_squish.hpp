@@ -44,7 +44,7 @@
 #pragma once
 
 #include <lgvi/lgvi.hpp>
-#include <lgvi/methods/splitting_dlm.hpp>
+#include <lgvi/methods/explicit_stepper.hpp>
 
 #include <cmath>
 #include <vector>
@@ -52,20 +52,17 @@
 namespace lgvi {
 
 template <Potential P>
-class NoSquishIntegrator {
+class NoSquishIntegrator : public detail::ExplicitStepperBase<P> {
+  using Base = detail::ExplicitStepperBase<P>;
+  using Base::body_;
+  using Base::eval_;
+  using Base::h_;
+  using Base::potential_;
+
  public:
   NoSquishIntegrator(const RigidBody& body, P potential, double h, SolverOptions = {})
-      : body_(body),
-        potential_(std::move(potential)),
-        h_(h),
-        moments_(detail::require_principal_axes(body, "no-squish")) {
-    detail::require_valid_step(h);
-  }
-
-  void initialize(const RigidBodyState& s) {
-    eval_ = potential_.evaluate(s.x, s.q);
-    detail::require_finite(s, eval_);
-  }
+      : Base(body, std::move(potential), h, "the no-squish integrator"),
+        moments_(detail::require_principal_axes(body, "no-squish")) {}
 
   void step(RigidBodyState& s) {
     const double h = h_;
@@ -90,17 +87,6 @@ class NoSquishIntegrator {
     // (7e-11 instead of 5e-14 after 1000 steps forward and back).
     s.w = (S(q).transpose() * mom).template tail<3>() / q.squaredNorm();
     detail::require_finite(s, eval_);
-  }
-
-  double step_size() const { return h_; }
-  const PotentialEvaluation& evaluation() const { return eval_; }
-  const SolveReport& last_solve() const { return report_; }
-  const RigidBody& body() const { return body_; }
-  /// Nothing besides the state: a resume re-evaluates the potential there.
-  std::vector<double> internal_state() const { return {}; }
-  void resume(const RigidBodyState& s, const std::vector<double>& internal) {
-    if (!internal.empty()) throw InvalidInput("checkpoint: the no-squish integrator has no internal state");
-    initialize(s);
   }
 
  private:
@@ -132,12 +118,7 @@ class NoSquishIntegrator {
     mom = c * mom + s * pp;
   }
 
-  RigidBody body_;
-  P potential_;
-  double h_;
   Vector3<double> moments_;
-  PotentialEvaluation eval_;
-  SolveReport report_;
 };
 
 }  // namespace lgvi

@@ -25,23 +25,23 @@
 #pragma once
 
 #include <lgvi/lgvi.hpp>
+#include <lgvi/methods/explicit_stepper.hpp>
 
 #include <vector>
 
 namespace lgvi {
 
 template <Potential P>
-class Rk4NormalizedIntegrator {
+class Rk4NormalizedIntegrator : public detail::ExplicitStepperBase<P> {
+  using Base = detail::ExplicitStepperBase<P>;
+  using Base::body_;
+  using Base::eval_;
+  using Base::h_;
+  using Base::potential_;
+
  public:
   Rk4NormalizedIntegrator(const RigidBody& body, P potential, double h, SolverOptions = {})
-      : body_(body), potential_(std::move(potential)), h_(h) {
-    detail::require_valid_step(h);
-  }
-
-  void initialize(const RigidBodyState& s) {
-    eval_ = potential_.evaluate(s.x, s.q);
-    detail::require_finite(s, eval_);
-  }
+      : Base(body, std::move(potential), h, "the RK4 integrator") {}
 
   void step(RigidBodyState& s) {
     const double h = h_;
@@ -61,17 +61,6 @@ class Rk4NormalizedIntegrator {
     s.w = 2.0 * (y0.pi + h6 * (k1.pi + k4.pi) + h3 * (k2.pi + k3.pi));
     eval_ = potential_.evaluate(s.x, s.q);
     detail::require_finite(s, eval_);
-  }
-
-  double step_size() const { return h_; }
-  const PotentialEvaluation& evaluation() const { return eval_; }
-  const SolveReport& last_solve() const { return report_; }
-  const RigidBody& body() const { return body_; }
-  /// Nothing besides the state: a resume re-evaluates the potential there.
-  std::vector<double> internal_state() const { return {}; }
-  void resume(const RigidBodyState& s, const std::vector<double>& internal) {
-    if (!internal.empty()) throw InvalidInput("checkpoint: the RK4 integrator has no internal state");
-    initialize(s);
   }
 
  private:
@@ -96,11 +85,6 @@ class Rk4NormalizedIntegrator {
     return {y.p / body_.mass(), e.force, qdot.coeffs(), y.pi.cross(omega) + e.torque};
   }
 
-  RigidBody body_;
-  P potential_;
-  double h_;
-  PotentialEvaluation eval_;
-  SolveReport report_;
 };
 
 }  // namespace lgvi

@@ -34,6 +34,7 @@
 #pragma once
 
 #include <lgvi/lgvi.hpp>
+#include <lgvi/methods/explicit_stepper.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -43,35 +44,19 @@
 
 namespace lgvi {
 
-namespace detail {
-/// The principal moments (J_11, J_22, J_33) of a body whose frame is
-/// principal; throws InvalidInput otherwise (message names `method`).
-inline Vector3<double> require_principal_axes(const RigidBody& body, const std::string& method) {
-  const Matrix3<double>& j = body.inertia();
-  const double scale = j.diagonal().cwiseAbs().maxCoeff();
-  const double off = std::max({std::abs(j(0, 1)), std::abs(j(0, 2)), std::abs(j(1, 2)), std::abs(j(1, 0)),
-                               std::abs(j(2, 0)), std::abs(j(2, 1))});
-  if (off > 8 * std::numeric_limits<double>::epsilon() * scale)
-    throw InvalidInput(method + ": body.inertia must be diagonal in body axes (diagonalize the body first)");
-  return j.diagonal();
-}
-}  // namespace detail
 
 template <Potential P>
-class SplittingDlmIntegrator {
+class SplittingDlmIntegrator : public detail::ExplicitStepperBase<P> {
+  using Base = detail::ExplicitStepperBase<P>;
+  using Base::body_;
+  using Base::eval_;
+  using Base::h_;
+  using Base::potential_;
+
  public:
   SplittingDlmIntegrator(const RigidBody& body, P potential, double h, SolverOptions = {})
-      : body_(body),
-        potential_(std::move(potential)),
-        h_(h),
-        moments_(detail::require_principal_axes(body, "splitting-dlm")) {
-    detail::require_valid_step(h);
-  }
-
-  void initialize(const RigidBodyState& s) {
-    eval_ = potential_.evaluate(s.x, s.q);
-    detail::require_finite(s, eval_);
-  }
+      : Base(body, std::move(potential), h, "the splitting-dlm integrator"),
+        moments_(detail::require_principal_axes(body, "splitting-dlm")) {}
 
   void step(RigidBodyState& s) {
     const double h = h_;
@@ -91,17 +76,6 @@ class SplittingDlmIntegrator {
     detail::require_finite(s, eval_);
   }
 
-  double step_size() const { return h_; }
-  const PotentialEvaluation& evaluation() const { return eval_; }
-  const SolveReport& last_solve() const { return report_; }
-  const RigidBody& body() const { return body_; }
-  /// Nothing besides the state: a resume re-evaluates the potential there.
-  std::vector<double> internal_state() const { return {}; }
-  void resume(const RigidBodyState& s, const std::vector<double>& internal) {
-    if (!internal.empty()) throw InvalidInput("checkpoint: the splitting-dlm integrator has no internal state");
-    initialize(s);
-  }
-
  private:
   /// R_k(t): the exact flow of Pi_k^2/(2 J_k) for time t.
   void rotate(int k, double t, Vector3<double>& pi, S3d& q) const {
@@ -114,12 +88,7 @@ class SplittingDlmIntegrator {
     q = q * S3d::exp((0.5 * theta) * Vector3<double>::Unit(k));
   }
 
-  RigidBody body_;
-  P potential_;
-  double h_;
   Vector3<double> moments_;
-  PotentialEvaluation eval_;
-  SolveReport report_;
 };
 
 }  // namespace lgvi
