@@ -32,17 +32,13 @@ RigidBodyState reference_state(const Scenario& sc, double T, double h_ref) {
   if (sc.potential.kind == PotentialKind::None) return ExactFreeRigidBody(sc.body, sc.initial).at(T);
   const auto n = static_cast<long>(std::ceil(T / h_ref - 1e-9));
   const double h = T / static_cast<double>(n);
-  auto run = [&](const auto& potential) {
-    const ContinuousEquations eqs(sc.body, potential);
-    return from_continuous(eqs.rk4(to_continuous(sc.initial, sc.body), h, n), sc.body);
-  };
-  switch (sc.potential.kind) {
-    case PotentialKind::Central: return run(CentralGravity(sc.body, sc.potential.mu, sc.potential.stop_at_contact));
-    case PotentialKind::Uniform: return run(UniformGravity(sc.body, sc.potential.g));
-    case PotentialKind::HeavyTop: return run(HeavyTop(sc.body, sc.potential.g, sc.potential.pivot_to_com));
-    case PotentialKind::None: break;
-  }
-  return run(NoPotential{});
+  // The scenario's own potential, as the runs compared against it use.
+  return std::visit(
+      [&](const auto& potential) {
+        const ContinuousEquations eqs(sc.body, potential);
+        return from_continuous(eqs.rk4(to_continuous(sc.initial, sc.body), h, n), sc.body);
+      },
+      scenario_potential(sc));
 }
 
 /// max(|x - x'|, |R - R'|_F, |p - p'|, |w - w'|): the sign of q does not matter.
@@ -65,10 +61,6 @@ struct LongRun {
   std::vector<double> rows;  // t, energy_error, quat_norm_error, momentum_error
 };
 
-SimulationResult run_quiet(const Scenario& sc, MemorySink& sink) {
-  SimulationResult r = simulate(sc, sink);
-  return r;
-}
 
 std::string fmt_e(double v) { return std::isfinite(v) ? fmt::format("{:.3e}", v) : "-"; }
 
@@ -106,7 +98,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
       MemorySink sink(2);
       LadderPoint p;
       p.h = sc.integrator.step;
-      const SimulationResult r = run_quiet(sc, sink);
+      const SimulationResult r = simulate(sc, sink);
       p.completed = r.completed;
       p.failure = r.error;
       p.error = r.completed ? state_error(r.final_state, reference) : std::nan("");
@@ -128,7 +120,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
     sc.integrator.steps = static_cast<std::int64_t>(static_cast<double>(opt.long_steps) / cost_factor);
     sc.output_every = std::max<std::int64_t>(1, sc.integrator.steps / 2000);
     MemorySink sink(2100);
-    const SimulationResult r = run_quiet(sc, sink);
+    const SimulationResult r = simulate(sc, sink);
     LongRun& L = long_runs[m];
     L.h = sc.integrator.step;
     L.completed = r.completed;

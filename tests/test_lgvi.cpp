@@ -22,11 +22,9 @@ using V3 = lgvi::Vector3<double>;
 using M3 = lgvi::Matrix3<double>;
 constexpr double eps = 2.220446049250313e-16;
 
-template <class Stepper>
-RigidBodyState run(Stepper& stepper, RigidBodyState s, std::int64_t n) {
-  lgvi::integrate_n_steps(stepper, s, 0.0, n, [](const lgvi::StepInfo&) {});
-  return s;
-}
+using lgvi::test::distance;
+using lgvi::test::LongRun;
+using lgvi::test::run;
 
 template <template <class> class Integrator>
 RigidBodyState run_paper(double h, std::int64_t n, lgvi::SolverKind kind = lgvi::SolverKind::Newton,
@@ -36,11 +34,6 @@ RigidBodyState run_paper(double h, std::int64_t n, lgvi::SolverKind kind = lgvi:
   opt.kind = kind;
   Integrator<CentralGravity> integ(body, CentralGravity(body, 1.0), h, opt);
   return run(integ, s0, n);
-}
-
-double distance(const RigidBodyState& a, const RigidBodyState& b) {
-  return std::max({(a.x - b.x).norm(), (a.q.scalar_first() - b.q.scalar_first()).norm(), (a.p - b.p).norm(),
-                   (a.w - b.w).norm()});
 }
 
 // ---------------------------------------------------------------- convergence
@@ -105,34 +98,12 @@ TEST(ExactSolution, SpinAboutAPrincipalAxisAdvancesByArcsinPerStep) {
 
 // -------------------------------------------------- the paper's promises, 1e5 steps
 
-struct LongRun {
-  double max_relative_momentum_error = 0, max_quat_error = 0, first_tenth_energy = 0, last_tenth_energy = 0;
-  double final_t = 0;
-  double mean_iterations = 0;
-};
-
 LongRun long_run(lgvi::SolverKind kind) {
   const RigidBody body = lgvi::paper::three_ball_body();
   lgvi::SolverOptions opt;
   opt.kind = kind;
   lgvi::LieGroupVariationalIntegrator<CentralGravity> integ(body, CentralGravity(body, 1.0), 0.01, opt);
-  RigidBodyState s = lgvi::paper::orbit_initial_state();
-  const std::int64_t n = 100000;
-  double e0 = 0;
-  V3 l0;
-  LongRun r;
-  lgvi::integrate_n_steps(integ, s, 0.0, n, [&](const lgvi::StepInfo& i) {
-    const double e = lgvi::total_energy(i.state, body, i.evaluation);
-    const V3 l = lgvi::angular_momentum(i.state);
-    if (i.k == 0) e0 = e, l0 = l;
-    r.max_relative_momentum_error = std::max(r.max_relative_momentum_error, (l - l0).norm() / l0.norm());
-    r.max_quat_error = std::max(r.max_quat_error, std::abs(i.state.q.norm_error()));
-    if (i.k <= n / 10) r.first_tenth_energy = std::max(r.first_tenth_energy, std::abs(e - e0));
-    if (i.k >= n - n / 10) r.last_tenth_energy = std::max(r.last_tenth_energy, std::abs(e - e0));
-    r.final_t = i.t;
-    r.mean_iterations += static_cast<double>(i.solve.iterations) / static_cast<double>(n);
-  });
-  return r;
+  return lgvi::test::paper_orbit_long_run(integ, 100000, [](const lgvi::StepInfo&) {});
 }
 
 class PaperOrbit : public ::testing::TestWithParam<lgvi::SolverKind> {};

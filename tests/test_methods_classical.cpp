@@ -38,16 +38,8 @@ static_assert(lgvi::Stepper<lgvi::SplittingDlmIntegrator<CentralGravity>>);
 static_assert(lgvi::Stepper<lgvi::Rk4NormalizedIntegrator<NoPotential>>);
 static_assert(lgvi::Stepper<lgvi::SplittingDlmIntegrator<lgvi::CallablePotential>>);
 
-template <class Stepper>
-RigidBodyState run(Stepper& stepper, RigidBodyState s, std::int64_t n) {
-  lgvi::integrate_n_steps(stepper, s, 0.0, n, [](const lgvi::StepInfo&) {});
-  return s;
-}
-
-double distance(const RigidBodyState& a, const RigidBodyState& b) {
-  return std::max({(a.x - b.x).norm(), (a.q.scalar_first() - b.q.scalar_first()).norm(), (a.p - b.p).norm(),
-                   (a.w - b.w).norm()});
-}
+using lgvi::test::distance;
+using lgvi::test::run;
 
 // The two test problems: the paper's orbit and a free asymmetric top.
 RigidBody free_body() { return RigidBody(1.0, M3(V3(1.0, 2.0, 3.0).asDiagonal())); }

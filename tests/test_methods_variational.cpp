@@ -34,11 +34,9 @@ static_assert(lgvi::Stepper<lgvi::So3LieGroupVariationalIntegrator<lgvi::NoPoten
 static_assert(lgvi::Stepper<lgvi::RattleQuaternionIntegrator<CentralGravity>>);
 static_assert(lgvi::Stepper<lgvi::RattleQuaternionIntegrator<lgvi::NoPotential>>);
 
-template <class Stepper>
-RigidBodyState run(Stepper& stepper, RigidBodyState s, std::int64_t n) {
-  lgvi::integrate_n_steps(stepper, s, 0.0, n, [](const lgvi::StepInfo&) {});
-  return s;
-}
+using lgvi::test::distance;
+using lgvi::test::LongRun;
+using lgvi::test::run;
 
 template <template <class> class Integrator>
 RigidBodyState run_paper(double h, std::int64_t n, RigidBodyState s0 = lgvi::paper::orbit_initial_state()) {
@@ -51,11 +49,6 @@ template <template <class> class Integrator>
 RigidBodyState run_free(const RigidBody& body, double h, std::int64_t n, const RigidBodyState& s0) {
   Integrator<lgvi::NoPotential> integ(body, {}, h);
   return run(integ, s0, n);
-}
-
-double distance(const RigidBodyState& a, const RigidBodyState& b) {
-  return std::max({(a.x - b.x).norm(), (a.q.scalar_first() - b.q.scalar_first()).norm(), (a.p - b.p).norm(),
-                   (a.w - b.w).norm()});
 }
 
 /// As distance, with the attitudes compared as rotations pi(q).
@@ -119,30 +112,9 @@ void expect_second_order(const char* name) {
 
 // ------------------------------------------------------------ long runs
 
-struct LongRun {
-  double max_relative_momentum_error = 0, first_tenth_energy = 0, last_tenth_energy = 0, max_quat_error = 0;
-  double mean_iterations = 0;
-};
-
 template <class Integ, class Extra>
 LongRun long_run(Integ& integ, std::int64_t n, Extra&& extra) {
-  const RigidBody body = lgvi::paper::three_ball_body();
-  RigidBodyState s = lgvi::paper::orbit_initial_state();
-  double e0 = 0;
-  V3 l0;
-  LongRun r;
-  lgvi::integrate_n_steps(integ, s, 0.0, n, [&](const lgvi::StepInfo& i) {
-    const double e = lgvi::total_energy(i.state, body, i.evaluation);
-    const V3 l = lgvi::angular_momentum(i.state);
-    if (i.k == 0) e0 = e, l0 = l;
-    r.max_relative_momentum_error = std::max(r.max_relative_momentum_error, (l - l0).norm() / l0.norm());
-    r.max_quat_error = std::max(r.max_quat_error, std::abs(i.state.q.norm_error()));
-    if (i.k <= n / 10) r.first_tenth_energy = std::max(r.first_tenth_energy, std::abs(e - e0));
-    if (i.k >= n - n / 10) r.last_tenth_energy = std::max(r.last_tenth_energy, std::abs(e - e0));
-    r.mean_iterations += static_cast<double>(i.solve.iterations) / static_cast<double>(n);
-    extra(i);
-  });
-  return r;
+  return lgvi::test::paper_orbit_long_run(integ, n, extra);
 }
 
 template <template <class> class Integrator>

@@ -3,10 +3,15 @@
 // comparisons that print both values on failure (as in manif's tests).
 #pragma once
 
+#include <lgvi/integrate.hpp>
+#include <lgvi/paper.hpp>
 #include <lgvi/s3.hpp>
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <random>
@@ -61,6 +66,52 @@ template <class A, class B>
      << a << "\n  " << eb << " =\n"
      << b;
   return ::testing::AssertionFailure() << os.str();
+}
+
+/// Advances `stepper` n steps from s (initializing it there) and returns the state.
+template <class Stepper>
+RigidBodyState run(Stepper& stepper, RigidBodyState s, std::int64_t n) {
+  integrate_n_steps(stepper, s, 0.0, n, [](const StepInfo&) {});
+  return s;
+}
+
+/// max(|x - x'|, |q - q'|, |p - p'|, |w - w'|), q compared as 4-vectors (its sign counts).
+inline double distance(const RigidBodyState& a, const RigidBodyState& b) {
+  return std::max({(a.x - b.x).norm(), (a.q.scalar_first() - b.q.scalar_first()).norm(), (a.p - b.p).norm(),
+                   (a.w - b.w).norm()});
+}
+
+/// The paper's promises over a long run on the paper's orbit: maxima of the
+/// relative angular momentum error and of ||q| - 1|, the energy error's
+/// maxima over the first and the last tenth, the mean solver iterations.
+struct LongRun {
+  double max_relative_momentum_error = 0, max_quat_error = 0, first_tenth_energy = 0, last_tenth_energy = 0;
+  double final_t = 0;
+  double mean_iterations = 0;
+};
+
+/// Runs `integ` (built on the paper's body) n steps from the paper-orbit
+/// state, calling extra(StepInfo) at every step too.
+template <class Integ, class Extra>
+LongRun paper_orbit_long_run(Integ& integ, std::int64_t n, Extra&& extra) {
+  const RigidBody body = paper::three_ball_body();
+  RigidBodyState s = paper::orbit_initial_state();
+  double e0 = 0;
+  Vector3<double> l0 = Vector3<double>::Zero();
+  LongRun r;
+  integrate_n_steps(integ, s, 0.0, n, [&](const StepInfo& i) {
+    const double e = total_energy(i.state, body, i.evaluation);
+    const Vector3<double> l = angular_momentum(i.state);
+    if (i.k == 0) e0 = e, l0 = l;
+    r.max_relative_momentum_error = std::max(r.max_relative_momentum_error, (l - l0).norm() / l0.norm());
+    r.max_quat_error = std::max(r.max_quat_error, std::abs(i.state.q.norm_error()));
+    if (i.k <= n / 10) r.first_tenth_energy = std::max(r.first_tenth_energy, std::abs(e - e0));
+    if (i.k >= n - n / 10) r.last_tenth_energy = std::max(r.last_tenth_energy, std::abs(e - e0));
+    r.final_t = i.t;
+    r.mean_iterations += static_cast<double>(i.solve.iterations) / static_cast<double>(n);
+    extra(i);
+  });
+  return r;
 }
 
 }  // namespace lgvi::test
