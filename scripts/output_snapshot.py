@@ -1,0 +1,107 @@
+#!/usr/bin/python3
+"""Writes the outputs of every bundled scenario under every method, solver and
+trajectory format to a folder, in a form that can be compared byte for byte
+between two builds (a refactor must leave them unchanged):
+
+    scripts/output_snapshot.py BUILD_BEFORE/lgvi /tmp/before
+    scripts/output_snapshot.py build/lgvi /tmp/after
+    diff -r /tmp/before /tmp/after
+
+Each run is shortened to 2000 steps (every 10th row written). What varies from
+run to run by nature -- the wall-clock fields of the summary -- is blanked;
+npz and HDF5 files are unpacked into their arrays' raw bytes and their text
+attributes (with the summary blanked likewise), so the comparison is exact
+everywhere else.
+"""
+import io
+import json
+import pathlib
+import re
+import subprocess
+import sys
+import zipfile
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+METHODS = ["lgvi", "lgvi-lagrangian", "so3-lgvi", "rattle-quaternion", "rk4-normalized", "euler-exp",
+           "no-squish", "splitting-dlm", "exact"]
+WALL = re.compile(r'"(wall_seconds|ns_per_step)": [^,\n}]*')
+
+
+def blank_wall(text):
+    return WALL.sub(lambda m: f'"{m.group(1)}": "(blanked)"', text)
+
+
+def variants(path):
+    text = path.read_text()
+    free = 'kind = "none"' in text
+    for method in METHODS:
+        if method == "exact" and not free:
+            continue
+        solvers = ["newton", "newton-exp", "broyden"] if method == "lgvi" else [None]
+        for solver in solvers:
+            for fmt in ("csv", "npz", "hdf5"):
+                if fmt != "csv" and (solver not in (None, "newton") or method not in ("lgvi", "rk4-normalized")):
+                    continue
+                yield method, solver, fmt
+
+
+def scenario_text(text, method, solver, fmt):
+    step = float(re.search(r"^step = ([0-9.eE+-]+)", text, re.M).group(1))
+    text = re.sub(r'^method = "[^"]*"', f'method = "{method}"', text, flags=re.M)
+    text = re.sub(r"^duration = [0-9.eE+-]+", f"duration = {2000 * step!r}", text, flags=re.M)
+    text = re.sub(r'^solver = "[^"]*"\n', "", text, flags=re.M)
+    if solver:
+        text = text.replace("[integrator]\n", f'[integrator]\nsolver = "{solver}"\n', 1)
+    text = re.sub(r"^every = \d+", "every = 10", text, flags=re.M)
+    text = text.replace("[output]\n", f'[output]\nformat = "{fmt}"\n', 1)
+    return text
+
+
+def unpack(run, dest):
+    for f in sorted(run.iterdir()):
+        if f.name == "summary.json":
+            (dest / f.name).write_text(blank_wall(f.read_text()))
+        elif f.suffix == ".npz":
+            with zipfile.ZipFile(f) as z:
+                for name in z.namelist():
+                    data = z.read(name)
+                    if name == "summary.npy":  # a numpy string: compare its text
+                        import numpy
+                        data = blank_wall(str(numpy.load(io.BytesIO(data)))).encode()
+                    (dest / f"{f.name}.{name}").write_bytes(data)
+        elif f.suffix == ".h5":
+            import h5py
+            with h5py.File(f, "r") as h:
+                (dest / f"{f.name}.trajectory.bin").write_bytes(h["trajectory"][()].tobytes())
+                attrs = {k: blank_wall(str(v)) for k, v in h["trajectory"].attrs.items()}
+                attrs.update({"/" + k: blank_wall(str(v)) for k, v in h.attrs.items()})
+                (dest / f"{f.name}.attrs.txt").write_text(json.dumps(attrs, indent=1, sort_keys=True))
+        elif f.suffix in (".csv", ".toml"):
+            (dest / f.name).write_bytes(f.read_bytes())
+
+
+def main():
+    binary, out = pathlib.Path(sys.argv[1]).resolve(), pathlib.Path(sys.argv[2])
+    out.mkdir(parents=True, exist_ok=True)
+    sources = sorted((ROOT / "scenarios").glob("*.toml")) + sorted((ROOT / "tests/cli/good").glob("*.toml"))
+    work = out / "_work"
+    work.mkdir(exist_ok=True)
+    for path in sources:
+        for method, solver, fmt in variants(path):
+            name = f"{path.stem}__{method}{'__' + solver if solver else ''}__{fmt}"
+            scen = work / f"{name}.toml"
+            scen.write_text(scenario_text(path.read_text(), method, solver, fmt))
+            run = work / name
+            proc = subprocess.run([str(binary), "run", str(scen), "--out", str(run), "--no-figures", "-q"],
+                                  capture_output=True, text=True)
+            dest = out / name
+            dest.mkdir(exist_ok=True)
+            (dest / "exit.txt").write_text(f"{proc.returncode}\n" + proc.stderr.replace(str(run), "RUN"))
+            if run.exists():
+                unpack(run, dest)
+    import shutil
+    shutil.rmtree(work)
+
+
+if __name__ == "__main__":
+    main()
