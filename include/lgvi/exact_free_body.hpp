@@ -401,4 +401,70 @@ class ExactFreeBodyStepper {
   SolveReport report_;
 };
 
+/// The exact flow on the system stepper contract (method = "exact" in a
+/// run): one free body only. Step k gives at(k h) from the initial state, so
+/// the step size must stay the same from call to call; t is not used.
+template <SystemPotential I>
+class ExactFreeBodySystemStepper {
+ public:
+  /// `potential` must be the free body's (the caller checks: the exact flow
+  /// knows no forces); more than one body is rejected.
+  ExactFreeBodySystemStepper(System system, I potential, SolverOptions = {}, Parallelism = {})
+      : system_(std::move(system)), potential_(std::move(potential)), eval_(1) {
+    if (system_.size() != 1)
+      throw InvalidInput("integrator.method: \"exact\" is the exact flow of one free body; this scenario has " +
+                         std::to_string(system_.size()) + " bodies");
+  }
+
+  void initialize(const SystemState& s, double /*t*/) {
+    stepper_.reset();
+    pending_resume_ = false;
+    state0_ = s.body(0);
+    potential_.evaluate(s, eval_);
+  }
+
+  void step(SystemState& s, double /*t*/, double h) {
+    if (!stepper_) {
+      // The step size is known only now: build the sampled flow (or resume it).
+      stepper_.emplace(system_.body(0), NoPotential{}, h);
+      if (pending_resume_) {
+        stepper_->resume(resume_state_, resume_data_);
+        pending_resume_ = false;
+      } else {
+        stepper_->initialize(state0_);
+      }
+    }
+    if (h != stepper_->step_size())
+      throw InvalidInput("integrator.step: the exact flow is sampled at multiples of one step size; got " +
+                         std::to_string(h) + " after " + std::to_string(stepper_->step_size()));
+    RigidBodyState b = s.body(0);
+    stepper_->step(b);
+    s.set_body(0, b);
+  }
+
+  const System& system() const { return system_; }
+  const SystemEvaluation& evaluation() const { return eval_; }
+  const SolveReport& last_solve() const { return report_; }
+  std::vector<double> internal_state() const { return stepper_ ? stepper_->internal_state() : std::vector<double>{}; }
+  /// Resumes bit-identically from the saved step count and initial state.
+  void resume(const SystemState& s, double t, const std::vector<double>& internal) {
+    initialize(s, t);
+    if (internal.empty()) return;
+    resume_data_ = internal;
+    stepper_.reset();
+    pending_resume_ = true;
+    resume_state_ = s.body(0);
+  }
+
+ private:
+  System system_;
+  I potential_;
+  SystemEvaluation eval_;
+  SolveReport report_;
+  RigidBodyState state0_, resume_state_;
+  std::optional<ExactFreeBodyStepper<NoPotential>> stepper_;
+  std::vector<double> resume_data_;
+  bool pending_resume_ = false;
+};
+
 }  // namespace lgvi

@@ -5,14 +5,18 @@
 
 #include <lgvi/error.hpp>
 #include <lgvi/lgvi.hpp>
+#include <lgvi/single_body.hpp>
 #include <lgvi/state.hpp>
+#include <lgvi/stepper.hpp>
+#include <lgvi/system.hpp>
 
 #include <concepts>
 #include <cstdint>
+#include <utility>
 
 namespace lgvi {
 
-/// What the observer sees at each step k = 0..n.
+/// What the observer of a single-body run sees at each step k = 0..n.
 struct StepInfo {
   std::int64_t k;
   double t;
@@ -21,8 +25,14 @@ struct StepInfo {
   const SolveReport& solve;               ///< the solve that produced `state` (empty at k = 0)
 };
 
-template <class O>
-concept Observer = std::invocable<O&, const StepInfo&>;
+/// What the observer of a system's run sees at each step k = 0..n.
+struct SystemStepInfo {
+  std::int64_t k;
+  double t;
+  const SystemState& state;
+  const SystemEvaluation& evaluation;  ///< V and every body's F, M at `state`
+  const SolveReport& solve;            ///< the solves that produced `state` (empty at k = 0)
+};
 
 /// A stop request checked before each step (a signal flag, a time limit).
 template <class F>
@@ -33,43 +43,83 @@ struct NeverStop {
   constexpr bool operator()() const { return false; }
 };
 
+namespace detail {
+// The two faces of a stepper seen by the one loop below: a system stepper
+// receives (state, t, h) and has no step size of its own; a single-body
+// stepper has a fixed step size and advances by step(state).
+template <SystemStepper S>
+void advance(S& s, SystemState& state, double t, double h) {
+  s.step(state, t, h);
+}
+template <Stepper S>
+void advance(S& s, RigidBodyState& state, double, double) {
+  s.step(state);
+}
+template <SystemStepper S>
+void start(S& s, SystemState& state, double t) {
+  s.initialize(state, t);
+}
+template <Stepper S>
+void start(S& s, RigidBodyState& state, double) {
+  s.initialize(state);
+}
+template <class State>
+using StepInfoOf = std::conditional_t<std::is_same_v<State, SystemState>, SystemStepInfo, StepInfo>;
+}  // namespace detail
+
 /// Advances an initialized `stepper` from step k_begin (state at
 /// t0 + k_begin h) to k_end, calling `observer` after every step. Returns the
 /// index reached: k_end, or an earlier one if `stop()` asked for it. A failed
 /// step is rethrown as IntegrationFailure naming the step and time; `state`
 /// then holds the last good state, which the observer has seen.
-template <Stepper S, Observer O, StopPredicate Stop = NeverStop>
-std::int64_t integrate_range(S& stepper, RigidBodyState& state, double t0, std::int64_t k_begin, std::int64_t k_end,
-                             O&& observer, Stop&& stop = {}) {
-  const double h = stepper.step_size();
+template <class S, class State, class O, StopPredicate Stop = NeverStop>
+std::int64_t integrate_range(S& stepper, State& state, double t0, double h, std::int64_t k_begin,
+                             std::int64_t k_end, O&& observer, Stop&& stop = {}) {
+  State next = state;  // assigned, not constructed, in the loop: no allocation per step
   for (std::int64_t k = k_begin; k < k_end; ++k) {
     if (stop()) return k;
-    RigidBodyState next = state;
+    next = state;
+    const double t = t0 + static_cast<double>(k) * h;
     try {
-      stepper.step(next);
+      detail::advance(stepper, next, t, h);
     } catch (const StepFailure& f) {
-      throw IntegrationFailure(k, t0 + static_cast<double>(k) * h, f);
+      throw IntegrationFailure(k, t, f);
     }
-    state = next;
-    observer(StepInfo{k + 1, t0 + static_cast<double>(k + 1) * h, state, stepper.evaluation(), stepper.last_solve()});
+    std::swap(state, next);
+    observer(detail::StepInfoOf<State>{k + 1, t0 + static_cast<double>(k + 1) * h, state, stepper.evaluation(),
+                                       stepper.last_solve()});
   }
   return k_end;
 }
 
-/// Runs n steps of `stepper` from `state` (updated in place): initializes the
+/// The same for a single-body stepper with its own step size.
+template <Stepper S, class O, StopPredicate Stop = NeverStop>
+std::int64_t integrate_range(S& stepper, RigidBodyState& state, double t0, std::int64_t k_begin, std::int64_t k_end,
+                             O&& observer, Stop&& stop = {}) {
+  return integrate_range(stepper, state, t0, stepper.step_size(), k_begin, k_end, observer, stop);
+}
+
+/// Runs n steps of size h from `state` (updated in place): initializes the
 /// stepper there, calls `observer` at k = 0 and after every step. Failures as
 /// in integrate_range.
-template <Stepper S, Observer O, StopPredicate Stop = NeverStop>
-std::int64_t integrate_n_steps(S& stepper, RigidBodyState& state, double t0, std::int64_t n, O&& observer,
+template <class S, class State, class O, StopPredicate Stop = NeverStop>
+std::int64_t integrate_n_steps(S& stepper, State& state, double t0, double h, std::int64_t n, O&& observer,
                                Stop&& stop = {}) {
   try {
-    stepper.initialize(state);
+    detail::start(stepper, state, t0);
   } catch (const StepFailure& f) {
     throw IntegrationFailure(0, t0, f);
   }
   const SolveReport none{};
-  observer(StepInfo{0, t0, state, stepper.evaluation(), none});
-  return integrate_range(stepper, state, t0, 0, n, observer, stop);
+  observer(detail::StepInfoOf<State>{0, t0, state, stepper.evaluation(), none});
+  return integrate_range(stepper, state, t0, h, 0, n, observer, stop);
+}
+
+/// The same for a single-body stepper with its own step size.
+template <Stepper S, class O, StopPredicate Stop = NeverStop>
+std::int64_t integrate_n_steps(S& stepper, RigidBodyState& state, double t0, std::int64_t n, O&& observer,
+                               Stop&& stop = {}) {
+  return integrate_n_steps(stepper, state, t0, stepper.step_size(), n, observer, stop);
 }
 
 }  // namespace lgvi

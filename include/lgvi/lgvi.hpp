@@ -1,5 +1,14 @@
 // The quaternion Lie group variational integrator of Shen & Leok, in its
-// Hamiltonian form (the default) and its Lagrangian (position-position) form.
+// Hamiltonian form (the default) and its Lagrangian (position-position) form,
+// for a system of N bodies (system.hpp). Each body takes the paper's step with
+// the force and torque of the whole system's potential; the N rotation solves
+// are independent and run on the stepper's threads, and the potential is
+// evaluated once per step at the new configuration of all bodies:
+//   per body a: x_a1 = x_a0 + (h/m_a)(p_a0 + (h/2) F_a0); solve g_a(f_a) = (h/4)(w_a0 + h M_a0);
+//               q_a1 = q_a0 f_a;
+//   one evaluation of the system at (x_1, q_1);
+//   per body a: p_a1 = p_a0 + (h/2)(F_a0 + F_a1); w_a1 = pi(f_a)^T (w_a0 + h M_a0) + h M_a1.
+// A single body is N = 1 (single_body.hpp gives it the RigidBodyState API).
 //
 // Discrete Lagrangian (paper eq. "discrtelag", from Wendlandt & Marsden):
 //   L_d = h( m|x1 - x0|^2/(2h^2) + (2/h^2) Im(q0^* q1)^T J Im(q0^* q1) - (V0 + V1)/2 ).
@@ -21,111 +30,161 @@
 #pragma once
 
 #include <lgvi/error.hpp>
+#include <lgvi/interaction.hpp>
 #include <lgvi/potential.hpp>
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/rotation_solver.hpp>
 #include <lgvi/s3.hpp>
+#include <lgvi/single_body.hpp>
 #include <lgvi/state.hpp>
+#include <lgvi/stepper.hpp>
+#include <lgvi/system.hpp>
 
 #include <cmath>
-#include <concepts>
 #include <string>
 #include <vector>
 
 namespace lgvi {
 
-/// The contract of a one-step method: initialize at a state (evaluating the
-/// potential there), then advance by step() in place. evaluation() is the
-/// potential at the current state, for diagnostics, with no extra cost.
-template <class S>
-concept Stepper = requires(S& s, const S& cs, RigidBodyState& state) {
-  { s.initialize(state) };
-  { s.step(state) };
-  { cs.step_size() } -> std::convertible_to<double>;
-  { cs.evaluation() } -> std::convertible_to<PotentialEvaluation>;
-  { cs.last_solve() } -> std::convertible_to<SolveReport>;
+namespace detail {
+
+/// What the implicit steppers (this file, methods/so3_lgvi.hpp,
+/// methods/rattle_quaternion.hpp) share: per body a predictor of the next
+/// relative rotation and a solve report; the translational half-steps of the
+/// paper's scheme, which are the same in all of them,
+///   p_half = p0 + (h/2) F0,  x1 = x0 + (h/m) p_half,  ...,  p1 = p_half + (h/2) F1;
+/// and the predictors' history as the checkpoint's internal state.
+template <SystemPotential I, class Predictor>
+class ImplicitStepperBase : public StepperBase<I> {
+ public:
+  /// Per body, the predictor's history (Predictor::serialized_size numbers)
+  /// after `extra` numbers of the method's own (see serialize_extra).
+  std::vector<double> internal_state() const {
+    std::vector<double> v;
+    for (std::size_t a = 0; a < this->system_.size(); ++a) {
+      serialize_extra(a, v);
+      const std::vector<double> p = predictors_[a].serialize();
+      v.insert(v.end(), p.begin(), p.end());
+    }
+    return v;
+  }
+
+ protected:
+  ImplicitStepperBase(System system, I potential, SolverOptions solver, Parallelism par)
+      : StepperBase<I>(std::move(system), std::move(potential), par),
+        opt_(solver),
+        predictors_(this->system_.size(), Predictor(solver.predictor_order)),
+        reports_(this->system_.size()),
+        p_half_(this->system_.size()) {}
+
+  virtual ~ImplicitStepperBase() = default;
+  ImplicitStepperBase(const ImplicitStepperBase&) = default;
+  ImplicitStepperBase(ImplicitStepperBase&&) noexcept = default;
+  ImplicitStepperBase& operator=(const ImplicitStepperBase&) = default;
+  ImplicitStepperBase& operator=(ImplicitStepperBase&&) noexcept = default;
+
+  /// A method's own numbers per body before the predictor (none by default).
+  virtual void serialize_extra(std::size_t, std::vector<double>&) const {}
+  virtual std::size_t extra_size() const { return 0; }
+  virtual void deserialize_extra(std::size_t, const double*) {}
+
+  /// Restores the state written by internal_state(), after initialize().
+  void restore(const std::vector<double>& internal, const char* what) {
+    const std::size_t per_body = extra_size() + Predictor::serialized_size;
+    if (internal.size() != per_body * this->system_.size())
+      throw InvalidInput(std::string("checkpoint: ") + what + " data has the wrong size");
+    for (std::size_t a = 0; a < this->system_.size(); ++a) {
+      const double* d = internal.data() + a * per_body;
+      deserialize_extra(a, d);
+      predictors_[a].deserialize(std::vector<double>(d + extra_size(), d + per_body));
+    }
+  }
+
+  /// p_half = p0 + (h/2) F0 and x1 = x0 + (h/m) p_half for body a.
+  void drift(SystemState& s, std::size_t a, double h) {
+    p_half_[a] = s.p[a] + (0.5 * h) * this->eval_.force[a];
+    s.x[a] += (h / this->system_.body(a).mass()) * p_half_[a];
+  }
+  /// p1 = p_half + (h/2) F1 for body a (after the evaluation at the new state).
+  void kick(SystemState& s, std::size_t a, double h) { s.p[a] = p_half_[a] + (0.5 * h) * this->eval_.force[a]; }
+
+  /// Combines the bodies' reports and checks the new state.
+  void finish_step(const SystemState& s) {
+    this->report_ = combine(reports_);
+    require_finite(this->system_, s, this->eval_);
+  }
+
+  SolverOptions opt_;
+  std::vector<Predictor> predictors_;
+  std::vector<SolveReport> reports_;
+  std::vector<Vector3<double>> p_half_;
 };
 
-namespace detail {
-inline void require_finite(const RigidBodyState& s, const PotentialEvaluation& e) {
-  // One test on a sum: a NaN or infinity anywhere makes it non-finite
-  // (inf - inf is NaN), so the common case costs one branch.
-  const double sum = s.x.sum() + s.q.quaternion().coeffs().sum() + s.p.sum() + s.w.sum() + e.energy + e.force.sum() +
-                     e.torque.sum();
-  if (std::isfinite(sum)) return;
-  if (!s.all_finite()) throw StepFailure("the state became non-finite", "try a smaller step");
-  if (!e.all_finite())
-    throw StepFailure("the potential returned a non-finite energy, force or torque (a ball at the field's centre?)",
-                      "check the initial state; a smaller step resolves close encounters better");
-}
-inline void require_valid_step(double h) {
-  if (!(std::isfinite(h) && h > 0.0))
-    throw InvalidInput("integrator.step: must be a finite number > 0, got " + std::to_string(h));
-}
 }  // namespace detail
 
-/// The Hamiltonian-side quaternion LGVI on (x, q, p, w).
-template <Potential P>
-class LieGroupVariationalIntegrator {
+/// The Hamiltonian-side quaternion LGVI on (x, q, p, w): for a system
+/// potential I (N bodies), or for a single-body potential (one body, below).
+template <class P>
+class LieGroupVariationalIntegrator;
+
+template <SystemPotential I>
+class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, RotationPredictor> {
+  using Base = detail::ImplicitStepperBase<I, RotationPredictor>;
+
  public:
-  LieGroupVariationalIntegrator(const RigidBody& body, P potential, double h, SolverOptions solver = {})
-      : body_(body),
-        potential_(std::move(potential)),
-        h_(h),
-        solver_(body.inertia(), solver),
-        predictor_(solver.predictor_order) {
-    detail::require_valid_step(h);
+  LieGroupVariationalIntegrator(System system, I potential, SolverOptions solver = {}, Parallelism par = {})
+      : Base(std::move(system), std::move(potential), solver, par), w_half_(this->system_.size()), f_(this->system_.size()) {
+    for (const RigidBody& b : this->system_.bodies()) solvers_.emplace_back(b.inertia(), solver);
   }
 
-  /// Evaluates the potential at s and seeds the solver's initial guess with
+  /// Evaluates the potential at s; the first step's initial guess is then
   /// the first-order estimate xi0 ~ J^{-1} b.
-  void initialize(const RigidBodyState& s) {
-    eval_ = potential_.evaluate(s.x, s.q);
-    detail::require_finite(s, eval_);
-    // b = (h/4)(w0 + h M0), the right side of g(xi0) = b; xi0 ~ J^{-1} b.
-    predictor_.reset(S3d::exp(body_.inertia_inverse() * ((0.25 * h_) * (s.w + h_ * eval_.torque))));
+  void initialize(const SystemState& s, double t) {
+    Base::initialize(s, t);
+    for (RotationPredictor& p : this->predictors_) p = RotationPredictor(this->opt_.predictor_order);
   }
 
-  /// One step of the paper's system "eqhamilton" (forms above). The solver
-  /// starts from the RotationPredictor's extrapolation of the last steps' f.
-  void step(RigidBodyState& s) {
-    const double h = h_;
-    const Vector3<double> p_half = s.p + (0.5 * h) * eval_.force;
-    const Vector3<double> w_half = s.w + h * eval_.torque;  // w0 + h M0 = (4/h) g(f)
-    S3d f = predictor_.predict();
-    solver_.solve((0.25 * h) * w_half, f, report_);
-    predictor_.push(f);
-    s.x += (h / body_.mass()) * p_half;
-    s.q = s.q * f;
-    const PotentialEvaluation e1 = potential_.evaluate(s.x, s.q);
-    s.p = p_half + (0.5 * h) * e1.force;
-    s.w = f.inverse().act(w_half) + h * e1.torque;
-    eval_ = e1;
-    detail::require_finite(s, eval_);
+  /// One step of the paper's system "eqhamilton" (forms above). Each solve
+  /// starts from its RotationPredictor's extrapolation of the last steps' f.
+  void step(SystemState& s, double /*t*/, double h) {
+    const System& sys = this->system_;
+    detail::for_each_body(sys, this->par_, [&](std::size_t a) {
+      // b = (h/4)(w0 + h M0), the right side of g(xi0) = b.
+      w_half_[a] = s.w[a] + h * this->eval_.torque[a];
+      RotationPredictor& predictor = this->predictors_[a];
+      if (predictor.empty()) predictor.reset(S3d::exp(sys.body(a).inertia_inverse() * ((0.25 * h) * w_half_[a])));
+      S3d f = predictor.predict();
+      solvers_[a].solve((0.25 * h) * w_half_[a], f, this->reports_[a]);
+      predictor.push(f);
+      this->drift(s, a, h);
+      s.q[a] = s.q[a] * f;
+      f_[a] = f;
+    });
+    this->evaluate_at(s);
+    detail::for_each_body(sys, this->par_, [&](std::size_t a) {
+      this->kick(s, a, h);
+      s.w[a] = f_[a].inverse().act(w_half_[a]) + h * this->eval_.torque[a];
+    });
+    this->finish_step(s);
   }
 
-  double step_size() const { return h_; }
-  const PotentialEvaluation& evaluation() const { return eval_; }
-  const SolveReport& last_solve() const { return report_; }
-  const RigidBody& body() const { return body_; }
-  const P& potential() const { return potential_; }
-  /// What a checkpoint must keep besides the state for a bit-identical
-  /// resume: the predictor's history of the last steps' f.
-  std::vector<double> internal_state() const { return predictor_.serialize(); }
   /// Resumes at `s` (evaluating the potential there) with saved internals.
-  void resume(const RigidBodyState& s, const std::vector<double>& internal) {
-    initialize(s);
-    predictor_.deserialize(internal);
+  void resume(const SystemState& s, double t, const std::vector<double>& internal) {
+    initialize(s, t);
+    this->restore(internal, "the predictor");
   }
 
  private:
-  RigidBody body_;
-  P potential_;
-  double h_;
-  RotationSolver solver_;
-  PotentialEvaluation eval_;
-  RotationPredictor predictor_;
-  SolveReport report_;
+  std::vector<RotationSolver> solvers_;
+  std::vector<Vector3<double>> w_half_;
+  std::vector<S3d> f_;
+};
+
+template <Potential P>
+  requires(!SystemPotential<P>)
+class LieGroupVariationalIntegrator<P> : public SingleBodyStepper<LieGroupVariationalIntegrator, P> {
+ public:
+  using SingleBodyStepper<LieGroupVariationalIntegrator, P>::SingleBodyStepper;
 };
 
 /// The Lagrangian-side (position-position) form: the paper's discrete
@@ -139,92 +198,137 @@ class LieGroupVariationalIntegrator {
 /// momenta reported along the way are p_k = D2 L_d(k-1, k):
 ///   p_k = m (x_k - x_{k-1})/h + (h/2) F_k,  w_k = (4/h)(f_s J f_v - f_v x J f_v) + h M_k.
 /// (That p_k pays the cancellation in x_k - x_{k-1}, inherent to this form.)
-template <Potential P>
-class LagrangianLieGroupVariationalIntegrator {
+/// A two-step method: the step size must stay the same from call to call.
+template <class P>
+class LagrangianLieGroupVariationalIntegrator;
+
+template <SystemPotential I>
+class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, RotationPredictor> {
+  using Base = detail::ImplicitStepperBase<I, RotationPredictor>;
+
  public:
-  LagrangianLieGroupVariationalIntegrator(const RigidBody& body, P potential, double h, SolverOptions solver = {})
-      : body_(body),
-        potential_(std::move(potential)),
-        h_(h),
-        solver_(body.inertia(), solver),
-        predictor_(solver.predictor_order) {
-    detail::require_valid_step(h);
+  LagrangianLieGroupVariationalIntegrator(System system, I potential, SolverOptions solver = {},
+                                          Parallelism par = {})
+      : Base(std::move(system), std::move(potential), solver, par) {
+    const std::size_t n = this->system_.size();
+    for (const RigidBody& b : this->system_.bodies()) solvers_.emplace_back(b.inertia(), solver);
+    x_prev_.resize(n);
+    x_next_.resize(n);
+    q_prev_.resize(n);
+    q_next_.resize(n);
+    next_ = SystemState(n);
   }
 
-  void initialize(const RigidBodyState& s) {
-    eval_ = potential_.evaluate(s.x, s.q);
-    detail::require_finite(s, eval_);
-    x_prev_ = s.x;
-    q_prev_ = s.q;
-    // Configuration 1 from the Legendre transform p0 = -D1 L_d(0, 1).
-    const Vector3<double> b = (0.25 * h_) * (s.w + h_ * eval_.torque);
-    S3d f = S3d::exp(body_.inertia_inverse() * b);
-    solver_.solve(b, f, report_);
-    predictor_.reset(f);
-    x_next_ = s.x + (h_ / body_.mass()) * (s.p + (0.5 * h_) * eval_.force);
-    q_next_ = s.q * f;
+  /// Evaluates the potential at s; configuration 1 is computed at the first
+  /// step, from the Legendre transform p0 = -D1 L_d(0, 1) with that step's h.
+  void initialize(const SystemState& s, double t) {
+    Base::initialize(s, t);
+    phase_ = Phase::Fresh;
   }
 
   /// Advances from configuration k to k + 1 (computed one step ahead), reports
   /// p_{k+1}, w_{k+1}, and solves the DEL for configuration k + 2.
-  void step(RigidBodyState& s) {
-    const double h = h_;
-    const PotentialEvaluation e1 = potential_.evaluate(x_next_, q_next_);
-    const S3d f0 = q_prev_.inverse() * q_next_;
-    const Vector3<double> f0v = f0.vec();
-    const Vector3<double> jf0v = body_.inertia() * f0v;
-    const Vector3<double> g_backward = f0.w() * jf0v - f0v.cross(jf0v);
-    s.x = x_next_;
-    s.q = q_next_;
-    s.p = (body_.mass() / h) * (x_next_ - x_prev_) + (0.5 * h) * e1.force;
-    s.w = (4.0 / h) * g_backward + h * e1.torque;
-    eval_ = e1;
-    detail::require_finite(s, eval_);
-    // DEL for configuration k + 2.
-    S3d f = predictor_.predict();
-    solver_.solve(g_backward + (0.5 * h * h) * e1.torque, f, report_);
-    predictor_.push(f);
-    const Vector3<double> x2 = 2.0 * x_next_ - x_prev_ + (h * h / body_.mass()) * e1.force;
-    x_prev_ = x_next_;
-    q_prev_ = q_next_;
-    x_next_ = x2;
-    q_next_ = q_next_ * f;
+  void step(SystemState& s, double /*t*/, double h) {
+    const System& sys = this->system_;
+    if (phase_ == Phase::Fresh) start(s, h);
+    if (phase_ == Phase::Resumed) h_ = h;  // the checkpoint does not hold h: the run continues with its own
+    phase_ = Phase::Running;
+    if (h != h_)
+      throw InvalidInput("integrator.step: lgvi-lagrangian is a two-step method and needs the same step size on "
+                         "every call (got " + std::to_string(h) + " after " + std::to_string(h_) + ")");
+    for (std::size_t a = 0; a < sys.size(); ++a) {
+      next_.x[a] = x_next_[a];
+      next_.q[a] = q_next_[a];
+    }
+    this->evaluate_at(next_);
+    detail::for_each_body(sys, this->par_, [&](std::size_t a) {
+      const RigidBody& body = sys.body(a);
+      const Vector3<double>& force = this->eval_.force[a];
+      const Vector3<double>& torque = this->eval_.torque[a];
+      const S3d f0 = q_prev_[a].inverse() * q_next_[a];
+      const Vector3<double> f0v = f0.vec();
+      const Vector3<double> jf0v = body.inertia() * f0v;
+      const Vector3<double> g_backward = f0.w() * jf0v - f0v.cross(jf0v);
+      s.x[a] = x_next_[a];
+      s.q[a] = q_next_[a];
+      s.p[a] = (body.mass() / h) * (x_next_[a] - x_prev_[a]) + (0.5 * h) * force;
+      s.w[a] = (4.0 / h) * g_backward + h * torque;
+      // DEL for configuration k + 2.
+      S3d f = this->predictors_[a].predict();
+      solvers_[a].solve(g_backward + (0.5 * h * h) * torque, f, this->reports_[a]);
+      this->predictors_[a].push(f);
+      const Vector3<double> x2 = 2.0 * x_next_[a] - x_prev_[a] + (h * h / body.mass()) * force;
+      x_prev_[a] = x_next_[a];
+      q_prev_[a] = q_next_[a];
+      x_next_[a] = x2;
+      q_next_[a] = q_next_[a] * f;
+    });
+    this->finish_step(s);
   }
 
-  double step_size() const { return h_; }
-  const PotentialEvaluation& evaluation() const { return eval_; }
-  const SolveReport& last_solve() const { return report_; }
-  const RigidBody& body() const { return body_; }
-
-  /// Besides the state: the configuration one step ahead and the predictor.
+  /// Besides the state, per body: the configuration one step ahead (x, then
+  /// q scalar first) and the predictor. Before the first step: nothing.
   std::vector<double> internal_state() const {
-    std::vector<double> v{x_next_.x(), x_next_.y(), x_next_.z(), q_next_.w(), q_next_.vec().x(),
-                          q_next_.vec().y(), q_next_.vec().z()};
-    const std::vector<double> p = predictor_.serialize();
-    v.insert(v.end(), p.begin(), p.end());
-    return v;
+    if (phase_ == Phase::Fresh) return {};
+    return Base::internal_state();
   }
-  void resume(const RigidBodyState& s, const std::vector<double>& internal) {
+  void resume(const SystemState& s, double t, const std::vector<double>& internal) {
+    Base::initialize(s, t);
+    for (std::size_t a = 0; a < s.size(); ++a) {
+      x_prev_[a] = s.x[a];
+      q_prev_[a] = s.q[a];
+    }
+    phase_ = Phase::Fresh;
+    if (internal.empty()) return;
     if (internal.size() < 7) throw InvalidInput("checkpoint: Lagrangian integrator data too short");
-    eval_ = potential_.evaluate(s.x, s.q);
-    detail::require_finite(s, eval_);
-    x_prev_ = s.x;
-    q_prev_ = s.q;
-    x_next_ = Vector3<double>(internal[0], internal[1], internal[2]);
-    q_next_ = S3d(internal[3], internal[4], internal[5], internal[6]);
-    predictor_.deserialize(std::vector<double>(internal.begin() + 7, internal.end()));
+    this->restore(internal, "Lagrangian integrator");
+    phase_ = Phase::Resumed;
   }
 
  private:
-  RigidBody body_;
-  P potential_;
-  double h_;
-  RotationSolver solver_;
-  PotentialEvaluation eval_;
-  RotationPredictor predictor_;
-  SolveReport report_;
-  Vector3<double> x_prev_ = Vector3<double>::Zero(), x_next_ = Vector3<double>::Zero();
-  S3d q_prev_, q_next_;
+  /// Configuration 1 from the Legendre transform p0 = -D1 L_d(0, 1).
+  void start(const SystemState& s, double h) {
+    const System& sys = this->system_;
+    detail::for_each_body(sys, this->par_, [&](std::size_t a) {
+      const RigidBody& body = sys.body(a);
+      x_prev_[a] = s.x[a];
+      q_prev_[a] = s.q[a];
+      const Vector3<double> b = (0.25 * h) * (s.w[a] + h * this->eval_.torque[a]);
+      S3d f = S3d::exp(body.inertia_inverse() * b);
+      solvers_[a].solve(b, f, this->reports_[a]);
+      this->predictors_[a].reset(f);
+      x_next_[a] = s.x[a] + (h / body.mass()) * (s.p[a] + (0.5 * h) * this->eval_.force[a]);
+      q_next_[a] = s.q[a] * f;
+    });
+    h_ = h;
+    phase_ = Phase::Running;
+  }
+
+  void serialize_extra(std::size_t a, std::vector<double>& v) const override {
+    const Vector4<double> q = q_next_[a].scalar_first();
+    v.insert(v.end(), {x_next_[a].x(), x_next_[a].y(), x_next_[a].z(), q(0), q(1), q(2), q(3)});
+  }
+  std::size_t extra_size() const override { return 7; }
+  void deserialize_extra(std::size_t a, const double* d) override {
+    x_next_[a] = Vector3<double>(d[0], d[1], d[2]);
+    q_next_[a] = S3d(d[3], d[4], d[5], d[6]);
+  }
+
+  std::vector<RotationSolver> solvers_;
+  std::vector<Vector3<double>> x_prev_, x_next_;
+  std::vector<S3d> q_prev_, q_next_;
+  SystemState next_;
+  double h_ = 0.0;
+  /// Fresh: configuration 1 is computed at the next step; Resumed: it came
+  /// from a checkpoint; Running: h_ is the step size of every call.
+  enum class Phase { Fresh, Resumed, Running } phase_ = Phase::Fresh;
+};
+
+template <Potential P>
+  requires(!SystemPotential<P>)
+class LagrangianLieGroupVariationalIntegrator<P> : public SingleBodyStepper<LagrangianLieGroupVariationalIntegrator, P> {
+ public:
+  using SingleBodyStepper<LagrangianLieGroupVariationalIntegrator, P>::SingleBodyStepper;
 };
 
 }  // namespace lgvi

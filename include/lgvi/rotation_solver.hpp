@@ -95,6 +95,7 @@ struct SolverOptions {
 struct SolveReport {
   int iterations = 0;          ///< linear solves (Newton or Broyden updates)
   int residual_evaluations = 0;  ///< evaluations of g, finite differences included
+  int worst_iterations = 0;  ///< for a system: the most iterations one body needed (stepper.hpp's combine)
 };
 
 /// g(xi) = f_s J f_v + f_v x J f_v for f = exp(xi), and its Jacobian.
@@ -159,6 +160,10 @@ class RotationEquation {
 class RotationPredictor {
  public:
   explicit RotationPredictor(int order = 3) : order_(std::clamp(order, 0, 3)) {}
+
+  static constexpr std::size_t serialized_size = 13;
+  /// No history yet (a fresh stepper: the first step seeds it).
+  bool empty() const { return count_ == 0; }
 
   /// Forgets the history and starts from f.
   void reset(const S3d& f) {

@@ -27,33 +27,40 @@
 
 namespace lgvi {
 
-template <Potential P>
-class EulerExpIntegrator : public detail::ExplicitStepperBase<P> {
-  using Base = detail::ExplicitStepperBase<P>;
-  using Base::body_;
-  using Base::eval_;
-  using Base::h_;
-  using Base::potential_;
+template <class P>
+class EulerExpIntegrator;
 
+template <SystemPotential I>
+class EulerExpIntegrator<I> : public detail::ExplicitStepperBase<I> {
  public:
-  EulerExpIntegrator(const RigidBody& body, P potential, double h, SolverOptions = {})
-      : Base(body, std::move(potential), h, "the Euler integrator") {}
+  EulerExpIntegrator(System system, I potential, SolverOptions = {}, Parallelism par = {})
+      : detail::ExplicitStepperBase<I>(std::move(system), std::move(potential), par, "the Euler integrator") {}
 
-  void step(RigidBodyState& s) {
-    const double h = h_;
-    const Matrix3<double>& jinv = body_.inertia_inverse();
-    s.p += h * eval_.force;
-    s.x += (h / body_.mass()) * s.p;
-    const Vector3<double> pi0 = 0.5 * s.w;
-    const Vector3<double> pi1 = pi0 + h * (pi0.cross(jinv * pi0) + eval_.torque);
-    const Vector3<double> omega1 = jinv * pi1;
-    Eigen::Quaterniond q = (s.q * S3d::exp((0.5 * h) * omega1)).quaternion();
-    q.normalize();
-    s.q = S3d(q);
-    s.w = 2.0 * pi1;
-    eval_ = potential_.evaluate(s.x, s.q);
-    detail::require_finite(s, eval_);
+  void step(SystemState& s, double /*t*/, double h) {
+    const System& sys = this->system_;
+    detail::for_each_body(sys, this->par_, [&](std::size_t a) {
+      const RigidBody& body = sys.body(a);
+      const Matrix3<double>& jinv = body.inertia_inverse();
+      s.p[a] += h * this->eval_.force[a];
+      s.x[a] += (h / body.mass()) * s.p[a];
+      const Vector3<double> pi0 = 0.5 * s.w[a];
+      const Vector3<double> pi1 = pi0 + h * (pi0.cross(jinv * pi0) + this->eval_.torque[a]);
+      const Vector3<double> omega1 = jinv * pi1;
+      Eigen::Quaterniond q = (s.q[a] * S3d::exp((0.5 * h) * omega1)).quaternion();
+      q.normalize();
+      s.q[a] = S3d(q);
+      s.w[a] = 2.0 * pi1;
+    });
+    this->evaluate_at(s);
+    this->finish_step(s);
   }
+};
+
+template <Potential P>
+  requires(!SystemPotential<P>)
+class EulerExpIntegrator<P> : public SingleBodyStepper<EulerExpIntegrator, P> {
+ public:
+  using SingleBodyStepper<EulerExpIntegrator, P>::SingleBodyStepper;
 };
 
 }  // namespace lgvi

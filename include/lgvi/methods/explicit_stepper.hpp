@@ -7,6 +7,7 @@
 
 #include <lgvi/error.hpp>
 #include <lgvi/lgvi.hpp>
+#include <lgvi/stepper.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -28,38 +29,24 @@ inline Vector3<double> require_principal_axes(const RigidBody& body, const std::
   return j.diagonal();
 }
 
-template <Potential P>
-class ExplicitStepperBase {
+/// The base of the explicit methods on N bodies: the evaluation at the
+/// current state (reused by the next step), no solves, and no internal state
+/// besides the state itself (a resume re-evaluates the potential there).
+template <SystemPotential I>
+class ExplicitStepperBase : public StepperBase<I> {
  public:
-  /// Evaluates the potential at s (reused by the first step).
-  void initialize(const RigidBodyState& s) {
-    eval_ = potential_.evaluate(s.x, s.q);
-    require_finite(s, eval_);
-  }
-
-  double step_size() const { return h_; }
-  const PotentialEvaluation& evaluation() const { return eval_; }
-  const SolveReport& last_solve() const { return report_; }
-  const RigidBody& body() const { return body_; }
-
-  /// Nothing besides the state: a resume re-evaluates the potential there.
   std::vector<double> internal_state() const { return {}; }
-  void resume(const RigidBodyState& s, const std::vector<double>& internal) {
+  void resume(const SystemState& s, double t, const std::vector<double>& internal) {
     if (!internal.empty()) throw InvalidInput(std::string("checkpoint: ") + name_ + " has no internal state");
-    initialize(s);
+    this->initialize(s, t);
   }
 
  protected:
-  ExplicitStepperBase(const RigidBody& body, P potential, double h, const char* name)
-      : body_(body), potential_(std::move(potential)), h_(h), name_(name) {
-    require_valid_step(h);
-  }
+  ExplicitStepperBase(System system, I potential, Parallelism par, const char* name)
+      : StepperBase<I>(std::move(system), std::move(potential), par), name_(name) {}
 
-  RigidBody body_;
-  P potential_;
-  double h_;
-  PotentialEvaluation eval_;
-  SolveReport report_;
+  /// Checks the state and the evaluation after a step.
+  void finish_step(const SystemState& s) { require_finite(this->system_, s, this->eval_); }
 
  private:
   const char* name_;

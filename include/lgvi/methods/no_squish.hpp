@@ -51,42 +51,47 @@
 
 namespace lgvi {
 
-template <Potential P>
-class NoSquishIntegrator : public detail::ExplicitStepperBase<P> {
-  using Base = detail::ExplicitStepperBase<P>;
-  using Base::body_;
-  using Base::eval_;
-  using Base::h_;
-  using Base::potential_;
+template <class P>
+class NoSquishIntegrator;
 
+template <SystemPotential I>
+class NoSquishIntegrator<I> : public detail::ExplicitStepperBase<I> {
  public:
-  NoSquishIntegrator(const RigidBody& body, P potential, double h, SolverOptions = {})
-      : Base(body, std::move(potential), h, "the no-squish integrator"),
-        moments_(detail::require_principal_axes(body, "no-squish")) {}
+  NoSquishIntegrator(System system, I potential, SolverOptions = {}, Parallelism par = {})
+      : detail::ExplicitStepperBase<I>(std::move(system), std::move(potential), par, "the no-squish integrator") {
+    for (const RigidBody& b : this->system_.bodies()) moments_.push_back(detail::require_principal_axes(b, "no-squish"));
+    mom_.resize(this->system_.size());
+  }
 
-  void step(RigidBodyState& s) {
-    const double h = h_;
-    Vector4<double> q = s.q.scalar_first();
-    Vector4<double> mom = S(q) * pure(s.w);  // P = 2 S(q) (0, J Omega)
-    s.p += (0.5 * h) * eval_.force;
-    mom += h * (S(q) * pure(eval_.torque));
-    rotate(3, 0.5 * h, q, mom);
-    rotate(2, 0.5 * h, q, mom);
-    rotate(1, h, q, mom);
-    rotate(2, 0.5 * h, q, mom);
-    rotate(3, 0.5 * h, q, mom);
-    s.q = S3d(q(0), q(1), q(2), q(3));
-    s.x += (h / body_.mass()) * s.p;
-    eval_ = potential_.evaluate(s.x, s.q);
-    s.p += (0.5 * h) * eval_.force;
-    mom += h * (S(q) * pure(eval_.torque));
-    // (0, w) = S(q)^{-1} P = S(q)^T P / |q|^2. The rotations keep |q| = 1 only
-    // to rounding; dividing by the |q|^2 it has keeps w -> P -> w the identity,
-    // where S(q)^T alone would scale w by |q|^2 every step, a systematic drift
-    // (|q| - 1 persists between steps) that broke the reversibility test
-    // (7e-11 instead of 5e-14 after 1000 steps forward and back).
-    s.w = (S(q).transpose() * mom).template tail<3>() / q.squaredNorm();
-    detail::require_finite(s, eval_);
+  void step(SystemState& s, double /*t*/, double h) {
+    const System& sys = this->system_;
+    detail::for_each_body(sys, this->par_, [&](std::size_t a) {
+      Vector4<double> q = s.q[a].scalar_first();
+      Vector4<double> mom = S(q) * pure(s.w[a]);  // P = 2 S(q) (0, J Omega)
+      s.p[a] += (0.5 * h) * this->eval_.force[a];
+      mom += h * (S(q) * pure(this->eval_.torque[a]));
+      rotate(a, 3, 0.5 * h, q, mom);
+      rotate(a, 2, 0.5 * h, q, mom);
+      rotate(a, 1, h, q, mom);
+      rotate(a, 2, 0.5 * h, q, mom);
+      rotate(a, 3, 0.5 * h, q, mom);
+      s.q[a] = S3d(q(0), q(1), q(2), q(3));
+      s.x[a] += (h / sys.body(a).mass()) * s.p[a];
+      mom_[a] = mom;
+    });
+    this->evaluate_at(s);
+    detail::for_each_body(sys, this->par_, [&](std::size_t a) {
+      const Vector4<double> q = s.q[a].scalar_first();
+      s.p[a] += (0.5 * h) * this->eval_.force[a];
+      mom_[a] += h * (S(q) * pure(this->eval_.torque[a]));
+      // (0, w) = S(q)^{-1} P = S(q)^T P / |q|^2. The rotations keep |q| = 1 only
+      // to rounding; dividing by the |q|^2 it has keeps w -> P -> w the identity,
+      // where S(q)^T alone would scale w by |q|^2 every step, a systematic drift
+      // (|q| - 1 persists between steps) that broke the reversibility test
+      // (7e-11 instead of 5e-14 after 1000 steps forward and back).
+      s.w[a] = (S(q).transpose() * mom_[a]).template tail<3>() / q.squaredNorm();
+    });
+    this->finish_step(s);
   }
 
  private:
@@ -109,16 +114,24 @@ class NoSquishIntegrator : public detail::ExplicitStepperBase<P> {
     }
   }
   /// The exact flow of (P^T P_k q)^2 / (8 J_k) for time t.
-  void rotate(int k, double t, Vector4<double>& q, Vector4<double>& mom) const {
+  void rotate(std::size_t a, int k, double t, Vector4<double>& q, Vector4<double>& mom) const {
     const Vector4<double> pq = permute(k, q);
-    const double zeta = mom.dot(pq) / (4.0 * moments_(k - 1));
+    const double zeta = mom.dot(pq) / (4.0 * moments_[a](k - 1));
     const double c = std::cos(zeta * t), s = std::sin(zeta * t);
     const Vector4<double> pp = permute(k, mom);
     q = c * q + s * pq;
     mom = c * mom + s * pp;
   }
 
-  Vector3<double> moments_;
+  std::vector<Vector3<double>> moments_;
+  std::vector<Vector4<double>> mom_;
+};
+
+template <Potential P>
+  requires(!SystemPotential<P>)
+class NoSquishIntegrator<P> : public SingleBodyStepper<NoSquishIntegrator, P> {
+ public:
+  using SingleBodyStepper<NoSquishIntegrator, P>::SingleBodyStepper;
 };
 
 }  // namespace lgvi

@@ -121,65 +121,70 @@ inline Matrix5 jacobian(const Matrix3<double>& J, const Vector4<double>& q0, con
 
 }  // namespace rattle
 
-template <Potential P>
-class RattleQuaternionIntegrator {
+template <class P>
+class RattleQuaternionIntegrator;
+
+template <SystemPotential I>
+class RattleQuaternionIntegrator<I> : public detail::ImplicitStepperBase<I, RotationPredictor> {
+  using Base = detail::ImplicitStepperBase<I, RotationPredictor>;
+
  public:
   /// `solver.tolerance`, `max_iterations` and `predictor_order` apply;
   /// `solver.kind` does not (always Newton on the 5 x 5 system).
-  RattleQuaternionIntegrator(const RigidBody& body, P potential, double h, SolverOptions solver = {})
-      : body_(body),
-        potential_(std::move(potential)),
-        h_(h),
-        opt_(solver),
-        J_norm_(body.inertia().norm()),
-        predictor_(solver.predictor_order) {
-    detail::require_valid_step(h);
+  RattleQuaternionIntegrator(System system, I potential, SolverOptions solver = {}, Parallelism par = {})
+      : Base(std::move(system), std::move(potential), solver, par) {
+    const std::size_t n = this->system_.size();
+    for (const RigidBody& b : this->system_.bodies()) J_norm_.push_back(b.inertia().norm());
+    q0_.resize(n);
+    lambda_.assign(n, 0.0);
   }
 
-  void initialize(const RigidBodyState& s) {
-    eval_ = potential_.evaluate(s.x, s.q);
-    detail::require_finite(s, eval_);
-    predictor_.reset(S3d::exp(body_.inertia_inverse() * ((0.25 * h_) * (s.w + h_ * eval_.torque))));
+  void initialize(const SystemState& s, double t) {
+    Base::initialize(s, t);
+    for (RotationPredictor& p : this->predictors_) p = RotationPredictor(this->opt_.predictor_order);
   }
 
-  void step(RigidBodyState& s) {
-    const double h = h_;
-    const Matrix3<double>& J = body_.inertia();
-    const Vector3<double> p_half = s.p + (0.5 * h) * eval_.force;
-    const Vector4<double> q0 = s.q.scalar_first();
-    const Vector3<double> b = (0.25 * h) * (s.w + h * eval_.torque);
-    // pi_0 + h F(q0)^T M0 = F(q0)^T (w0 + h M0), scaled by h/4.
-    const Vector4<double> rhs = rattle::FT_times(q0, b);
-    const S3d guess = predictor_.predict();
-    Vector4<double> q1 = rattle::product(q0, guess.scalar_first());
-    const Vector3<double> gv = guess.vec();
-    double nu = gv.dot(J * gv);
-    solve(q0, rhs, b, q1, nu);
-    const Vector4<double> f = rattle::product(Vector4<double>(q0(0), -q0(1), -q0(2), -q0(3)), q1);
-    if (!(f(0) > 0.0))
-      throw StepFailure("RATTLE quaternion: the rotation in one step reached pi (Re(q0^* q1) <= 0)",
-                        "take a smaller step, so that the rotation |Omega| h per step stays well below pi");
-    predictor_.push(S3d(f(0), f(1), f(2), f(3)));
-    lambda_ = (4.0 / h) * nu;
-    s.x += (h / body_.mass()) * p_half;
-    s.q = S3d(q1(0), q1(1), q1(2), q1(3));
-    const PotentialEvaluation e1 = potential_.evaluate(s.x, s.q);
-    s.p = p_half + (0.5 * h) * e1.force;
-    // pi_1 = D2 L_d (mu q1 dropped: F(q1) q1 = 0), w1 = F(q1) pi_1.
-    const Vector3<double> a = rattle::F_times(q0, q1);
-    const Vector4<double> pi1 = (4.0 / h) * rattle::FT_times(q0, J * a) + h * rattle::FT_times(q1, e1.torque);
-    s.w = rattle::F_times(q1, pi1);
-    eval_ = e1;
-    detail::require_finite(s, eval_);
+  void step(SystemState& s, double /*t*/, double h) {
+    const System& sys = this->system_;
+    detail::for_each_body(sys, this->par_, [&](std::size_t a) {
+      const RigidBody& body = sys.body(a);
+      const Matrix3<double>& J = body.inertia();
+      const Vector4<double> q0 = s.q[a].scalar_first();
+      const Vector3<double> b = (0.25 * h) * (s.w[a] + h * this->eval_.torque[a]);
+      // pi_0 + h F(q0)^T M0 = F(q0)^T (w0 + h M0), scaled by h/4.
+      const Vector4<double> rhs = rattle::FT_times(q0, b);
+      RotationPredictor& predictor = this->predictors_[a];
+      if (predictor.empty()) predictor.reset(S3d::exp(body.inertia_inverse() * b));
+      const S3d guess = predictor.predict();
+      Vector4<double> q1 = rattle::product(q0, guess.scalar_first());
+      const Vector3<double> gv = guess.vec();
+      double nu = gv.dot(J * gv);
+      solve(a, q0, rhs, b, q1, nu);
+      const Vector4<double> f = rattle::product(Vector4<double>(q0(0), -q0(1), -q0(2), -q0(3)), q1);
+      if (!(f(0) > 0.0))
+        throw StepFailure("RATTLE quaternion: the rotation in one step reached pi (Re(q0^* q1) <= 0)",
+                          "take a smaller step, so that the rotation |Omega| h per step stays well below pi");
+      predictor.push(S3d(f(0), f(1), f(2), f(3)));
+      lambda_[a] = (4.0 / h) * nu;
+      this->drift(s, a, h);
+      q0_[a] = q0;
+      s.q[a] = S3d(q1(0), q1(1), q1(2), q1(3));
+    });
+    this->evaluate_at(s);
+    detail::for_each_body(sys, this->par_, [&](std::size_t a) {
+      this->kick(s, a, h);
+      // pi_1 = D2 L_d (mu q1 dropped: F(q1) q1 = 0), w1 = F(q1) pi_1.
+      const Vector4<double> q1 = s.q[a].scalar_first();
+      const Vector3<double> fa = rattle::F_times(q0_[a], q1);
+      const Vector4<double> pi1 = (4.0 / h) * rattle::FT_times(q0_[a], sys.body(a).inertia() * fa) +
+                                  h * rattle::FT_times(q1, this->eval_.torque[a]);
+      s.w[a] = rattle::F_times(q1, pi1);
+    });
+    this->finish_step(s);
   }
 
-  double step_size() const { return h_; }
-  const PotentialEvaluation& evaluation() const { return eval_; }
-  const SolveReport& last_solve() const { return report_; }
-  const RigidBody& body() const { return body_; }
-  const P& potential() const { return potential_; }
-  /// The last step's multiplier lambda of |q1|^2 = 1 (= (4/h) a^T J a).
-  double last_multiplier() const { return lambda_; }
+  /// The last step's multiplier lambda of |q1|^2 = 1 (= (4/h) a^T J a) of body a.
+  double last_multiplier(std::size_t a = 0) const { return lambda_[a]; }
 
   /// The momentum conjugate to q in R^4 and back (see the header comment).
   static Vector4<double> momentum_r4(const S3d& q, const Vector3<double>& w) {
@@ -189,50 +194,61 @@ class RattleQuaternionIntegrator {
     return rattle::F_times(q.scalar_first(), pi_q);
   }
 
-  std::vector<double> internal_state() const { return predictor_.serialize(); }
-  void resume(const RigidBodyState& s, const std::vector<double>& internal) {
-    initialize(s);
-    predictor_.deserialize(internal);
+  void resume(const SystemState& s, double t, const std::vector<double>& internal) {
+    initialize(s, t);
+    this->restore(internal, "the predictor");
   }
 
  private:
-  void solve(const Vector4<double>& q0, const Vector4<double>& rhs, const Vector3<double>& b, Vector4<double>& q1,
-             double& nu) {
-    report_ = {};
-    const Matrix3<double>& J = body_.inertia();
+  void solve(std::size_t a, const Vector4<double>& q0, const Vector4<double>& rhs, const Vector3<double>& b,
+             Vector4<double>& q1, double& nu) {
+    SolveReport& report = this->reports_[a];
+    const SolverOptions& opt = this->opt_;
+    report = {};
+    const Matrix3<double>& J = this->system_.body(a).inertia();
     const double scale = b.lpNorm<Eigen::Infinity>();
     for (;;) {
       const rattle::Vector5 r = rattle::residual(J, q0, rhs, q1, nu);
-      ++report_.residual_evaluations;
-      if (r.head<4>().lpNorm<Eigen::Infinity>() <= opt_.tolerance * scale && std::abs(r(4)) <= opt_.tolerance) break;
-      if (report_.iterations >= opt_.max_iterations)
+      ++report.residual_evaluations;
+      if (r.head<4>().lpNorm<Eigen::Infinity>() <= opt.tolerance * scale && std::abs(r(4)) <= opt.tolerance) break;
+      if (report.iterations >= opt.max_iterations)
         throw StepFailure("RATTLE quaternion: Newton iteration for (q1, lambda) did not converge in " +
-                              std::to_string(opt_.max_iterations) + " iterations",
+                              std::to_string(opt.max_iterations) + " iterations",
                           "take a smaller step, so that the rotation |Omega| h per step stays well below 1 rad");
       const rattle::Vector5 delta = rattle::jacobian(J, q0, q1).partialPivLu().solve(r);
       q1 -= delta.head<4>();
       nu -= delta(4);
-      ++report_.iterations;
+      ++report.iterations;
       if (!(q1.allFinite() && std::isfinite(nu)))
         throw StepFailure("RATTLE quaternion: the Newton iteration diverged",
                           "take a smaller step, so that the rotation |Omega| h per step stays well below 1 rad");
       // The system is quadratic: after a Newton update the residual is
       // exactly (F(dq)^T J F(q0) dq, |dq|^2), bounded by (|J| |dq|^2, |dq|^2).
       const double d2 = delta.head<4>().squaredNorm();
-      if (J_norm_ * d2 <= opt_.tolerance * scale && d2 <= opt_.tolerance) break;
-      if (delta.head<4>().lpNorm<Eigen::Infinity>() <= opt_.tolerance) break;
+      if (J_norm_[a] * d2 <= opt.tolerance * scale && d2 <= opt.tolerance) break;
+      if (delta.head<4>().lpNorm<Eigen::Infinity>() <= opt.tolerance) break;
     }
   }
 
-  RigidBody body_;
-  P potential_;
-  double h_;
-  SolverOptions opt_;
-  double J_norm_;
-  PotentialEvaluation eval_;
-  RotationPredictor predictor_;
-  SolveReport report_;
-  double lambda_ = 0.0;
+  std::vector<double> J_norm_;
+  std::vector<Vector4<double>> q0_;
+  std::vector<double> lambda_;
+};
+
+template <Potential P>
+  requires(!SystemPotential<P>)
+class RattleQuaternionIntegrator<P> : public SingleBodyStepper<RattleQuaternionIntegrator, P> {
+  using Base = SingleBodyStepper<RattleQuaternionIntegrator, P>;
+
+ public:
+  using Base::Base;
+  double last_multiplier() const { return this->system_stepper().last_multiplier(0); }
+  static Vector4<double> momentum_r4(const S3d& q, const Vector3<double>& w) {
+    return Base::SystemMethod::momentum_r4(q, w);
+  }
+  static Vector3<double> momentum_w(const S3d& q, const Vector4<double>& pi_q) {
+    return Base::SystemMethod::momentum_w(q, pi_q);
+  }
 };
 
 }  // namespace lgvi

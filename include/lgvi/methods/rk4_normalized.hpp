@@ -31,36 +31,46 @@
 
 namespace lgvi {
 
-template <Potential P>
-class Rk4NormalizedIntegrator : public detail::ExplicitStepperBase<P> {
-  using Base = detail::ExplicitStepperBase<P>;
-  using Base::body_;
-  using Base::eval_;
-  using Base::h_;
-  using Base::potential_;
+template <class P>
+class Rk4NormalizedIntegrator;
 
+template <SystemPotential I>
+class Rk4NormalizedIntegrator<I> : public detail::ExplicitStepperBase<I> {
  public:
-  Rk4NormalizedIntegrator(const RigidBody& body, P potential, double h, SolverOptions = {})
-      : Base(body, std::move(potential), h, "the RK4 integrator") {}
+  Rk4NormalizedIntegrator(System system, I potential, SolverOptions = {}, Parallelism par = {})
+      : detail::ExplicitStepperBase<I>(std::move(system), std::move(potential), par, "the RK4 integrator") {
+    const std::size_t n = this->system_.size();
+    y0_.resize(n);
+    k1_.resize(n);
+    k2_.resize(n);
+    k3_.resize(n);
+    k4_.resize(n);
+    stage_ = SystemState(n);
+    stage_eval_ = SystemEvaluation(n);
+  }
 
-  void step(RigidBodyState& s) {
-    const double h = h_;
-    const Y y0{s.x, s.p, s.q.quaternion().coeffs(), 0.5 * s.w};
-    const Y k1 = derivative(y0, eval_);
-    const Y y1 = axpy(y0, 0.5 * h, k1);
-    const Y k2 = derivative(y1, evaluate(y1));
-    const Y y2 = axpy(y0, 0.5 * h, k2);
-    const Y k3 = derivative(y2, evaluate(y2));
-    const Y y3 = axpy(y0, h, k3);
-    const Y k4 = derivative(y3, evaluate(y3));
+  void step(SystemState& s, double /*t*/, double h) {
+    const System& sys = this->system_;
+    const std::size_t n = sys.size();
+    for (std::size_t a = 0; a < n; ++a) {
+      y0_[a] = Y{s.x[a], s.p[a], s.q[a].quaternion().coeffs(), 0.5 * s.w[a]};
+      k1_[a] = derivative(a, y0_[a], this->eval_);
+    }
+    stage(0.5 * h, k1_, k2_);
+    stage(0.5 * h, k2_, k3_);
+    stage(h, k3_, k4_);
     const double h6 = h / 6.0, h3 = h / 3.0;
-    s.x = y0.x + h6 * (k1.x + k4.x) + h3 * (k2.x + k3.x);
-    s.p = y0.p + h6 * (k1.p + k4.p) + h3 * (k2.p + k3.p);
-    const Vector4<double> q = y0.q + h6 * (k1.q + k4.q) + h3 * (k2.q + k3.q);
-    s.q = unit(q);
-    s.w = 2.0 * (y0.pi + h6 * (k1.pi + k4.pi) + h3 * (k2.pi + k3.pi));
-    eval_ = potential_.evaluate(s.x, s.q);
-    detail::require_finite(s, eval_);
+    for (std::size_t a = 0; a < n; ++a) {
+      const Y& y0 = y0_[a];
+      const Y &k1 = k1_[a], &k2 = k2_[a], &k3 = k3_[a], &k4 = k4_[a];
+      s.x[a] = y0.x + h6 * (k1.x + k4.x) + h3 * (k2.x + k3.x);
+      s.p[a] = y0.p + h6 * (k1.p + k4.p) + h3 * (k2.p + k3.p);
+      const Vector4<double> q = y0.q + h6 * (k1.q + k4.q) + h3 * (k2.q + k3.q);
+      s.q[a] = unit(q);
+      s.w[a] = 2.0 * (y0.pi + h6 * (k1.pi + k4.pi) + h3 * (k2.pi + k3.pi));
+    }
+    this->evaluate_at(s);
+    this->finish_step(s);
   }
 
  private:
@@ -76,15 +86,37 @@ class Rk4NormalizedIntegrator : public detail::ExplicitStepperBase<P> {
     q.coeffs() = c / c.norm();
     return S3d(q);
   }
-  PotentialEvaluation evaluate(const Y& y) const { return potential_.evaluate(y.x, unit(y.q)); }
-  Y derivative(const Y& y, const PotentialEvaluation& e) const {
-    const Vector3<double> omega = body_.inertia_inverse() * y.pi;
+  /// k_out = f(y0 + c k_in), with one evaluation of the system at the stage.
+  void stage(double c, const std::vector<Y>& k_in, std::vector<Y>& k_out) {
+    const std::size_t n = this->system_.size();
+    std::vector<Y> y(n);
+    for (std::size_t a = 0; a < n; ++a) {
+      y[a] = axpy(y0_[a], c, k_in[a]);
+      stage_.x[a] = y[a].x;
+      stage_.q[a] = unit(y[a].q);
+    }
+    this->potential_.evaluate(stage_, stage_eval_);
+    for (std::size_t a = 0; a < n; ++a) k_out[a] = derivative(a, y[a], stage_eval_);
+  }
+  Y derivative(std::size_t a, const Y& y, const SystemEvaluation& e) const {
+    const RigidBody& body = this->system_.body(a);
+    const Vector3<double> omega = body.inertia_inverse() * y.pi;
     Eigen::Quaterniond q;
     q.coeffs() = y.q;
     const Eigen::Quaterniond qdot = q * Eigen::Quaterniond(0.0, 0.5 * omega.x(), 0.5 * omega.y(), 0.5 * omega.z());
-    return {y.p / body_.mass(), e.force, qdot.coeffs(), y.pi.cross(omega) + e.torque};
+    return {y.p / body.mass(), e.force[a], qdot.coeffs(), y.pi.cross(omega) + e.torque[a]};
   }
 
+  std::vector<Y> y0_, k1_, k2_, k3_, k4_;
+  SystemState stage_;
+  SystemEvaluation stage_eval_;
+};
+
+template <Potential P>
+  requires(!SystemPotential<P>)
+class Rk4NormalizedIntegrator<P> : public SingleBodyStepper<Rk4NormalizedIntegrator, P> {
+ public:
+  using SingleBodyStepper<Rk4NormalizedIntegrator, P>::SingleBodyStepper;
 };
 
 }  // namespace lgvi

@@ -87,7 +87,9 @@ class CayleyPredictor {
     for (const auto& v : v_) out.insert(out.end(), {v.x(), v.y(), v.z()});
     return out;
   }
-  void deserialize(const double* in) {
+  bool empty() const { return count_ == 0; }
+  void deserialize(const std::vector<double>& in) {
+    if (in.size() != serialized_size) throw InvalidInput("checkpoint: predictor data has the wrong size");
     count_ = std::clamp(static_cast<int>(in[0]), 0, 4);
     for (int i = 0; i < 4; ++i) v_[static_cast<std::size_t>(i)] = Vector3<double>(in[1 + 3 * i], in[2 + 3 * i], in[3 + 3 * i]);
   }
@@ -122,81 +124,76 @@ inline Matrix3<double> cayley(const Vector3<double>& u) {
 
 }  // namespace detail
 
-template <Potential P>
-class So3LieGroupVariationalIntegrator {
+template <class P>
+class So3LieGroupVariationalIntegrator;
+
+template <SystemPotential I>
+class So3LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, detail::CayleyPredictor> {
+  using Base = detail::ImplicitStepperBase<I, detail::CayleyPredictor>;
+
  public:
   /// `solver.tolerance`, `max_iterations` and `predictor_order` apply;
   /// `solver.kind` does not: this method always uses Newton in the Cayley
   /// chart (Lee et al.'s choice).
-  So3LieGroupVariationalIntegrator(const RigidBody& body, P potential, double h, SolverOptions solver = {})
-      : body_(body),
-        potential_(std::move(potential)),
-        h_(h),
-        equation_(body.inertia()),
-        opt_(solver),
-        predictor_(solver.predictor_order) {
-    detail::require_valid_step(h);
-    jd_ = (0.5 * body.inertia().trace()) * Matrix3<double>::Identity() - body.inertia();
+  So3LieGroupVariationalIntegrator(System system, I potential, SolverOptions solver = {}, Parallelism par = {})
+      : Base(std::move(system), std::move(potential), solver, par) {
+    const std::size_t n = this->system_.size();
+    for (const RigidBody& b : this->system_.bodies()) {
+      equations_.emplace_back(b.inertia());
+      jd_.push_back((0.5 * b.inertia().trace()) * Matrix3<double>::Identity() - b.inertia());
+    }
+    R_.assign(n, Matrix3<double>::Identity());
+    w_half_.resize(n);
+    F_.resize(n);
   }
 
-  /// R = pi(q); the potential is evaluated at s; the solver's first guess is
+  /// R = pi(q); the potential is evaluated at s; the first solve starts from
   /// the first-order estimate u ~ J^{-1} b.
-  void initialize(const RigidBodyState& s) {
-    eval_ = potential_.evaluate(s.x, s.q);
-    detail::require_finite(s, eval_);
-    R_ = s.q.matrix();
-    predictor_.reset(body_.inertia_inverse() * ((0.25 * h_) * (s.w + h_ * eval_.torque)));
+  void initialize(const SystemState& s, double t) {
+    Base::initialize(s, t);
+    for (std::size_t a = 0; a < s.size(); ++a) {
+      R_[a] = s.q[a].matrix();
+      this->predictors_[a] = detail::CayleyPredictor(this->opt_.predictor_order);
+    }
   }
 
-  void step(RigidBodyState& s) {
-    const double h = h_;
-    const Vector3<double> p_half = s.p + (0.5 * h) * eval_.force;
-    const Vector3<double> w_half = s.w + h * eval_.torque;  // 2 (Pi_k + (h/2) M_k)
-    Vector3<double> u = predictor_.predict();
-    solve((0.25 * h) * w_half, u);
-    predictor_.push(u);
-    const Matrix3<double> f = detail::cayley(u);
-    s.x += (h / body_.mass()) * p_half;
-    R_ = (R_ * f).eval();
-    s.q = lift(R_, s.q);
-    const PotentialEvaluation e1 = potential_.evaluate(s.x, s.q);
-    s.p = p_half + (0.5 * h) * e1.force;
-    s.w = f.transpose() * w_half + h * e1.torque;
-    eval_ = e1;
-    detail::require_finite(s, eval_);
+  void step(SystemState& s, double /*t*/, double h) {
+    const System& sys = this->system_;
+    detail::for_each_body(sys, this->par_, [&](std::size_t a) {
+      w_half_[a] = s.w[a] + h * this->eval_.torque[a];  // 2 (Pi_k + (h/2) M_k)
+      detail::CayleyPredictor& predictor = this->predictors_[a];
+      if (predictor.empty()) predictor.reset(sys.body(a).inertia_inverse() * ((0.25 * h) * w_half_[a]));
+      Vector3<double> u = predictor.predict();
+      solve(a, (0.25 * h) * w_half_[a], u);
+      predictor.push(u);
+      F_[a] = detail::cayley(u);
+      this->drift(s, a, h);
+      R_[a] = (R_[a] * F_[a]).eval();
+      s.q[a] = lift(R_[a], s.q[a]);
+    });
+    this->evaluate_at(s);
+    detail::for_each_body(sys, this->par_, [&](std::size_t a) {
+      this->kick(s, a, h);
+      s.w[a] = F_[a].transpose() * w_half_[a] + h * this->eval_.torque[a];
+    });
+    this->finish_step(s);
   }
 
-  double step_size() const { return h_; }
-  const PotentialEvaluation& evaluation() const { return eval_; }
-  const SolveReport& last_solve() const { return report_; }
-  const RigidBody& body() const { return body_; }
-  const P& potential() const { return potential_; }
-  /// The attitude as this method keeps it.
-  const Matrix3<double>& rotation_matrix() const { return R_; }
-  /// J_d = tr(J)/2 I - J.
-  const Matrix3<double>& nonstandard_inertia() const { return jd_; }
-  /// ||R^T R - I||_F: R's deviation from SO(3) (rounding of the products
-  /// R_k F_k accumulates; nothing projects it back).
-  double orthogonality_error() const { return (R_.transpose() * R_ - Matrix3<double>::Identity()).norm(); }
+  /// The attitude of body a as this method keeps it.
+  const Matrix3<double>& rotation_matrix(std::size_t a = 0) const { return R_[a]; }
+  /// J_d = tr(J)/2 I - J of body a.
+  const Matrix3<double>& nonstandard_inertia(std::size_t a = 0) const { return jd_[a]; }
+  /// ||R^T R - I||_F of body a: R's deviation from SO(3) (rounding of the
+  /// products R_k F_k accumulates; nothing projects it back).
+  double orthogonality_error(std::size_t a = 0) const {
+    return (R_[a].transpose() * R_[a] - Matrix3<double>::Identity()).norm();
+  }
 
-  /// For a bit-identical resume: R (9 numbers, row-major), then the
+  /// For a bit-identical resume, per body: R (9 numbers, row-major), then the
   /// predictor's history (count and 4 vectors u, newest first).
-  std::vector<double> internal_state() const {
-    std::vector<double> v;
-    v.reserve(9 + detail::CayleyPredictor::serialized_size);
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) v.push_back(R_(i, j));
-    const std::vector<double> p = predictor_.serialize();
-    v.insert(v.end(), p.begin(), p.end());
-    return v;
-  }
-  void resume(const RigidBodyState& s, const std::vector<double>& internal) {
-    if (internal.size() != 9 + detail::CayleyPredictor::serialized_size)
-      throw InvalidInput("checkpoint: SO(3) integrator data has the wrong size");
-    initialize(s);
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) R_(i, j) = internal[static_cast<std::size_t>(i) * 3 + static_cast<std::size_t>(j)];
-    predictor_.deserialize(internal.data() + 9);
+  void resume(const SystemState& s, double t, const std::vector<double>& internal) {
+    initialize(s, t);
+    this->restore(internal, "SO(3) integrator");
   }
 
   /// The unit quaternion of R closest to `previous` (sign with positive
@@ -210,43 +207,62 @@ class So3LieGroupVariationalIntegrator {
   }
 
  private:
+  void serialize_extra(std::size_t a, std::vector<double>& v) const override {
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) v.push_back(R_[a](i, j));
+  }
+  std::size_t extra_size() const override { return 9; }
+  void deserialize_extra(std::size_t a, const double* d) override {
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) R_[a](i, j) = d[i * 3 + j];
+  }
+
   /// Newton on c(u) = J u + u x J u - (1 + |u|^2) b = 0, with the stopping
   /// rules of RotationSolver's Cayley-chart Newton.
-  void solve(const Vector3<double>& b, Vector3<double>& u) {
-    report_ = {};
+  void solve(std::size_t a, const Vector3<double>& b, Vector3<double>& u) {
+    SolveReport& report = this->reports_[a];
+    const RotationEquation& equation = equations_[a];
+    const SolverOptions& opt = this->opt_;
+    report = {};
     const double b_scale = b.lpNorm<Eigen::Infinity>();
     for (;;) {
-      const Vector3<double> r = equation_.cayley_residual(u, b);
-      ++report_.residual_evaluations;
-      if (r.lpNorm<Eigen::Infinity>() <= opt_.tolerance * (1.0 + u.squaredNorm()) * b_scale) break;
-      if (report_.iterations >= opt_.max_iterations)
+      const Vector3<double> r = equation.cayley_residual(u, b);
+      ++report.residual_evaluations;
+      if (r.lpNorm<Eigen::Infinity>() <= opt.tolerance * (1.0 + u.squaredNorm()) * b_scale) break;
+      if (report.iterations >= opt.max_iterations)
         throw StepFailure("SO(3) LGVI: Newton iteration for F_k did not converge in " +
-                              std::to_string(opt_.max_iterations) + " iterations",
+                              std::to_string(opt.max_iterations) + " iterations",
                           "take a smaller step, so that the rotation |Omega| h per step stays well below 1 rad");
-      const Vector3<double> delta = detail::solve_3x3(equation_.cayley_jacobian(u, b), r);
+      const Vector3<double> delta = detail::solve_3x3(equation.cayley_jacobian(u, b), r);
       u -= delta;
-      ++report_.iterations;
+      ++report.iterations;
       if (!u.allFinite())
         throw StepFailure("SO(3) LGVI: the rotation in one step reached pi (the Cayley chart's boundary)",
                           "take a smaller step, so that the rotation |Omega| h per step stays well below pi");
       // The residual after a Newton step of this quadratic is
       // delta x J delta - |delta|^2 b: stop when its bound is below tolerance.
       const double d2 = delta.squaredNorm();
-      if ((equation_.inertia_norm() + b.norm()) * d2 <= opt_.tolerance * b_scale) break;
-      if (delta.lpNorm<Eigen::Infinity>() <= opt_.tolerance * u.lpNorm<Eigen::Infinity>()) break;
+      if ((equation.inertia_norm() + b.norm()) * d2 <= opt.tolerance * b_scale) break;
+      if (delta.lpNorm<Eigen::Infinity>() <= opt.tolerance * u.lpNorm<Eigen::Infinity>()) break;
     }
   }
 
-  RigidBody body_;
-  P potential_;
-  double h_;
-  RotationEquation equation_;
-  SolverOptions opt_;
-  Matrix3<double> jd_;
-  Matrix3<double> R_ = Matrix3<double>::Identity();
-  PotentialEvaluation eval_;
-  detail::CayleyPredictor predictor_;
-  SolveReport report_;
+  std::vector<RotationEquation> equations_;
+  std::vector<Matrix3<double>> jd_, R_, F_;
+  std::vector<Vector3<double>> w_half_;
+};
+
+template <Potential P>
+  requires(!SystemPotential<P>)
+class So3LieGroupVariationalIntegrator<P> : public SingleBodyStepper<So3LieGroupVariationalIntegrator, P> {
+  using Base = SingleBodyStepper<So3LieGroupVariationalIntegrator, P>;
+
+ public:
+  using Base::Base;
+  const Matrix3<double>& rotation_matrix() const { return this->system_stepper().rotation_matrix(0); }
+  const Matrix3<double>& nonstandard_inertia() const { return this->system_stepper().nonstandard_inertia(0); }
+  double orthogonality_error() const { return this->system_stepper().orthogonality_error(0); }
+  static S3d lift(const Matrix3<double>& r, const S3d& previous) { return Base::SystemMethod::lift(r, previous); }
 };
 
 }  // namespace lgvi

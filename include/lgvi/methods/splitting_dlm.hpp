@@ -45,41 +45,45 @@
 namespace lgvi {
 
 
-template <Potential P>
-class SplittingDlmIntegrator : public detail::ExplicitStepperBase<P> {
-  using Base = detail::ExplicitStepperBase<P>;
-  using Base::body_;
-  using Base::eval_;
-  using Base::h_;
-  using Base::potential_;
+template <class P>
+class SplittingDlmIntegrator;
 
+template <SystemPotential I>
+class SplittingDlmIntegrator<I> : public detail::ExplicitStepperBase<I> {
  public:
-  SplittingDlmIntegrator(const RigidBody& body, P potential, double h, SolverOptions = {})
-      : Base(body, std::move(potential), h, "the splitting-dlm integrator"),
-        moments_(detail::require_principal_axes(body, "splitting-dlm")) {}
+  SplittingDlmIntegrator(System system, I potential, SolverOptions = {}, Parallelism par = {})
+      : detail::ExplicitStepperBase<I>(std::move(system), std::move(potential), par, "the splitting-dlm integrator") {
+    for (const RigidBody& b : this->system_.bodies()) moments_.push_back(detail::require_principal_axes(b, "splitting-dlm"));
+    pi_.resize(this->system_.size());
+  }
 
-  void step(RigidBodyState& s) {
-    const double h = h_;
-    s.p += (0.5 * h) * eval_.force;
-    Vector3<double> pi = 0.5 * s.w + (0.5 * h) * eval_.torque;
-    S3d q = s.q;
-    rotate(0, 0.5 * h, pi, q);
-    rotate(1, 0.5 * h, pi, q);
-    rotate(2, h, pi, q);
-    rotate(1, 0.5 * h, pi, q);
-    rotate(0, 0.5 * h, pi, q);
-    s.q = q;
-    s.x += (h / body_.mass()) * s.p;
-    eval_ = potential_.evaluate(s.x, s.q);
-    s.p += (0.5 * h) * eval_.force;
-    s.w = 2.0 * (pi + (0.5 * h) * eval_.torque);
-    detail::require_finite(s, eval_);
+  void step(SystemState& s, double /*t*/, double h) {
+    const System& sys = this->system_;
+    detail::for_each_body(sys, this->par_, [&](std::size_t a) {
+      s.p[a] += (0.5 * h) * this->eval_.force[a];
+      Vector3<double> pi = 0.5 * s.w[a] + (0.5 * h) * this->eval_.torque[a];
+      S3d q = s.q[a];
+      rotate(a, 0, 0.5 * h, pi, q);
+      rotate(a, 1, 0.5 * h, pi, q);
+      rotate(a, 2, h, pi, q);
+      rotate(a, 1, 0.5 * h, pi, q);
+      rotate(a, 0, 0.5 * h, pi, q);
+      s.q[a] = q;
+      pi_[a] = pi;
+      s.x[a] += (h / sys.body(a).mass()) * s.p[a];
+    });
+    this->evaluate_at(s);
+    detail::for_each_body(sys, this->par_, [&](std::size_t a) {
+      s.p[a] += (0.5 * h) * this->eval_.force[a];
+      s.w[a] = 2.0 * (pi_[a] + (0.5 * h) * this->eval_.torque[a]);
+    });
+    this->finish_step(s);
   }
 
  private:
   /// R_k(t): the exact flow of Pi_k^2/(2 J_k) for time t.
-  void rotate(int k, double t, Vector3<double>& pi, S3d& q) const {
-    const double theta = t * pi(k) / moments_(k);
+  void rotate(std::size_t a, int k, double t, Vector3<double>& pi, S3d& q) const {
+    const double theta = t * pi(k) / moments_[a](k);
     const int i = (k + 1) % 3, j = (k + 2) % 3;
     const double c = std::cos(theta), s = std::sin(theta);
     const double pi_i = pi(i), pi_j = pi(j);
@@ -88,7 +92,14 @@ class SplittingDlmIntegrator : public detail::ExplicitStepperBase<P> {
     q = q * S3d::exp((0.5 * theta) * Vector3<double>::Unit(k));
   }
 
-  Vector3<double> moments_;
+  std::vector<Vector3<double>> moments_, pi_;
+};
+
+template <Potential P>
+  requires(!SystemPotential<P>)
+class SplittingDlmIntegrator<P> : public SingleBodyStepper<SplittingDlmIntegrator, P> {
+ public:
+  using SingleBodyStepper<SplittingDlmIntegrator, P>::SingleBodyStepper;
 };
 
 }  // namespace lgvi

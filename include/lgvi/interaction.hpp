@@ -1,0 +1,180 @@
+// The potential of a system of bodies: what one evaluation returns, the
+// external fields that act on each body alone, and the mutual interactions
+// between bodies, put together.
+//
+// A system potential V(x_1, q_1, ..., x_N, q_N) returns, in one evaluation,
+// V, and per body the inertial force F_a = -dV/dx_a and the body torque M_a
+// with F(q_a) dV/dq_a = -2 M_a (potential.hpp explains the factor). It is
+// what the N-body steppers call once per step.
+//
+//  * ExternalField<P>: a single-body potential P (none, central, uniform,
+//    a user's) acting on every body by itself, V = sum_a V_a(x_a, q_a).
+//  * Mutual interactions (mutual_gravity.hpp, lennard_jones.hpp): V depends on
+//    pairs of bodies. Their `add` adds energy, forces and torques to an
+//    evaluation; they act between the interaction sites of different bodies.
+//  * Coupled<E, M>: an external field plus a mutual interaction.
+#pragma once
+
+#include <lgvi/error.hpp>
+#include <lgvi/parallel.hpp>
+#include <lgvi/potential.hpp>
+#include <lgvi/rigid_body.hpp>
+#include <lgvi/system.hpp>
+
+#include <concepts>
+#include <cstddef>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace lgvi {
+
+/// The contract of a system potential: evaluate(state, e) overwrites e with
+/// V and every body's force and torque at `state`.
+template <class I>
+concept SystemPotential = requires(const I& i, const SystemState& s, SystemEvaluation& e) {
+  { i.evaluate(s, e) };
+};
+
+/// The contract of a mutual interaction: add(state, e) adds its energy,
+/// forces and torques to e (sized for the system).
+template <class M>
+concept MutualInteraction = requires(const M& m, const SystemState& s, SystemEvaluation& e) {
+  { m.add(s, e) };
+};
+
+/// A single-body potential applied to each body separately: body a feels
+/// P_a(x_a, q_a), where P_a is built for body a (its balls, its mass). The
+/// energy is summed in body order after the (parallel) per-body loop.
+template <Potential P>
+class ExternalField {
+ public:
+  explicit ExternalField(std::vector<P> per_body, Parallelism par = {})
+      : per_body_(std::move(per_body)), par_(par) {}
+  /// The same potential for every body (e.g. NoPotential).
+  static ExternalField uniform(const P& p, std::size_t n, Parallelism par = {}) {
+    return ExternalField(std::vector<P>(n, p), par);
+  }
+
+  void evaluate(const SystemState& s, SystemEvaluation& e) const {
+    const std::size_t n = s.size();
+    if (e.size() != n) e.reset(n);
+    energies_.resize(n);
+    parallel_for(n, par_, [&](std::size_t a) {
+      const PotentialEvaluation pe = per_body_[a].evaluate(s.x[a], s.q[a]);
+      energies_[a] = pe.energy;
+      e.force[a] = pe.force;
+      e.torque[a] = pe.torque;
+    });
+    // Body 0's term first (not 0 + V_0): N = 1 gives the single-body value bit for bit.
+    e.energy = energies_[0];
+    for (std::size_t a = 1; a < n; ++a) e.energy += energies_[a];
+  }
+
+  const P& body_potential(std::size_t a) const { return per_body_[a]; }
+  void set_parallelism(Parallelism par) { par_ = par; }
+
+ private:
+  std::vector<P> per_body_;
+  Parallelism par_;
+  mutable std::vector<double> energies_;
+};
+
+/// No mutual interaction (bodies feel only the external field).
+struct NoMutualInteraction {
+  void add(const SystemState&, SystemEvaluation&) const {}
+};
+
+/// An external field plus a mutual interaction.
+template <SystemPotential E, MutualInteraction M>
+class Coupled {
+ public:
+  Coupled(E external, M mutual) : external_(std::move(external)), mutual_(std::move(mutual)) {}
+  void evaluate(const SystemState& s, SystemEvaluation& e) const {
+    external_.evaluate(s, e);
+    mutual_.add(s, e);
+  }
+  const E& external() const { return external_; }
+  const M& mutual() const { return mutual_; }
+
+ private:
+  E external_;
+  M mutual_;
+};
+
+/// The interaction sites of a system's bodies, flattened: body a's sites are
+/// [begin(a), begin(a + 1)), each with its body-frame position rho (relative
+/// to the centre of mass), mass and radius. A body made of balls has one site
+/// per ball; a body given by mass and inertia has one site at its centre of
+/// mass with the whole mass (radius 0).
+class InteractionSites {
+ public:
+  InteractionSites() = default;
+  explicit InteractionSites(const System& sys) {
+    offset_.push_back(0);
+    for (std::size_t a = 0; a < sys.size(); ++a) {
+      const RigidBody& b = sys.body(a);
+      if (b.balls().empty()) {
+        add(a, Vector3<double>::Zero(), b.mass(), 0.0);
+      } else {
+        for (const Ball& ball : b.balls()) add(a, ball.position, ball.mass, ball.radius);
+      }
+      offset_.push_back(rho_.size());
+    }
+  }
+
+  std::size_t bodies() const { return offset_.empty() ? 0 : offset_.size() - 1; }
+  std::size_t size() const { return rho_.size(); }
+  std::size_t begin(std::size_t a) const { return offset_[a]; }
+  std::size_t end(std::size_t a) const { return offset_[a + 1]; }
+  std::size_t body_of(std::size_t i) const { return body_[i]; }
+  const Vector3<double>& rho(std::size_t i) const { return rho_[i]; }
+  double mass(std::size_t i) const { return mass_[i]; }
+  double radius(std::size_t i) const { return radius_[i]; }
+  /// The ball's index within its body (for messages).
+  std::size_t local_index(std::size_t i) const { return i - offset_[body_[i]]; }
+
+  /// Inertial positions of every site at `s`, X_i = x_a + R_a rho_i, and the
+  /// arms R_a rho_i, computed per body (in parallel).
+  void place(const SystemState& s, const Parallelism& par, std::vector<Vector3<double>>& position,
+             std::vector<Vector3<double>>& arm) const {
+    position.resize(size());
+    arm.resize(size());
+    parallel_for(bodies(), par, [&](std::size_t a) {
+      const Matrix3<double> r = s.q[a].matrix();
+      for (std::size_t i = begin(a); i < end(a); ++i) {
+        arm[i] = r * rho_[i];
+        position[i] = s.x[a] + arm[i];
+      }
+    });
+  }
+
+ private:
+  void add(std::size_t body, const Vector3<double>& rho, double mass, double radius) {
+    rho_.push_back(rho);
+    mass_.push_back(mass);
+    radius_.push_back(radius);
+    body_.push_back(body);
+  }
+  std::vector<Vector3<double>> rho_;
+  std::vector<double> mass_, radius_;
+  std::vector<std::size_t> body_, offset_;
+};
+
+namespace detail {
+/// A mutual force that is not finite: two sites on top of each other.
+[[noreturn]] inline void close_approach(const System& sys, const InteractionSites& sites, std::size_t i,
+                                        std::size_t j, double distance) {
+  auto site = [&](std::size_t k) {
+    const std::size_t a = sites.body_of(k);
+    const std::string body = "body " + std::to_string(a) + " (\"" + sys.name(a) + "\")";
+    return sys.body(a).balls().empty() ? body : "ball " + std::to_string(sites.local_index(k)) + " of " + body;
+  };
+  throw StepFailure("the mutual interaction between " + site(i) + " and " + site(j) +
+                        " is not finite (distance " + std::to_string(distance) + "): a collision",
+                    "a smaller step resolves close approaches better; if the bodies really collide, the model "
+                    "(point masses, no contact forces) does not hold there");
+}
+}  // namespace detail
+
+}  // namespace lgvi

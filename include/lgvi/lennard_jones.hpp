@@ -1,0 +1,156 @@
+// Lennard-Jones interaction between the balls (sites) of different bodies:
+// rigid molecules and granular models.
+//
+//   V = sum over pairs of sites i, j of different bodies with r_ij < r_c of
+//       4 eps ((sigma/r)^12 - (sigma/r)^6) - V_c,   V_c = 4 eps ((sigma/r_c)^12 - (sigma/r_c)^6),
+//
+// the energy shifted to zero at the cutoff (forces unchanged; LAMMPS's
+// pair_modify shift yes). Sites of the same body do not interact (their
+// distances are fixed). With d = X_j - X_i, the force on site i is
+//   f_i = -24 eps (2 (sigma/r)^12 - (sigma/r)^6) d / r^2.
+//
+// Neighbours by a cell list rebuilt at every evaluation: the sites are sorted
+// into cubic cells of side >= r_c (counting sort, O(S)), and each site looks
+// at the 27 cells around its own, so the cost grows like the number of sites,
+// not its square. The cells span the sites' bounding box; their number is
+// capped at about 2 per site, so a dilute system gets larger cells (still
+// correct, only more distance tests) instead of a huge empty grid.
+//
+// Each body's force and torque are summed by one thread in the order of the
+// cell list, which depends on the positions only: results are bit-identical
+// for any number of threads.
+#pragma once
+
+#include <lgvi/interaction.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+namespace lgvi {
+
+class LennardJones {
+ public:
+  LennardJones(const System& sys, double epsilon, double sigma, double cutoff, Parallelism par = {})
+      : sys_(&sys), sites_(sys), eps_(epsilon), sigma2_(sigma * sigma), cutoff_(cutoff), par_(par) {
+    if (!(std::isfinite(epsilon) && epsilon > 0.0))
+      throw InvalidInput("interaction.epsilon: must be a finite number > 0");
+    if (!(std::isfinite(sigma) && sigma > 0.0)) throw InvalidInput("interaction.sigma: must be a finite number > 0");
+    if (!(std::isfinite(cutoff) && cutoff > 0.0))
+      throw InvalidInput("interaction.cutoff: must be a finite number > 0 (typically 2.5 sigma)");
+    const double sr6 = std::pow(sigma2_ / (cutoff * cutoff), 3);
+    shift_ = 4.0 * eps_ * (sr6 * sr6 - sr6);
+  }
+
+  void add(const SystemState& s, SystemEvaluation& e) const {
+    const std::size_t n = s.size();
+    sites_.place(s, par_, position_, arm_);
+    build_cells();
+    energy_.assign(n, 0.0);
+    const double rc2 = cutoff_ * cutoff_;
+    parallel_for(n, par_, [&](std::size_t a) {
+      Vector3<double> force = Vector3<double>::Zero(), torque = Vector3<double>::Zero();
+      double energy = 0.0;
+      for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
+        const Vector3<double>& xi = position_[i];
+        const std::array<std::int64_t, 3> c = cell_of(xi);
+        Vector3<double> fi = Vector3<double>::Zero();
+        for (std::int64_t dz = -1; dz <= 1; ++dz) {
+          const std::int64_t z = c[2] + dz;
+          if (z < 0 || z >= dims_[2]) continue;
+          for (std::int64_t dy = -1; dy <= 1; ++dy) {
+            const std::int64_t y = c[1] + dy;
+            if (y < 0 || y >= dims_[1]) continue;
+            for (std::int64_t dx = -1; dx <= 1; ++dx) {
+              const std::int64_t x = c[0] + dx;
+              if (x < 0 || x >= dims_[0]) continue;
+              const auto cell = static_cast<std::size_t>((z * dims_[1] + y) * dims_[0] + x);
+              for (std::size_t k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) {
+                const std::size_t j = sorted_[k];
+                const std::size_t b = sites_.body_of(j);
+                if (b == a) continue;
+                const Vector3<double> d = position_[j] - xi;
+                const double r2 = d.squaredNorm();
+                if (r2 >= rc2) continue;
+                const double sr2 = sigma2_ / r2;
+                const double sr6 = sr2 * sr2 * sr2;
+                const double sr12 = sr6 * sr6;
+                const double coef = -24.0 * eps_ * (2.0 * sr12 - sr6) / r2;
+                if (!std::isfinite(coef)) detail::close_approach(*sys_, sites_, i, j, std::sqrt(r2));
+                fi += coef * d;
+                if (b > a) energy += 4.0 * eps_ * (sr12 - sr6) - shift_;
+              }
+            }
+          }
+        }
+        force += fi;
+        torque += arm_[i].cross(fi);
+      }
+      e.force[a] += force;
+      e.torque[a] += s.q[a].inverse().act(torque);
+      energy_[a] = energy;
+    });
+    for (std::size_t a = 0; a < n; ++a) e.energy += energy_[a];
+  }
+
+  double epsilon() const { return eps_; }
+  double sigma() const { return std::sqrt(sigma2_); }
+  double cutoff() const { return cutoff_; }
+
+ private:
+  std::array<std::int64_t, 3> cell_of(const Vector3<double>& x) const {
+    std::array<std::int64_t, 3> c{};
+    for (int k = 0; k < 3; ++k) {
+      const auto v = static_cast<std::int64_t>((x(k) - origin_(k)) * inv_cell_(k));
+      c[static_cast<std::size_t>(k)] = std::clamp<std::int64_t>(v, 0, dims_[static_cast<std::size_t>(k)] - 1);
+    }
+    return c;
+  }
+
+  void build_cells() const {
+    const std::size_t m = position_.size();
+    Vector3<double> lo = position_[0], hi = position_[0];
+    for (const Vector3<double>& x : position_) {
+      lo = lo.cwiseMin(x);
+      hi = hi.cwiseMax(x);
+    }
+    if (!(lo.allFinite() && hi.allFinite())) throw StepFailure("the state became non-finite", "try a smaller step");
+    origin_ = lo;
+    // Cells of side >= cutoff; at most ~2 m cells in all.
+    const double budget = std::cbrt(2.0 * static_cast<double>(m) + 1.0);
+    std::size_t cells = 1;
+    for (int k = 0; k < 3; ++k) {
+      const double extent = hi(k) - lo(k);
+      double count = std::floor(extent / cutoff_);
+      count = std::clamp(count, 1.0, std::max(1.0, std::floor(budget)));
+      dims_[static_cast<std::size_t>(k)] = static_cast<std::int64_t>(count);
+      inv_cell_(k) = count / std::max(extent, cutoff_);
+      cells *= static_cast<std::size_t>(count);
+    }
+    cell_index_.resize(m);
+    cell_start_.assign(cells + 1, 0);
+    for (std::size_t i = 0; i < m; ++i) {
+      const std::array<std::int64_t, 3> c = cell_of(position_[i]);
+      cell_index_[i] = static_cast<std::size_t>((c[2] * dims_[1] + c[1]) * dims_[0] + c[0]);
+      ++cell_start_[cell_index_[i] + 1];
+    }
+    for (std::size_t c = 0; c < cells; ++c) cell_start_[c + 1] += cell_start_[c];
+    fill_.assign(cell_start_.begin(), cell_start_.end() - 1);
+    sorted_.resize(m);
+    for (std::size_t i = 0; i < m; ++i) sorted_[fill_[cell_index_[i]]++] = i;
+  }
+
+  const System* sys_;
+  InteractionSites sites_;
+  double eps_, sigma2_, cutoff_, shift_ = 0.0;
+  Parallelism par_;
+  mutable std::vector<Vector3<double>> position_, arm_;
+  mutable std::vector<double> energy_;
+  mutable Vector3<double> origin_ = Vector3<double>::Zero(), inv_cell_ = Vector3<double>::Ones();
+  mutable std::array<std::int64_t, 3> dims_{1, 1, 1};
+  mutable std::vector<std::size_t> cell_index_, cell_start_, fill_, sorted_;
+};
+
+}  // namespace lgvi

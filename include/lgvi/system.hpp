@@ -1,0 +1,155 @@
+// A system of N rigid bodies and its state, stored as arrays.
+//
+// The paper's configuration space for one body is R^3 x S^3; N bodies live on
+// (R^3 x S^3)^N, with the product structure: each body keeps its own
+// (x_a, q_a, p_a, w_a) in the paper's symbols (state.hpp), and bodies couple
+// only through the potential, whose one evaluation per step returns the
+// energy, the inertial force F_a and the body-frame torque M_a on every body
+// (interaction.hpp). A single body is N = 1 of the same code.
+//
+// Layout (as in LAMMPS and HOOMD): a structure of arrays, one array per
+// quantity, so that a loop over bodies is a loop over contiguous memory and
+// per-body work can be split across threads. Per body the state costs
+// 3 + 4 + 3 + 3 = 13 doubles (104 bytes); with a rotation matrix in place of
+// the quaternion it would be 3 + 9 + 3 + 3 = 18 (144 bytes), the paper's
+// "4 versus 9" (benchmarks/bench_system.cpp measures it).
+#pragma once
+
+#include <lgvi/error.hpp>
+#include <lgvi/rigid_body.hpp>
+#include <lgvi/s3.hpp>
+#include <lgvi/state.hpp>
+
+#include <cmath>
+#include <cstddef>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace lgvi {
+
+/// The bodies of a system: mass, inertia and interaction sites of each, and
+/// a unique name. Immutable after construction.
+class System {
+ public:
+  System() = default;
+  /// Bodies with names (default body0, body1, ...). Throws InvalidInput on
+  /// an empty system, a size mismatch or a repeated name.
+  explicit System(std::vector<RigidBody> bodies, std::vector<std::string> names = {})
+      : bodies_(std::move(bodies)), names_(std::move(names)) {
+    if (bodies_.empty()) throw InvalidInput("bodies: a system needs at least one body");
+    if (names_.empty())
+      for (std::size_t a = 0; a < bodies_.size(); ++a) names_.push_back("body" + std::to_string(a));
+    if (names_.size() != bodies_.size()) throw InvalidInput("bodies: one name per body is needed");
+    for (std::size_t a = 0; a < names_.size(); ++a)
+      for (std::size_t b = 0; b < a; ++b)
+        if (names_[a] == names_[b])
+          throw InvalidInput("bodies[" + std::to_string(a) + "].name: \"" + names_[a] +
+                             "\" is already the name of bodies[" + std::to_string(b) + "]; names must be unique");
+  }
+  /// The system of one body.
+  explicit System(const RigidBody& body) : System(std::vector<RigidBody>{body}) {}
+
+  std::size_t size() const { return bodies_.size(); }
+  const RigidBody& body(std::size_t a) const { return bodies_[a]; }
+  const std::vector<RigidBody>& bodies() const { return bodies_; }
+  const std::string& name(std::size_t a) const { return names_[a]; }
+  const std::vector<std::string>& names() const { return names_; }
+  double total_mass() const {
+    double m = 0.0;
+    for (const RigidBody& b : bodies_) m += b.mass();
+    return m;
+  }
+
+ private:
+  std::vector<RigidBody> bodies_;
+  std::vector<std::string> names_;
+};
+
+/// The state of N bodies, (x_a, q_a, p_a, w_a) for a = 0..N-1, one array per
+/// quantity (paper symbols: x centre of mass, q attitude, p = m xdot, and
+/// w = 2 J Omega, so that the body angular momentum is w/2).
+struct SystemState {
+  std::vector<Vector3<double>> x, p, w;
+  std::vector<S3d> q;
+
+  SystemState() = default;
+  explicit SystemState(std::size_t n)
+      : x(n, Vector3<double>::Zero()), p(n, Vector3<double>::Zero()), w(n, Vector3<double>::Zero()), q(n) {}
+  /// N = 1.
+  explicit SystemState(const RigidBodyState& s) : x{s.x}, p{s.p}, w{s.w}, q{s.q} {}
+
+  std::size_t size() const { return x.size(); }
+  RigidBodyState body(std::size_t a) const { return {x[a], q[a], p[a], w[a]}; }
+  void set_body(std::size_t a, const RigidBodyState& s) {
+    x[a] = s.x;
+    q[a] = s.q;
+    p[a] = s.p;
+    w[a] = s.w;
+  }
+  bool all_finite() const {
+    for (std::size_t a = 0; a < size(); ++a)
+      if (!body(a).all_finite()) return false;
+    return true;
+  }
+};
+
+/// One evaluation of the system's potential: the energy V, and per body the
+/// inertial force F_a = -dV/dx_a and the body torque M_a (F(q_a) dV/dq_a =
+/// -2 M_a, potential.hpp).
+struct SystemEvaluation {
+  double energy = 0.0;
+  std::vector<Vector3<double>> force, torque;
+
+  SystemEvaluation() = default;
+  explicit SystemEvaluation(std::size_t n) : force(n, Vector3<double>::Zero()), torque(n, Vector3<double>::Zero()) {}
+
+  std::size_t size() const { return force.size(); }
+  /// Zero energy, forces and torques for n bodies (reusing the storage).
+  void reset(std::size_t n) {
+    energy = 0.0;
+    force.assign(n, Vector3<double>::Zero());
+    torque.assign(n, Vector3<double>::Zero());
+  }
+  PotentialEvaluation body(std::size_t a) const { return {energy, force[a], torque[a]}; }
+  bool all_finite() const {
+    if (!std::isfinite(energy)) return false;
+    for (std::size_t a = 0; a < size(); ++a)
+      if (!(force[a].allFinite() && torque[a].allFinite())) return false;
+    return true;
+  }
+};
+
+// Sums over bodies start from body 0's term, not from zero, so that N = 1
+// gives the single-body value bit for bit (0 + -0 would turn a -0 into +0).
+
+/// Kinetic energy of the system, summed over bodies in order.
+inline double kinetic_energy(const SystemState& s, const System& sys) {
+  double t = kinetic_energy(s.body(0), sys.body(0));
+  for (std::size_t a = 1; a < s.size(); ++a) t += kinetic_energy(s.body(a), sys.body(a));
+  return t;
+}
+
+/// Total energy T + V, with V from an evaluation at the same state.
+inline double total_energy(const SystemState& s, const System& sys, const SystemEvaluation& e) {
+  return kinetic_energy(s, sys) + e.energy;
+}
+
+/// Total angular momentum about the origin, sum_a x_a x p_a + pi(q_a) w_a / 2:
+/// the momentum map of the diagonal S^3 action, conserved by discrete
+/// Noether's theorem when the potential is invariant under a common rotation
+/// (mutual interactions, central fields).
+inline Vector3<double> angular_momentum(const SystemState& s) {
+  Vector3<double> l = angular_momentum(s.body(0));
+  for (std::size_t a = 1; a < s.size(); ++a) l += angular_momentum(s.body(a));
+  return l;
+}
+
+/// Total linear momentum sum_a p_a (conserved when no external field acts).
+inline Vector3<double> linear_momentum(const SystemState& s) {
+  Vector3<double> p = s.p[0];
+  for (std::size_t a = 1; a < s.size(); ++a) p += s.p[a];
+  return p;
+}
+
+}  // namespace lgvi
