@@ -21,7 +21,10 @@
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/system.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <concepts>
+#include <limits>
 #include <cstddef>
 #include <string>
 #include <utility>
@@ -176,5 +179,56 @@ namespace detail {
                     "(point masses, no contact forces) does not hold there");
 }
 }  // namespace detail
+
+/// Checks every body's force F_a = -dV/dx_a and torque M_a = -dV/dtheta_a
+/// (q_a -> q_a exp(theta/2)) of a system potential against fourth-order
+/// central differences of its energy, as check_potential_derivatives does for
+/// one body (potential.hpp: step eps^(1/5), times max(1, |x_a|) for
+/// positions). The errors are the largest over the bodies, each relative to
+/// the larger of the two vectors compared.
+template <SystemPotential I>
+DerivativeCheck check_system_derivatives(const I& potential, const SystemState& s) {
+  const double h0 = std::pow(std::numeric_limits<double>::epsilon(), 0.2);
+  SystemEvaluation e(s.size()), probe(s.size());
+  potential.evaluate(s, e);
+  auto diff = [](auto&& f, double h) { return (8.0 * (f(h) - f(-h)) - (f(2 * h) - f(-2 * h))) / (12.0 * h); };
+  auto relative = [](const Vector3<double>& a, const Vector3<double>& b) {
+    const double scale = std::max(a.norm(), b.norm());
+    return scale > 0.0 ? (a - b).norm() / scale : 0.0;
+  };
+  DerivativeCheck worst;
+  for (std::size_t a = 0; a < s.size(); ++a) {
+    Vector3<double> force_fd, torque_fd;
+    for (int i = 0; i < 3; ++i) {
+      const Vector3<double> unit = Vector3<double>::Unit(i);
+      force_fd(i) = -diff(
+          [&](double t) {
+            SystemState moved = s;
+            moved.x[a] += t * unit;
+            potential.evaluate(moved, probe);
+            return probe.energy;
+          },
+          h0 * std::max(1.0, s.x[a].norm()));
+      torque_fd(i) = -diff(
+          [&](double t) {
+            SystemState turned = s;
+            turned.q[a] = s.q[a] * S3d::exp((t / 2) * unit);
+            potential.evaluate(turned, probe);
+            return probe.energy;
+          },
+          h0);
+    }
+    worst.force_error = std::max(worst.force_error, relative(e.force[a], force_fd));
+    worst.torque_error = std::max(worst.torque_error, relative(e.torque[a], torque_fd));
+  }
+  return worst;
+}
+
+/// The same for a mutual interaction alone (no external field).
+template <MutualInteraction M>
+  requires(!SystemPotential<M>)
+DerivativeCheck check_system_derivatives(const M& mutual, const SystemState& s) {
+  return check_system_derivatives(Coupled(ExternalField<NoPotential>::uniform(NoPotential{}, s.size()), mutual), s);
+}
 
 }  // namespace lgvi
