@@ -9,16 +9,19 @@
 // distances are fixed). With d = X_j - X_i, the force on site i is
 //   f_i = -24 eps (2 (sigma/r)^12 - (sigma/r)^6) d / r^2.
 //
-// Neighbours by a cell list rebuilt at every evaluation: the sites are sorted
-// into cubic cells of side >= r_c (counting sort, O(S)), and each site looks
-// at the 27 cells around its own, so the cost grows like the number of sites,
-// not its square. The cells span the sites' bounding box; their number is
-// capped at about 2 per site, so a dilute system gets larger cells (still
-// correct, only more distance tests) instead of a huge empty grid.
+// Neighbours by Verlet lists, as in LAMMPS and HOOMD: each site keeps the
+// sites of other bodies within r_c + skin, found with a cell list (cubic cells
+// of side >= r_c + skin over the sites' bounding box, at most ~2 per site, so
+// a dilute system gets larger cells instead of a huge empty grid; counting
+// sort, O(S)). The lists are rebuilt when some site has moved more than
+// skin/2 since the last build (then no pair can have crossed into r_c
+// unseen), so the cost grows like the number of sites, not its square.
 //
-// Each body's force and torque are summed by one thread in the order of the
-// cell list, which depends on the positions only: results are bit-identical
-// for any number of threads.
+// Determinism: each site's list is sorted by site index, so the sum over a
+// site's neighbours runs in an order that depends on the current positions
+// only, not on when the lists were built; each body's force and torque are
+// summed by one thread. Results are bit-identical for any number of threads
+// and after a checkpoint and resume (which rebuilds the lists).
 #pragma once
 
 #include <lgvi/interaction.hpp>
@@ -33,8 +36,12 @@ namespace lgvi {
 
 class LennardJones {
  public:
-  LennardJones(const System& sys, double epsilon, double sigma, double cutoff, Parallelism par = {})
-      : sys_(&sys), sites_(sys), eps_(epsilon), sigma2_(sigma * sigma), cutoff_(cutoff), par_(par) {
+  /// `skin`: the Verlet lists hold pairs within cutoff + skin (LAMMPS's
+  /// default 0.3 sigma).
+  LennardJones(const System& sys, double epsilon, double sigma, double cutoff, Parallelism par = {},
+               double skin = -1.0)
+      : sys_(sys), sites_(sys), eps_(epsilon), sigma2_(sigma * sigma), cutoff_(cutoff),
+        skin_(skin < 0.0 ? 0.3 * sigma : skin), par_(par) {
     if (!(std::isfinite(epsilon) && epsilon > 0.0))
       throw InvalidInput("interaction.epsilon: must be a finite number > 0");
     if (!(std::isfinite(sigma) && sigma > 0.0)) throw InvalidInput("interaction.sigma: must be a finite number > 0");
@@ -47,7 +54,7 @@ class LennardJones {
   void add(const SystemState& s, SystemEvaluation& e) const {
     const std::size_t n = s.size();
     sites_.place(s, par_, position_, arm_);
-    build_cells();
+    if (needs_rebuild()) build_lists();
     energy_.assign(n, 0.0);
     const double rc2 = cutoff_ * cutoff_;
     parallel_for(n, par_, [&](std::size_t a) {
@@ -55,35 +62,19 @@ class LennardJones {
       double energy = 0.0;
       for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
         const Vector3<double>& xi = position_[i];
-        const std::array<std::int64_t, 3> c = cell_of(xi);
         Vector3<double> fi = Vector3<double>::Zero();
-        for (std::int64_t dz = -1; dz <= 1; ++dz) {
-          const std::int64_t z = c[2] + dz;
-          if (z < 0 || z >= dims_[2]) continue;
-          for (std::int64_t dy = -1; dy <= 1; ++dy) {
-            const std::int64_t y = c[1] + dy;
-            if (y < 0 || y >= dims_[1]) continue;
-            for (std::int64_t dx = -1; dx <= 1; ++dx) {
-              const std::int64_t x = c[0] + dx;
-              if (x < 0 || x >= dims_[0]) continue;
-              const auto cell = static_cast<std::size_t>((z * dims_[1] + y) * dims_[0] + x);
-              for (std::size_t k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) {
-                const std::size_t j = sorted_[k];
-                const std::size_t b = sites_.body_of(j);
-                if (b == a) continue;
-                const Vector3<double> d = position_[j] - xi;
-                const double r2 = d.squaredNorm();
-                if (r2 >= rc2) continue;
-                const double sr2 = sigma2_ / r2;
-                const double sr6 = sr2 * sr2 * sr2;
-                const double sr12 = sr6 * sr6;
-                const double coef = -24.0 * eps_ * (2.0 * sr12 - sr6) / r2;
-                if (!std::isfinite(coef)) detail::close_approach(*sys_, sites_, i, j, std::sqrt(r2));
-                fi += coef * d;
-                if (b > a) energy += 4.0 * eps_ * (sr12 - sr6) - shift_;
-              }
-            }
-          }
+        for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
+          const std::size_t j = neighbours_[k];
+          const Vector3<double> d = position_[j] - xi;
+          const double r2 = d.squaredNorm();
+          if (r2 >= rc2) continue;
+          const double sr2 = sigma2_ / r2;
+          const double sr6 = sr2 * sr2 * sr2;
+          const double sr12 = sr6 * sr6;
+          const double coef = -24.0 * eps_ * (2.0 * sr12 - sr6) / r2;
+          if (!std::isfinite(coef)) detail::close_approach(sys_, sites_, i, j, std::sqrt(r2));
+          fi += coef * d;
+          if (sites_.body_of(j) > a) energy += 4.0 * eps_ * (sr12 - sr6) - shift_;
         }
         force += fi;
         torque += arm_[i].cross(fi);
@@ -95,11 +86,23 @@ class LennardJones {
     for (std::size_t a = 0; a < n; ++a) e.energy += energy_[a];
   }
 
+  /// How many times the neighbour lists were built (for tests and benchmarks).
+  std::int64_t list_builds() const { return builds_; }
+
   double epsilon() const { return eps_; }
   double sigma() const { return std::sqrt(sigma2_); }
   double cutoff() const { return cutoff_; }
 
  private:
+  /// Whether some site moved more than skin/2 since the lists were built.
+  bool needs_rebuild() const {
+    if (built_at_.size() != position_.size()) return true;
+    const double limit = 0.25 * skin_ * skin_;
+    for (std::size_t i = 0; i < position_.size(); ++i)
+      if (!((position_[i] - built_at_[i]).squaredNorm() <= limit)) return true;  // also true for NaN
+    return false;
+  }
+
   std::array<std::int64_t, 3> cell_of(const Vector3<double>& x) const {
     std::array<std::int64_t, 3> c{};
     for (int k = 0; k < 3; ++k) {
@@ -109,7 +112,10 @@ class LennardJones {
     return c;
   }
 
-  void build_cells() const {
+  /// Sorts the sites into cells of side >= r_c + skin, then lists for every
+  /// site the sites of other bodies within r_c + skin, by increasing index.
+  void build_lists() const {
+    ++builds_;
     const std::size_t m = position_.size();
     Vector3<double> lo = position_[0], hi = position_[0];
     for (const Vector3<double>& x : position_) {
@@ -117,16 +123,15 @@ class LennardJones {
       hi = hi.cwiseMax(x);
     }
     if (!(lo.allFinite() && hi.allFinite())) throw StepFailure("the state became non-finite", "try a smaller step");
+    const double reach = cutoff_ + skin_;
     origin_ = lo;
-    // Cells of side >= cutoff; at most ~2 m cells in all.
-    const double budget = std::cbrt(2.0 * static_cast<double>(m) + 1.0);
+    const double budget = std::max(1.0, std::floor(std::cbrt(2.0 * static_cast<double>(m) + 1.0)));
     std::size_t cells = 1;
     for (int k = 0; k < 3; ++k) {
       const double extent = hi(k) - lo(k);
-      double count = std::floor(extent / cutoff_);
-      count = std::clamp(count, 1.0, std::max(1.0, std::floor(budget)));
+      const double count = std::clamp(std::floor(extent / reach), 1.0, budget);
       dims_[static_cast<std::size_t>(k)] = static_cast<std::int64_t>(count);
-      inv_cell_(k) = count / std::max(extent, cutoff_);
+      inv_cell_(k) = count / std::max(extent, reach);
       cells *= static_cast<std::size_t>(count);
     }
     cell_index_.resize(m);
@@ -140,17 +145,51 @@ class LennardJones {
     fill_.assign(cell_start_.begin(), cell_start_.end() - 1);
     sorted_.resize(m);
     for (std::size_t i = 0; i < m; ++i) sorted_[fill_[cell_index_[i]]++] = i;
+    // The lists, one site after the other (sites in increasing index, and
+    // within a cell sorted_ holds increasing indices, but the 27 cells are
+    // visited in space order: sort each list).
+    const double reach2 = reach * reach;
+    list_start_.assign(m + 1, 0);
+    neighbours_.clear();
+    for (std::size_t i = 0; i < m; ++i) {
+      const std::size_t a = sites_.body_of(i);
+      const std::array<std::int64_t, 3> c = cell_of(position_[i]);
+      const std::size_t first = neighbours_.size();
+      for (std::int64_t dz = -1; dz <= 1; ++dz) {
+        const std::int64_t z = c[2] + dz;
+        if (z < 0 || z >= dims_[2]) continue;
+        for (std::int64_t dy = -1; dy <= 1; ++dy) {
+          const std::int64_t y = c[1] + dy;
+          if (y < 0 || y >= dims_[1]) continue;
+          for (std::int64_t dx = -1; dx <= 1; ++dx) {
+            const std::int64_t x = c[0] + dx;
+            if (x < 0 || x >= dims_[0]) continue;
+            const auto cell = static_cast<std::size_t>((z * dims_[1] + y) * dims_[0] + x);
+            for (std::size_t k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) {
+              const std::size_t j = sorted_[k];
+              if (sites_.body_of(j) != a && (position_[j] - position_[i]).squaredNorm() < reach2)
+                neighbours_.push_back(j);
+            }
+          }
+        }
+      }
+      std::sort(neighbours_.begin() + static_cast<std::ptrdiff_t>(first), neighbours_.end());
+      list_start_[i + 1] = neighbours_.size();
+    }
+    built_at_ = position_;
   }
 
-  const System* sys_;
+  System sys_;
   InteractionSites sites_;
-  double eps_, sigma2_, cutoff_, shift_ = 0.0;
+  double eps_, sigma2_, cutoff_, skin_, shift_ = 0.0;
   Parallelism par_;
   mutable std::vector<Vector3<double>> position_, arm_;
   mutable std::vector<double> energy_;
   mutable Vector3<double> origin_ = Vector3<double>::Zero(), inv_cell_ = Vector3<double>::Ones();
   mutable std::array<std::int64_t, 3> dims_{1, 1, 1};
-  mutable std::vector<std::size_t> cell_index_, cell_start_, fill_, sorted_;
+  mutable std::vector<std::size_t> cell_index_, cell_start_, fill_, sorted_, list_start_, neighbours_;
+  mutable std::vector<Vector3<double>> built_at_;
+  mutable std::int64_t builds_ = 0;
 };
 
 }  // namespace lgvi

@@ -38,7 +38,7 @@ namespace lgvi {
 class MutualGravityBalls {
  public:
   MutualGravityBalls(const System& sys, double G, Parallelism par = {})
-      : sys_(&sys), sites_(sys), G_(G), par_(par) {
+      : sys_(sys), sites_(sys), G_(G), par_(par) {
     if (!(std::isfinite(G) && G > 0.0)) throw InvalidInput("interaction.G: must be a finite number > 0");
   }
 
@@ -59,7 +59,7 @@ class MutualGravityBalls {
             const double r2 = d.squaredNorm();
             const double inv_r = 1.0 / std::sqrt(r2);
             const double gmm_inv_r = G_ * (mi * sites_.mass(j)) * inv_r;
-            if (!std::isfinite(gmm_inv_r)) detail::close_approach(*sys_, sites_, i, j, std::sqrt(r2));
+            if (!std::isfinite(gmm_inv_r)) detail::close_approach(sys_, sites_, i, j, std::sqrt(r2));
             const Vector3<double> f = (gmm_inv_r * inv_r * inv_r) * d;  // towards site j
             force += f;
             torque += arm_[i].cross(f);
@@ -78,7 +78,7 @@ class MutualGravityBalls {
   const InteractionSites& sites() const { return sites_; }
 
  private:
-  const System* sys_;
+  System sys_;
   InteractionSites sites_;
   double G_;
   Parallelism par_;
@@ -89,7 +89,7 @@ class MutualGravityBalls {
 /// Mutual gravity of bodies as masses with inertia tensors, to second order.
 class MutualGravityInertia {
  public:
-  MutualGravityInertia(const System& sys, double G, Parallelism par = {}) : sys_(&sys), G_(G), par_(par) {
+  MutualGravityInertia(const System& sys, double G, Parallelism par = {}) : sys_(sys), G_(G), par_(par) {
     if (!(std::isfinite(G) && G > 0.0)) throw InvalidInput("interaction.G: must be a finite number > 0");
   }
 
@@ -98,17 +98,17 @@ class MutualGravityInertia {
     inertial_.resize(n);
     parallel_for(n, par_, [&](std::size_t a) {
       const Matrix3<double> r = s.q[a].matrix();
-      inertial_[a] = r * sys_->body(a).inertia() * r.transpose();
+      inertial_[a] = r * sys_.body(a).inertia() * r.transpose();
     });
     energy_.assign(n, 0.0);
     parallel_for(n, par_, [&](std::size_t a) {
-      const double ma = sys_->body(a).mass();
-      const Matrix3<double>& ja = sys_->body(a).inertia();
+      const double ma = sys_.body(a).mass();
+      const Matrix3<double>& ja = sys_.body(a).inertia();
       Vector3<double> force = Vector3<double>::Zero(), torque = Vector3<double>::Zero();
       double energy = 0.0;
       for (std::size_t b = 0; b < n; ++b) {
         if (b == a) continue;
-        const double mb = sys_->body(b).mass();
+        const double mb = sys_.body(b).mass();
         const Vector3<double> r = s.x[b] - s.x[a];
         const double r2 = r.squaredNorm();
         const double inv_r = 1.0 / std::sqrt(r2);
@@ -141,14 +141,14 @@ class MutualGravityInertia {
 
  private:
   [[noreturn]] void close_approach(std::size_t a, std::size_t b, double d) const {
-    throw StepFailure("the mutual gravity between body " + std::to_string(a) + " (\"" + sys_->name(a) +
-                          "\") and body " + std::to_string(b) + " (\"" + sys_->name(b) +
+    throw StepFailure("the mutual gravity between body " + std::to_string(a) + " (\"" + sys_.name(a) +
+                          "\") and body " + std::to_string(b) + " (\"" + sys_.name(b) +
                           "\") is not finite (distance " + std::to_string(d) + "): a collision",
                       "the mass-and-inertia model holds only for bodies well apart; a smaller step resolves close "
                       "approaches better");
   }
 
-  const System* sys_;
+  System sys_;
   double G_;
   Parallelism par_;
   mutable std::vector<Matrix3<double>> inertial_;
