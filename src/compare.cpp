@@ -29,14 +29,14 @@ namespace {
 /// RK4 of the continuous equations with step h_ref (its error C h_ref^4 is
 /// then far below every method's).
 RigidBodyState reference_state(const Scenario& sc, double T, double h_ref) {
-  if (sc.potential.kind == PotentialKind::None) return ExactFreeRigidBody(sc.body, sc.initial).at(T);
+  if (sc.potential.kind == PotentialKind::None) return ExactFreeRigidBody(sc.body(), sc.initial()).at(T);
   const auto n = static_cast<long>(std::ceil(T / h_ref - 1e-9));
   const double h = T / static_cast<double>(n);
   // The scenario's own potential, as the runs compared against it use.
   return std::visit(
       [&](const auto& potential) {
-        const ContinuousEquations eqs(sc.body, potential);
-        return from_continuous(eqs.rk4(to_continuous(sc.initial, sc.body), h, n), sc.body);
+        const ContinuousEquations eqs(sc.body(), potential);
+        return from_continuous(eqs.rk4(to_continuous(sc.initial(), sc.body()), h, n), sc.body());
       },
       scenario_potential(sc));
 }
@@ -101,7 +101,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
       const SimulationResult r = simulate(sc, sink);
       p.completed = r.completed;
       p.failure = r.error;
-      p.error = r.completed ? state_error(r.final_state, reference) : std::nan("");
+      p.error = r.completed ? state_error(r.final_state.body(0), reference) : std::nan("");
       p.wall = r.wall_seconds;
       p.steps = r.stats.last_k;
       p.evaluations = r.stats.potential_evaluations;

@@ -13,13 +13,13 @@ namespace lgvi::app {
 class MemorySink final : public TrajectorySink {
  public:
   /// Reserves room for `rows_hint` rows (the rows a run will write).
-  explicit MemorySink(std::int64_t rows_hint = 0) {
+  explicit MemorySink(std::int64_t rows_hint = 0, const TrajectoryLayout& layout = {}) : layout_(layout) {
     if (rows_hint > 0 && rows_hint < (std::int64_t{1} << 26))
-      data_.reserve(static_cast<std::size_t>(rows_hint) * trajectory_columns);
+      data_.reserve(static_cast<std::size_t>(rows_hint) * static_cast<std::size_t>(layout.columns));
   }
 
   void row(const double* values) override {
-    data_.insert(data_.end(), values, values + trajectory_columns);
+    data_.insert(data_.end(), values, values + layout_.columns);
     ++rows_;
   }
 
@@ -37,13 +37,15 @@ class MemorySink final : public TrajectorySink {
   }
 
   std::int64_t rows() const { return rows_; }
-  /// The rows, row-major (rows() x trajectory_columns); leaves the sink empty.
+  const TrajectoryLayout& layout() const { return layout_; }
+  /// The rows, row-major (rows() x layout().columns); leaves the sink empty.
   std::vector<double> take() {
     rows_ = 0;
     return std::move(data_);
   }
 
  private:
+  TrajectoryLayout layout_;
   std::vector<double> data_;
   std::int64_t rows_ = 0;
   std::string scenario_, summary_;

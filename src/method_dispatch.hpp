@@ -3,6 +3,7 @@
 #pragma once
 
 #include "scenario.hpp"
+#include "simulation.hpp"
 
 #include <lgvi/error.hpp>
 #include <lgvi/exact_free_body.hpp>
@@ -19,15 +20,14 @@
 
 namespace lgvi::app {
 
-/// Builds the stepper of `sc.integrator.method` for potential `pot` and
-/// returns f(stepper). "exact" needs the free body: `is_free` says whether
-/// `pot` is (a wrapper of) NoPotential, and the exact stepper then gets a
-/// NoPotential.
-template <bool is_free, class P, class F>
-decltype(auto) with_stepper(const Scenario& sc, const P& pot, F&& f) {
+/// Builds the N-body stepper of `sc.integrator.method` for the system
+/// potential `pot` (on `par` threads) and returns f(stepper). "exact" needs
+/// one free body (the reader checks; this says so again for other callers).
+template <class F>
+decltype(auto) with_stepper(const Scenario& sc, const ScenarioSystemPotential& pot, const Parallelism& par, F&& f) {
   const IntegratorSpec& i = sc.integrator;
   auto make = [&]<template <class> class S>() -> decltype(auto) {
-    S<P> stepper(sc.body, pot, i.step, i.solver);
+    S<ScenarioSystemPotential> stepper(sc.system, pot, i.solver, par);
     return f(stepper);
   };
   switch (i.method) {
@@ -40,14 +40,11 @@ decltype(auto) with_stepper(const Scenario& sc, const P& pot, F&& f) {
     case Method::NoSquish: return make.template operator()<NoSquishIntegrator>();
     case Method::SplittingDlm: return make.template operator()<SplittingDlmIntegrator>();
     case Method::Exact:
-      if constexpr (is_free) {
-        ExactFreeBodyStepper<NoPotential> stepper(sc.body, NoPotential{}, i.step, i.solver);
-        return f(stepper);
-      }
+      if (pot.is_free()) return make.template operator()<ExactFreeBodySystemStepper>();
       break;
   }
   throw InvalidInput("integrator.method: \"" + std::string(to_string(i.method)) +
-                     "\" is the free body's exact flow; it needs [potential] kind = \"none\"");
+                     "\" is the free body's exact flow; it needs [potential] kind = \"none\" and no [interaction]");
 }
 
 }  // namespace lgvi::app

@@ -105,7 +105,7 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
       fs::remove(checkpoint_path);
       write_file_atomically((fs::path(dir) / "scenario.toml").string(), sc.source_text);
     }
-    sink = open_trajectory(sc.output_format, trajectory_path.string(), resume ? &resume->sink : nullptr);
+    sink = open_trajectory(sc.output_format, trajectory_path.string(), scenario_layout(sc), resume ? &resume->sink : nullptr);
   } catch (const std::exception& e) {
     std::cerr << "lgvi: error: output folder '" << dir << "' cannot be written: " << e.what()
               << "; choose another with --out\n";

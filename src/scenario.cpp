@@ -4,6 +4,7 @@
 
 #include <toml++/toml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -151,30 +152,38 @@ class Reader {
   std::string file_;
 };
 
-RigidBody read_body(const Reader& r, const toml::table& root) {
-  const toml::table& t = r.table(root, "", "body");
-  r.only_keys(t, "body", {"mass", "inertia", "ball", "physical"});
+/// The library names a body's fields "body.*"; a [[bodies]] entry is
+/// "bodies[i].*".
+std::string renamed(const std::string& message, const std::string& prefix) {
+  if (prefix == "body" || message.rfind("body", 0) != 0) return message;
+  return prefix + message.substr(4);
+}
+
+/// A body from a table with mass + inertia or balls; `prefix` names it in
+/// messages ("body" or "bodies[2]").
+RigidBody read_body_table(const Reader& r, const toml::table& t, const std::string& prefix) {
   bool physical = true;
   if (const toml::node* n = t.get("physical")) {
-    if (!n->is_boolean()) r.fail("body.physical", "must be true or false");
+    if (!n->is_boolean()) r.fail(prefix + ".physical", "must be true or false");
     physical = n->value<bool>().value();
   }
   const bool has_balls = t.contains("ball");
   const bool has_mass = t.contains("mass") || t.contains("inertia");
   if (has_balls && has_mass)
-    r.fail("body", "give either mass + inertia or [[body.ball]] entries, not both");
+    r.fail(prefix, "give either mass + inertia or [[" + prefix.substr(0, prefix.find('[')) + ".ball]] entries, not both");
   // The library's messages name the field ("body.inertia: ...") but not the file.
   auto checked = [&](auto&& make) -> RigidBody {
     try {
       return make();
     } catch (const InvalidInput& e) {
-      r.fail("", e.what());
+      r.fail("", renamed(e.what(), prefix));
     }
   };
   if (!has_balls) {
-    if (!has_mass) r.fail("body", "missing: give mass + inertia, or one or more [[body.ball]]");
-    const double mass = r.number(t, "body", "mass");
-    const Matrix3<double> inertia = r.matrix3(t, "body", "inertia");
+    if (!has_mass)
+      r.fail(prefix, "missing: give mass + inertia, or one or more [[" + prefix.substr(0, prefix.find('[')) + ".ball]]");
+    const double mass = r.number(t, prefix, "mass");
+    const Matrix3<double> inertia = r.matrix3(t, prefix, "inertia");
     return checked([&] {
       return RigidBody(mass, inertia,
                        physical ? RigidBody::TriangleInequality::Require : RigidBody::TriangleInequality::Waive);
@@ -182,16 +191,22 @@ RigidBody read_body(const Reader& r, const toml::table& root) {
   }
   const toml::array* arr = t.get("ball")->as_array();
   if (!arr || arr->empty() || !arr->is_array_of_tables())
-    r.fail("body.ball", "must be one or more [[body.ball]] tables");
-  if (arr->size() > 100000) r.fail("body.ball", "more than 100000 balls; merge them into mass + inertia");
+    r.fail(prefix + ".ball", "must be one or more [[" + prefix.substr(0, prefix.find('[')) + ".ball]] tables");
+  if (arr->size() > 100000) r.fail(prefix + ".ball", "more than 100000 balls; merge them into mass + inertia");
   std::vector<Ball> balls;
   for (std::size_t i = 0; i < arr->size(); ++i) {
     const toml::table& b = *arr->get(i)->as_table();
-    const std::string prefix = "body.ball[" + std::to_string(i) + "]";
-    r.only_keys(b, prefix, {"position", "mass", "radius"});
-    balls.push_back({r.vector<3>(b, prefix, "position"), r.number(b, prefix, "mass"), r.number(b, prefix, "radius")});
+    const std::string ball = prefix + ".ball[" + std::to_string(i) + "]";
+    r.only_keys(b, ball, {"position", "mass", "radius"});
+    balls.push_back({r.vector<3>(b, ball, "position"), r.number(b, ball, "mass"), r.number(b, ball, "radius")});
   }
   return checked([&] { return RigidBody::from_balls(std::move(balls)); });
+}
+
+RigidBody read_body(const Reader& r, const toml::table& root) {
+  const toml::table& t = r.table(root, "", "body");
+  r.only_keys(t, "body", {"mass", "inertia", "ball", "physical"});
+  return read_body_table(r, t, "body");
 }
 
 PotentialSpec read_potential(const Reader& r, const toml::table& root) {
@@ -222,29 +237,139 @@ PotentialSpec read_potential(const Reader& r, const toml::table& root) {
   return p;
 }
 
-RigidBodyState read_initial(const Reader& r, const toml::table& root, const RigidBody& body) {
-  const toml::table& t = r.table(root, "", "initial");
-  r.only_keys(t, "initial", {"position", "quaternion", "momentum", "velocity", "w", "omega"});
+/// A body's initial state from the keys position, quaternion, momentum |
+/// velocity, w | omega of table t (named `prefix` in messages).
+RigidBodyState read_state(const Reader& r, const toml::table& t, const std::string& prefix, const RigidBody& body) {
   RigidBodyState s;
-  s.x = r.vector<3>(t, "initial", "position");
-  const Vector4<double> q = r.vector<4>(t, "initial", "quaternion");
+  s.x = r.vector<3>(t, prefix, "position");
+  const Vector4<double> q = r.vector<4>(t, prefix, "quaternion");
   const double n = q.norm();
   if (!(std::abs(n - 1.0) <= 1e-6))
-    r.fail("initial.quaternion",
+    r.fail(prefix + ".quaternion",
            "must be a unit quaternion (scalar first, [w, x, y, z]); its norm is " + std::to_string(n) +
                ", more than 1e-6 from 1");
   s.q = S3d(q(0) / n, q(1) / n, q(2) / n, q(3) / n);
   if (t.contains("momentum") == t.contains("velocity"))
-    r.fail("initial", "give exactly one of momentum = [px, py, pz] or velocity = [vx, vy, vz]");
-  s.p = t.contains("momentum") ? r.vector<3>(t, "initial", "momentum")
-                               : Vector3<double>(body.mass() * r.vector<3>(t, "initial", "velocity"));
-  if (!s.p.allFinite()) r.fail("initial.velocity", "m v overflows to infinity; give smaller values");
+    r.fail(prefix, "give exactly one of momentum = [px, py, pz] or velocity = [vx, vy, vz]");
+  s.p = t.contains("momentum") ? r.vector<3>(t, prefix, "momentum")
+                               : Vector3<double>(body.mass() * r.vector<3>(t, prefix, "velocity"));
+  if (!s.p.allFinite()) r.fail(prefix + ".velocity", "m v overflows to infinity; give smaller values");
   if (t.contains("w") == t.contains("omega"))
-    r.fail("initial", "give exactly one of w = [...] (the paper's w = 2 J Omega) or omega = [...] (body angular velocity)");
-  s.w = t.contains("w") ? r.vector<3>(t, "initial", "w")
-                        : Vector3<double>(2.0 * body.inertia() * r.vector<3>(t, "initial", "omega"));
-  if (!s.w.allFinite()) r.fail("initial.omega", "2 J omega overflows to infinity; give smaller values");
+    r.fail(prefix, "give exactly one of w = [...] (the paper's w = 2 J Omega) or omega = [...] (body angular velocity)");
+  s.w = t.contains("w") ? r.vector<3>(t, prefix, "w")
+                        : Vector3<double>(2.0 * body.inertia() * r.vector<3>(t, prefix, "omega"));
+  if (!s.w.allFinite()) r.fail(prefix + ".omega", "2 J omega overflows to infinity; give smaller values");
   return s;
+}
+
+RigidBodyState read_initial(const Reader& r, const toml::table& root, const RigidBody& body) {
+  const toml::table& t = r.table(root, "", "initial");
+  r.only_keys(t, "initial", {"position", "quaternion", "momentum", "velocity", "w", "omega"});
+  return read_state(r, t, "initial", body);
+}
+
+/// The [[bodies]] tables: each a body and its initial state, with a unique name.
+void read_bodies(const Reader& r, const toml::table& root, std::vector<RigidBody>& bodies,
+                 std::vector<std::string>& names, SystemState& state) {
+  const toml::array* arr = root.get("bodies")->as_array();
+  if (!arr || arr->empty() || !arr->is_array_of_tables())
+    r.fail("bodies", "must be one or more [[bodies]] tables");
+  if (arr->size() > 1000000) r.fail("bodies", "more than 10^6 bodies");
+  std::vector<RigidBodyState> states;
+  for (std::size_t i = 0; i < arr->size(); ++i) {
+    const toml::table& t = *arr->get(i)->as_table();
+    const std::string prefix = "bodies[" + std::to_string(i) + "]";
+    r.only_keys(t, prefix, {"name", "mass", "inertia", "ball", "physical", "position", "quaternion", "momentum",
+                            "velocity", "w", "omega"});
+    std::string name = "body" + std::to_string(i);
+    if (const toml::node* n = t.get("name")) {
+      if (!n->is_string()) r.fail(prefix + ".name", "must be a string");
+      name = n->value<std::string>().value();
+      if (name.empty() || name.size() > 64 || name.find_first_of("\"\\,\n\r\t") != std::string::npos)
+        r.fail(prefix + ".name", "must be 1 to 64 characters without quotes, backslashes, commas or control characters");
+    }
+    for (std::size_t j = 0; j < names.size(); ++j)
+      if (names[j] == name)
+        r.fail(prefix + ".name", "\"" + printable(name) + "\" is already the name of bodies[" + std::to_string(j) +
+                                     "]; names must be unique");
+    bodies.push_back(read_body_table(r, t, prefix));
+    states.push_back(read_state(r, t, prefix, bodies.back()));
+    names.push_back(std::move(name));
+  }
+  state = SystemState(bodies.size());
+  for (std::size_t a = 0; a < bodies.size(); ++a) state.set_body(a, states[a]);
+}
+
+/// Bodies made of balls must not overlap at the start: a ball of one body
+/// inside a ball of another (distance below the sum of the radii). A sweep
+/// over the balls sorted along x keeps this O(S log S) for S balls.
+void require_no_overlap(const Reader& r, const std::vector<RigidBody>& bodies, const SystemState& s) {
+  struct Site {
+    Vector3<double> x;
+    double radius;
+    std::size_t body, ball;
+  };
+  std::vector<Site> sites;
+  double max_radius = 0.0;
+  for (std::size_t a = 0; a < bodies.size(); ++a) {
+    const Matrix3<double> rot = s.q[a].matrix();
+    const std::vector<Ball>& balls = bodies[a].balls();
+    if (balls.empty()) {
+      sites.push_back({s.x[a], 0.0, a, 0});
+      continue;
+    }
+    for (std::size_t i = 0; i < balls.size(); ++i) {
+      sites.push_back({s.x[a] + rot * balls[i].position, balls[i].radius, a, i});
+      max_radius = std::max(max_radius, balls[i].radius);
+    }
+  }
+  std::sort(sites.begin(), sites.end(), [](const Site& u, const Site& v) { return u.x.x() < v.x.x(); });
+  for (std::size_t i = 0; i < sites.size(); ++i)
+    for (std::size_t j = i + 1; j < sites.size() && sites[j].x.x() - sites[i].x.x() < sites[i].radius + max_radius; ++j) {
+      const Site &u = sites[i], &v = sites[j];
+      if (u.body == v.body) continue;
+      const double d = (u.x - v.x).norm();
+      if (d < u.radius + v.radius || d == 0.0) {
+        auto what = [&](const Site& w) {
+          return bodies[w.body].balls().empty() ? "bodies[" + std::to_string(w.body) + "]"
+                                                : "bodies[" + std::to_string(w.body) + "].ball[" + std::to_string(w.ball) + "]";
+        };
+        const auto [first, second] = u.body < v.body ? std::pair(u, v) : std::pair(v, u);
+        r.fail(what(second), "overlaps " + what(first) + " at the start (distance " + std::to_string(d) +
+                                  " < the sum of the radii " + std::to_string(u.radius + v.radius) +
+                                  "); move the bodies apart");
+      }
+    }
+}
+
+InteractionSpec read_interaction(const Reader& r, const toml::table& root) {
+  InteractionSpec spec;
+  const toml::table* t = r.optional_table(root, "", "interaction");
+  if (!t) return spec;
+  const std::string kind = r.string(*t, "interaction", "kind", {"none", "gravity", "lennard-jones"});
+  if (kind == "none") {
+    r.only_keys(*t, "interaction", {"kind"});
+  } else if (kind == "gravity") {
+    r.only_keys(*t, "interaction", {"kind", "G", "model"});
+    spec.kind = InteractionKind::GravityBalls;
+    if (t->contains("model") && r.string(*t, "interaction", "model", {"balls", "inertia"}) == "inertia")
+      spec.kind = InteractionKind::GravityInertia;
+    spec.G = r.number(*t, "interaction", "G");
+    if (!(spec.G > 0.0)) r.fail("interaction.G", "must be > 0 (the gravitational constant in the scenario's units)");
+  } else {
+    r.only_keys(*t, "interaction", {"kind", "epsilon", "sigma", "cutoff", "skin"});
+    spec.kind = InteractionKind::LennardJones;
+    spec.epsilon = r.number(*t, "interaction", "epsilon");
+    if (!(spec.epsilon > 0.0)) r.fail("interaction.epsilon", "must be > 0 (the depth of the potential well)");
+    spec.sigma = r.number(*t, "interaction", "sigma");
+    if (!(spec.sigma > 0.0)) r.fail("interaction.sigma", "must be > 0 (where the potential is zero)");
+    spec.cutoff = t->contains("cutoff") ? r.number(*t, "interaction", "cutoff") : 2.5 * spec.sigma;
+    if (!(spec.cutoff > spec.sigma))
+      r.fail("interaction.cutoff", "must be > sigma (2.5 sigma is usual); the energy is shifted to 0 there");
+    spec.skin = t->contains("skin") ? r.number(*t, "interaction", "skin") : 0.3 * spec.sigma;
+    if (!(spec.skin >= 0.0)) r.fail("interaction.skin", "must be >= 0 (0.3 sigma is usual)");
+  }
+  return spec;
 }
 
 IntegratorSpec read_integrator(const Reader& r, const toml::table& root) {
@@ -357,28 +482,62 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
        << printable(e.description());
     throw InvalidInput(os.str());
   }
-  r.only_keys(root, "", {"body", "potential", "initial", "integrator", "output"});
-  RigidBody body = read_body(r, root);
+  r.only_keys(root, "", {"body", "bodies", "potential", "initial", "interaction", "integrator", "output", "run"});
+  const bool bodies_format = root.contains("bodies");
+  if (bodies_format && (root.contains("body") || root.contains("initial")))
+    r.fail("bodies", "give either [body] + [initial] (one body) or [[bodies]] tables, not both");
+  std::vector<RigidBody> bodies;
+  std::vector<std::string> names;
+  SystemState initial;
+  if (bodies_format) {
+    read_bodies(r, root, bodies, names, initial);
+  } else {
+    bodies.push_back(read_body(r, root));
+  }
   PotentialSpec potential = read_potential(r, root);
-  RigidBodyState initial = read_initial(r, root, body);
+  if (!bodies_format) initial = SystemState(read_initial(r, root, bodies[0]));
+  const InteractionSpec interaction = read_interaction(r, root);
   IntegratorSpec integrator = read_integrator(r, root);
+  if (bodies_format) require_no_overlap(r, bodies, initial);
+  if (bodies.size() > 1 && potential.kind == PotentialKind::HeavyTop)
+    r.fail("potential.kind", "\"heavy-top\" is a single body on a pivot; this scenario has " +
+                                 std::to_string(bodies.size()) + " bodies");
   if (integrator.method == Method::Exact && potential.kind != PotentialKind::None)
     r.fail("integrator.method", "\"exact\" is the free body's exact flow: it needs [potential] kind = \"none\"");
+  if (integrator.method == Method::Exact && (bodies.size() > 1 || interaction.kind != InteractionKind::None))
+    r.fail("integrator.method", "\"exact\" is the exact flow of one free body; this scenario has " +
+                                    std::to_string(bodies.size()) + " bodies" +
+                                    (interaction.kind != InteractionKind::None ? " and an [interaction]" : ""));
   if (integrator.method == Method::NoSquish || integrator.method == Method::SplittingDlm) {
-    const Matrix3<double>& J = body.inertia();
-    const double off = std::max({std::abs(J(0, 1)), std::abs(J(0, 2)), std::abs(J(1, 2))});
-    if (off > 8 * std::numeric_limits<double>::epsilon() * J.diagonal().maxCoeff())
-      r.fail("integrator.method", std::string("\"") + to_string(integrator.method) +
-                                      "\" rotates about the principal axes: body.inertia must be diagonal in body "
-                                      "axes (give the body in its principal axes)");
+    for (std::size_t a = 0; a < bodies.size(); ++a) {
+      const Matrix3<double>& J = bodies[a].inertia();
+      const double off = std::max({std::abs(J(0, 1)), std::abs(J(0, 2)), std::abs(J(1, 2))});
+      if (off > 8 * std::numeric_limits<double>::epsilon() * J.diagonal().maxCoeff())
+        r.fail("integrator.method", std::string("\"") + to_string(integrator.method) +
+                                        "\" rotates about the principal axes: " +
+                                        (bodies_format ? "bodies[" + std::to_string(a) + "]" : std::string("body")) +
+                                        ".inertia must be diagonal in body axes (give the body in its principal axes)");
+    }
   }
   // The rotation per step |Omega| h: at pi the discrete flow is undefined
   // (and the rotation equation has no root well before, near 1 rad).
-  const double rotation = (0.5 * body.inertia_inverse() * initial.w).norm() * integrator.step;
-  if (rotation >= 3.14159)
-    r.fail("integrator.step", "the initial rotation per step |Omega| h = " + std::to_string(rotation) +
-                                  " rad reaches pi; use a step below " +
-                                  std::to_string(integrator.step / rotation * 0.1) + " (0.1 rad per step)");
+  for (std::size_t a = 0; a < bodies.size(); ++a) {
+    const double rotation = (0.5 * bodies[a].inertia_inverse() * initial.w[a]).norm() * integrator.step;
+    if (rotation >= 3.14159)
+      r.fail("integrator.step", std::string("the initial rotation per step |Omega| h") +
+                                    (bodies_format ? " of bodies[" + std::to_string(a) + "]" : std::string()) + " = " +
+                                    std::to_string(rotation) + " rad reaches pi; use a step below " +
+                                    std::to_string(integrator.step / rotation * 0.1) + " (0.1 rad per step)");
+  }
+  int threads = 0;
+  if (const toml::table* run = r.optional_table(root, "", "run")) {
+    r.only_keys(*run, "run", {"threads"});
+    if (run->contains("threads")) {
+      const std::int64_t n = r.integer(*run, "run", "threads");
+      if (n < 1 || n > 1024) r.fail("run.threads", "must be an integer in [1, 1024] (default: all cores)");
+      threads = static_cast<int>(n);
+    }
+  }
   std::int64_t every = 1;
   if (const toml::table* out = r.optional_table(root, "", "output")) {
     r.only_keys(*out, "output", {"every", "format"});
@@ -393,7 +552,23 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
     format = f == "csv" ? TrajectoryFormat::Csv : f == "npz" ? TrajectoryFormat::Npz : TrajectoryFormat::Hdf5;
   }
   const std::string stem = std::filesystem::path(name).stem().string();
-  return Scenario{stem, std::move(body), potential, initial, integrator, every, format, text};
+  Scenario sc;
+  sc.name = stem;
+  try {
+    sc.system = System(std::move(bodies), std::move(names));
+  } catch (const InvalidInput& e) {
+    r.fail("", e.what());
+  }
+  sc.potential = potential;
+  sc.interaction = interaction;
+  sc.initial_state = std::move(initial);
+  sc.bodies_format = bodies_format;
+  sc.threads = threads;
+  sc.integrator = integrator;
+  sc.output_every = every;
+  sc.output_format = format;
+  sc.source_text = text;
+  return sc;
 }
 
 Scenario read_scenario(const std::string& path) {
@@ -414,6 +589,16 @@ const char* to_string(PotentialKind k) {
     case PotentialKind::Central: return "central";
     case PotentialKind::Uniform: return "uniform";
     case PotentialKind::HeavyTop: return "heavy-top";
+  }
+  return "?";
+}
+
+const char* to_string(InteractionKind k) {
+  switch (k) {
+    case InteractionKind::None: return "none";
+    case InteractionKind::GravityBalls:
+    case InteractionKind::GravityInertia: return "gravity";
+    case InteractionKind::LennardJones: return "lennard-jones";
   }
   return "?";
 }

@@ -6,6 +6,7 @@
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/rotation_solver.hpp>
 #include <lgvi/state.hpp>
+#include <lgvi/system.hpp>
 
 #include "trajectory_sink.hpp"
 
@@ -50,6 +51,16 @@ struct PotentialSpec {
   Vector3<double> pivot_to_com = Vector3<double>::Zero();  // heavy-top: chi, body frame
 };
 
+/// Mutual interactions between the bodies (`[interaction]`).
+enum class InteractionKind { None, GravityBalls, GravityInertia, LennardJones };
+
+struct InteractionSpec {
+  InteractionKind kind = InteractionKind::None;
+  double G = 0.0;                                    // gravity
+  double epsilon = 0.0, sigma = 0.0, cutoff = 0.0;  // lennard-jones
+  double skin = 0.0;                                 // lennard-jones: Verlet list skin
+};
+
 struct IntegratorSpec {
   Method method = Method::Hamiltonian;
   SolverOptions solver;
@@ -60,13 +71,23 @@ struct IntegratorSpec {
 
 struct Scenario {
   std::string name;  ///< the file's stem
-  RigidBody body;
-  PotentialSpec potential;
-  RigidBodyState initial;
+  System system;     ///< the bodies, in scenario order (one for a [body] scenario)
+  PotentialSpec potential;  ///< the external field, acting on every body
+  InteractionSpec interaction;
+  SystemState initial_state;
+  /// Written with [[bodies]] (trajectories in the long, per-body format) or
+  /// with [body] + [initial] (one body, the single-body format).
+  bool bodies_format = false;
+  int threads = 0;  ///< [run] threads; 0: all cores
   IntegratorSpec integrator;
   std::int64_t output_every = 1;
   TrajectoryFormat output_format = TrajectoryFormat::Csv;
   std::string source_text;  ///< the TOML text it was read from
+
+  /// Body 0 and its initial state: the body of a single-body scenario.
+  const RigidBody& body() const { return system.body(0); }
+  RigidBodyState initial() const { return initial_state.body(0); }
+  std::size_t bodies() const { return system.size(); }
 };
 
 /// Reads and validates a scenario file. Throws InvalidInput with a message
@@ -77,6 +98,7 @@ Scenario read_scenario(const std::string& path);
 Scenario parse_scenario(const std::string& toml_text, const std::string& name);
 
 const char* to_string(PotentialKind k);
+const char* to_string(InteractionKind k);
 const char* to_string(Method m);
 
 }  // namespace lgvi::app

@@ -22,48 +22,123 @@ namespace {
 
 }  // namespace
 
-ScenarioPotential scenario_potential(const Scenario& s) {
+namespace {
+/// The [potential] for body a.
+ScenarioPotential body_potential(const Scenario& s, std::size_t a) {
+  const RigidBody& body = s.system.body(a);
   switch (s.potential.kind) {
-    case PotentialKind::Central: return CentralGravity(s.body, s.potential.mu, s.potential.stop_at_contact);
-    case PotentialKind::Uniform: return UniformGravity(s.body, s.potential.g);
-    case PotentialKind::HeavyTop: return HeavyTop(s.body, s.potential.g, s.potential.pivot_to_com);
+    case PotentialKind::Central: return CentralGravity(body, s.potential.mu, s.potential.stop_at_contact);
+    case PotentialKind::Uniform: return UniformGravity(body, s.potential.g);
+    case PotentialKind::HeavyTop: return HeavyTop(body, s.potential.g, s.potential.pivot_to_com);
     case PotentialKind::None: break;
   }
   return NoPotential{};
 }
 
+/// The external field of every body, as one ExternalField of the right type.
+template <class P>
+ExternalField<P> field_of(const Scenario& s, const Parallelism& par) {
+  std::vector<P> per_body;
+  per_body.reserve(s.bodies());
+  for (std::size_t a = 0; a < s.bodies(); ++a) per_body.push_back(std::get<P>(body_potential(s, a)));
+  return ExternalField<P>(std::move(per_body), par);
+}
+}  // namespace
+
+ScenarioPotential scenario_potential(const Scenario& s) { return body_potential(s, 0); }
+
+Parallelism scenario_parallelism(const Scenario& s) {
+  return s.threads > 0 ? Parallelism{s.threads} : Parallelism::all_cores();
+}
+
+ScenarioSystemPotential scenario_system_potential(const Scenario& s, const CallablePotential* field,
+                                                  std::int64_t* evaluations) {
+  const Parallelism par = scenario_parallelism(s);
+  ScenarioSystemPotential::External external = ExternalField<NoPotential>::uniform(NoPotential{}, s.bodies(), par);
+  if (field) {
+    external = ExternalField<CallablePotential>::uniform(*field, s.bodies(), par);
+  } else {
+    switch (s.potential.kind) {
+      case PotentialKind::Central: external = field_of<CentralGravity>(s, par); break;
+      case PotentialKind::Uniform: external = field_of<UniformGravity>(s, par); break;
+      case PotentialKind::HeavyTop: external = field_of<HeavyTop>(s, par); break;
+      case PotentialKind::None: break;
+    }
+  }
+  ScenarioSystemPotential::Mutual mutual = NoMutualInteraction{};
+  const InteractionSpec& i = s.interaction;
+  switch (i.kind) {
+    case InteractionKind::GravityBalls: mutual = MutualGravityBalls(s.system, i.G, par); break;
+    case InteractionKind::GravityInertia: mutual = MutualGravityInertia(s.system, i.G, par); break;
+    case InteractionKind::LennardJones: mutual = LennardJones(s.system, i.epsilon, i.sigma, i.cutoff, par, i.skin); break;
+    case InteractionKind::None: break;
+  }
+  return {std::move(external), std::move(mutual), evaluations};
+}
+
+TrajectoryLayout scenario_layout(const Scenario& s) {
+  return s.bodies_format ? TrajectoryLayout::long_format(static_cast<std::int64_t>(s.bodies()))
+                         : TrajectoryLayout::single_body();
+}
+
 namespace {
 
-/// The observer: diagnostics at every step, a row every `output_every` steps.
+/// The observer: diagnostics at every step, rows every `output_every` steps
+/// (one row per body in the long layout).
 struct Recorder {
   const Scenario& scenario;
   TrajectorySink& sink;
   RunStatistics& stats;
+  std::vector<double> row_ = std::vector<double>(bodies_trajectory_columns);
 
-  void operator()(const StepInfo& i) {
-    const RigidBodyState& s = i.state;
-    const double energy = total_energy(s, scenario.body, i.evaluation);
+  void operator()(const SystemStepInfo& i) {
+    const SystemState& s = i.state;
+    const std::size_t n = s.size();
+    const double energy = total_energy(s, scenario.system, i.evaluation);
     const Vector3<double> L = angular_momentum(s);
+    const Vector3<double> P = linear_momentum(s);
     if (i.k == 0) {
       stats.energy0 = energy;
       stats.momentum0 = L;
+      stats.linear_momentum0 = P;
+      stats.linear_momentum_scale = 0.0;
+      for (const Vector3<double>& p : s.p) stats.linear_momentum_scale += p.norm();
     } else {
       stats.iterations_total += i.solve.iterations;
-      stats.iterations_max = std::max<std::int64_t>(stats.iterations_max, i.solve.iterations);
+      stats.iterations_max = std::max<std::int64_t>(stats.iterations_max, i.solve.worst_iterations);
       ++stats.steps_solved;
     }
-    const double de = energy - stats.energy0, dq = s.q.norm_error(), dl = (L - stats.momentum0).norm();
+    const double de = energy - stats.energy0, dl = (L - stats.momentum0).norm();
+    // |P - P0| relative to sum |p_a0|; absolute when every body starts at rest.
+    const double dp_abs = (P - stats.linear_momentum0).norm();
+    const double dp = stats.linear_momentum_scale > 0.0 ? dp_abs / stats.linear_momentum_scale : dp_abs;
+    double dq = s.q[0].norm_error();
+    for (std::size_t a = 1; a < n; ++a)
+      if (std::abs(s.q[a].norm_error()) > std::abs(dq)) dq = s.q[a].norm_error();
     stats.max_energy_error = std::max(stats.max_energy_error, std::abs(de));
     stats.max_quat_error = std::max(stats.max_quat_error, std::abs(dq));
     stats.max_momentum_error = std::max(stats.max_momentum_error, dl);
+    stats.max_linear_momentum_error = std::max(stats.max_linear_momentum_error, dp);
     stats.last_t = i.t;
     stats.last_k = i.k;
     stats.observed = true;
-    if (i.k % scenario.output_every == 0 || i.k == scenario.integrator.steps) {
-      const auto& q = s.q.quaternion();
-      const double row[trajectory_columns] = {i.t,    s.x.x(), s.x.y(), s.x.z(), q.w(),   q.x(),   q.y(),
-                                              q.z(),  s.p.x(), s.p.y(), s.p.z(), s.w.x(), s.w.y(), s.w.z(),
-                                              energy, de,      dq,      L.x(),   L.y(),   L.z(),   dl};
+    if (i.k % scenario.output_every != 0 && i.k != scenario.integrator.steps) return;
+    if (!scenario.bodies_format) {
+      const auto& q = s.q[0].quaternion();
+      const Vector3<double>&x = s.x[0], &p = s.p[0], &w = s.w[0];
+      const double row[trajectory_columns] = {i.t,    x.x(), x.y(), x.z(), q.w(),   q.x(),   q.y(),
+                                              q.z(),  p.x(), p.y(), p.z(), w.x(),   w.y(),   w.z(),
+                                              energy, de,    dq,    L.x(), L.y(),   L.z(),   dl};
+      sink.row(row);
+      return;
+    }
+    for (std::size_t a = 0; a < n; ++a) {
+      const auto& q = s.q[a].quaternion();
+      const Vector3<double>&x = s.x[a], &p = s.p[a], &w = s.w[a];
+      const double row[bodies_trajectory_columns] = {
+          i.t,   static_cast<double>(a), x.x(), x.y(), x.z(), q.w(), q.x(),  q.y(),  q.z(),
+          p.x(), p.y(), p.z(), w.x(), w.y(), w.z(), s.q[a].norm_error(), energy, de, P.x(), P.y(), P.z(), dp,
+          L.x(), L.y(), L.z(), dl};
       sink.row(row);
     }
   }
@@ -73,12 +148,15 @@ template <class Stepper>
 SimulationResult run_with(Stepper& stepper, const Scenario& sc, TrajectorySink& sink, const SimulationOptions& opt) {
   SimulationResult result;
   RunStatistics& stats = result.stats;
-  RigidBodyState state = sc.initial;
+  SystemState state = sc.initial_state;
   std::int64_t k0 = 0;
   if (opt.resume) {
     stats = opt.resume->stats;
     state = opt.resume->state;
     k0 = opt.resume->k;
+    if (state.size() != sc.bodies())
+      throw InvalidInput("checkpoint: " + std::to_string(state.size()) + " bodies, the scenario has " +
+                         std::to_string(sc.bodies()));
   }
   Recorder recorder{sc, sink, stats};
   const double h = sc.integrator.step;
@@ -100,17 +178,17 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, TrajectorySink& 
   try {
     if (opt.resume) {
       try {
-        stepper.resume(state, opt.resume->stepper_internal);
+        stepper.resume(state, static_cast<double>(k0) * h, opt.resume->stepper_internal);
       } catch (const StepFailure& f) {
         throw IntegrationFailure(k0, static_cast<double>(k0) * h, f);
       }
     } else {
       try {
-        stepper.initialize(state);
+        stepper.initialize(state, 0.0);
       } catch (const StepFailure& f) {
         throw IntegrationFailure(0, 0.0, f);
       }
-      recorder(StepInfo{0, 0.0, state, stepper.evaluation(), SolveReport{}});
+      recorder(SystemStepInfo{0, 0.0, state, stepper.evaluation(), SolveReport{}});
     }
     // Steps are taken in legs that end at checkpoints and progress reports,
     // so the per-step loop stays free of those checks.
@@ -124,7 +202,7 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, TrajectorySink& 
     auto stop_requested = [&] { return opt.stop_flag && *opt.stop_flag != 0; };
     while (reached < n) {
       const std::int64_t end = next_stop(reached);
-      reached = integrate_range(stepper, state, 0.0, reached, end, recorder, stop_requested);
+      reached = integrate_range(stepper, state, 0.0, h, reached, end, recorder, stop_requested);
       if (stop_requested()) break;
       if (opt.checkpoint_every > 0 && reached % opt.checkpoint_every == 0 && reached < n) checkpoint(reached);
       if (opt.progress) opt.progress(reached, static_cast<double>(reached) * h);
@@ -145,22 +223,33 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, TrajectorySink& 
 
 std::vector<double> to_vector(const Eigen::Ref<const Eigen::VectorXd>& v) { return {v.data(), v.data() + v.size()}; }
 
-JsonObject setup_json(const Scenario& s) {
-  JsonObject body;
-  body.number("mass", s.body.mass());
+/// A body's inertia and balls as JSON arrays (one line each).
+std::string inertia_json(const RigidBody& b) {
   std::string inertia = "[";
   for (int i = 0; i < 3; ++i)
-    inertia += (i ? ", [" : "[") + json_number(s.body.inertia()(i, 0)) + ", " + json_number(s.body.inertia()(i, 1)) +
-               ", " + json_number(s.body.inertia()(i, 2)) + "]";
-  body.raw("inertia", inertia + "]");
+    inertia += (i ? ", [" : "[") + json_number(b.inertia()(i, 0)) + ", " + json_number(b.inertia()(i, 1)) + ", " +
+               json_number(b.inertia()(i, 2)) + "]";
+  return inertia + "]";
+}
+std::string balls_json(const RigidBody& b) {
   std::string balls = "[";
-  for (std::size_t i = 0; i < s.body.balls().size(); ++i) {
-    const Ball& b = s.body.balls()[i];
+  for (std::size_t i = 0; i < b.balls().size(); ++i) {
+    const Ball& ball = b.balls()[i];
     balls += fmt::format("{}{{\"position\": [{}, {}, {}], \"mass\": {}, \"radius\": {}}}", i ? ", " : "",
-                         json_number(b.position.x()), json_number(b.position.y()), json_number(b.position.z()),
-                         json_number(b.mass), json_number(b.radius));
+                         json_number(ball.position.x()), json_number(ball.position.y()),
+                         json_number(ball.position.z()), json_number(ball.mass), json_number(ball.radius));
   }
-  body.raw("balls", balls + "]");
+  return balls + "]";
+}
+
+/// One element per line (lists of bodies); JsonObject::str indents the lines.
+std::string json_lines(const std::vector<std::string>& elements) {
+  std::string s = "[";
+  for (std::size_t i = 0; i < elements.size(); ++i) s += (i ? ",\n  " : "\n  ") + elements[i];
+  return s + (elements.empty() ? "]" : "\n]");
+}
+
+JsonObject setup_json(const Scenario& s) {
   JsonObject pot;
   pot.string("kind", to_string(s.potential.kind));
   if (s.potential.kind == PotentialKind::Central)
@@ -176,8 +265,47 @@ JsonObject setup_json(const Scenario& s) {
       .integer("max_iterations", s.integrator.solver.max_iterations)
       .integer("predictor_order", s.integrator.solver.predictor_order);
   JsonObject o;
-  o.object("body", body).object("potential", pot).object("integrator", integ).integer("output_every", s.output_every);
+  if (!s.bodies_format) {
+    JsonObject body;
+    body.number("mass", s.body().mass()).raw("inertia", inertia_json(s.body())).raw("balls", balls_json(s.body()));
+    o.object("body", body);
+  } else {
+    std::vector<std::string> bodies;
+    for (std::size_t a = 0; a < s.bodies(); ++a) {
+      const RigidBody& b = s.system.body(a);
+      bodies.push_back(fmt::format("{{\"name\": {}, \"mass\": {}, \"inertia\": {}, \"balls\": {}}}",
+                                   json_string(s.system.name(a)), json_number(b.mass()), inertia_json(b),
+                                   balls_json(b)));
+    }
+    o.raw("bodies", json_lines(bodies));
+  }
+  o.object("potential", pot);
+  if (s.bodies_format) {
+    JsonObject inter;
+    inter.string("kind", to_string(s.interaction.kind));
+    if (s.interaction.kind == InteractionKind::GravityBalls || s.interaction.kind == InteractionKind::GravityInertia)
+      inter.number("G", s.interaction.G)
+          .string("model", s.interaction.kind == InteractionKind::GravityBalls ? "balls" : "inertia");
+    if (s.interaction.kind == InteractionKind::LennardJones)
+      inter.number("epsilon", s.interaction.epsilon)
+          .number("sigma", s.interaction.sigma)
+          .number("cutoff", s.interaction.cutoff)
+          .number("skin", s.interaction.skin);
+    o.object("interaction", inter);
+  }
+  o.object("integrator", integ).integer("output_every", s.output_every);
   return o;
+}
+
+/// A body's state on one line, with its name.
+std::string body_state_json(const std::string& name, const RigidBodyState& s) {
+  const Vector4<double> q = s.q.scalar_first();
+  return fmt::format("{{\"name\": {}, \"position\": [{}, {}, {}], \"quaternion\": [{}, {}, {}, {}], "
+                     "\"momentum\": [{}, {}, {}], \"w\": [{}, {}, {}]}}",
+                     json_string(name), json_number(s.x.x()), json_number(s.x.y()), json_number(s.x.z()),
+                     json_number(q(0)), json_number(q(1)), json_number(q(2)), json_number(q(3)), json_number(s.p.x()),
+                     json_number(s.p.y()), json_number(s.p.z()), json_number(s.w.x()), json_number(s.w.y()),
+                     json_number(s.w.z()));
 }
 
 JsonObject state_json(const RigidBodyState& s) {
@@ -191,54 +319,39 @@ JsonObject state_json(const RigidBodyState& s) {
 
 // Checkpoint file: magic, version, then fixed fields and length-prefixed arrays.
 constexpr char checkpoint_magic[8] = {'L', 'G', 'V', 'I', 'C', 'K', 'P', 'T'};
-constexpr std::int64_t checkpoint_version = 2;
+constexpr std::int64_t checkpoint_version = 3;  // 3: N bodies, linear momentum statistics
 
 }  // namespace
 
 namespace {
 
-/// Counts evaluations (reported as potential_evaluations: the cost measure
-/// of `lgvi compare`), at the price of one increment each.
-template <Potential P>
-struct CountingPotential {
-  P inner;
-  std::int64_t* count;
-  PotentialEvaluation evaluate(const Vector3<double>& x, const S3d& q) const {
-    ++*count;
-    return inner.evaluate(x, q);
-  }
-};
-
-template <class AnyP>
-SimulationResult simulate_with(const Scenario& sc, const AnyP& potential, TrajectorySink& sink,
+SimulationResult simulate_with(const Scenario& sc, const CallablePotential* field, TrajectorySink& sink,
                                const SimulationOptions& opt) {
   if (opt.checkpoint_every > 0 && opt.checkpoint_path.empty())
     throw InvalidInput("checkpoint_every is set but no checkpoint path is given");
-  return std::visit(
-      [&](const auto& pot) -> SimulationResult {
-        using P = std::decay_t<decltype(pot)>;
-        std::int64_t count = 0;
-        const CountingPotential<P> counted{pot, &count};
-        SimulationResult r = with_stepper<std::is_same_v<P, NoPotential>>(
-            sc, counted, [&](auto& stepper) { return run_with(stepper, sc, sink, opt); });
-        r.stats.potential_evaluations += count;
-        return r;
-      },
-      potential);
+  std::int64_t count = 0;
+  const ScenarioSystemPotential potential = scenario_system_potential(sc, field, &count);
+  SimulationResult r = with_stepper(sc, potential, scenario_parallelism(sc),
+                                    [&](auto& stepper) { return run_with(stepper, sc, sink, opt); });
+  r.stats.potential_evaluations += count;
+  return r;
 }
 }  // namespace
 
 SimulationResult simulate(const Scenario& sc, TrajectorySink& sink, const SimulationOptions& opt) {
-  return simulate_with(sc, scenario_potential(sc), sink, opt);
+  return simulate_with(sc, nullptr, sink, opt);
 }
 
 SimulationResult simulate(const Scenario& sc, const CallablePotential& potential, TrajectorySink& sink,
                           const SimulationOptions& opt) {
-  return simulate_with(sc, std::variant<CallablePotential>(potential), sink, opt);
+  return simulate_with(sc, &potential, sink, opt);
 }
 
 std::string summary_json(const Scenario& sc, const SimulationResult& r) {
   const RunStatistics& st = r.stats;
+  std::vector<std::string> final_bodies;
+  for (std::size_t a = 0; a < r.final_state.size(); ++a)
+    final_bodies.push_back(body_state_json(sc.system.name(a), r.final_state.body(a)));
   const double l0 = st.momentum0.norm();
   JsonObject s;
   s.string("scenario", sc.name)
@@ -256,12 +369,14 @@ std::string summary_json(const Scenario& sc, const SimulationResult& r) {
       .number("max_abs_quat_norm_error", st.max_quat_error)
       .number("max_momentum_error", st.max_momentum_error)
       .number("max_relative_momentum_error", l0 > 0 ? st.max_momentum_error / l0 : st.max_momentum_error)
+      .number("max_linear_momentum_error", st.max_linear_momentum_error)
       .number("solver_iterations_mean", st.steps_solved ? static_cast<double>(st.iterations_total) /
                                                               static_cast<double>(st.steps_solved)
                                                         : 0.0)
       .integer("solver_iterations_max", st.iterations_max)
       .integer("potential_evaluations", st.potential_evaluations)
-      .object("final", state_json(r.final_state))
+      .object("final", state_json(r.final_state.body(0)))
+      .raw("final_bodies", json_lines(final_bodies))
       .object("setup", setup_json(sc));
   return s.str() + "\n";
 }
@@ -275,13 +390,19 @@ void write_checkpoint(const std::string& path, const Checkpoint& c) {
   };
   put(checkpoint_version);
   put(c.k);
-  put_vec({c.state.x.x(), c.state.x.y(), c.state.x.z(), c.state.q.w(), c.state.q.vec().x(), c.state.q.vec().y(),
-           c.state.q.vec().z(), c.state.p.x(), c.state.p.y(), c.state.p.z(), c.state.w.x(), c.state.w.y(),
-           c.state.w.z()});
+  std::vector<double> state;  // 13 numbers per body: x, q (scalar first), p, w
+  state.reserve(13 * c.state.size());
+  for (std::size_t a = 0; a < c.state.size(); ++a) {
+    const Vector4<double> q = c.state.q[a].scalar_first();
+    const Vector3<double>&x = c.state.x[a], &p = c.state.p[a], &w = c.state.w[a];
+    state.insert(state.end(), {x.x(), x.y(), x.z(), q(0), q(1), q(2), q(3), p.x(), p.y(), p.z(), w.x(), w.y(), w.z()});
+  }
+  put_vec(state);
   put_vec(c.stepper_internal);
   const RunStatistics& s = c.stats;
   put_vec({s.energy0, s.momentum0.x(), s.momentum0.y(), s.momentum0.z(), s.max_energy_error, s.max_quat_error,
-           s.max_momentum_error, s.last_t, s.wall_seconds_before});
+           s.max_momentum_error, s.last_t, s.wall_seconds_before, s.linear_momentum0.x(), s.linear_momentum0.y(),
+           s.linear_momentum0.z(), s.linear_momentum_scale, s.max_linear_momentum_error});
   put(s.iterations_total);
   put(s.potential_evaluations);
   put(s.steps_solved);
@@ -311,7 +432,7 @@ Checkpoint read_checkpoint(const std::string& path) {
   auto get_vec = [&](std::vector<double>& v) {
     std::int64_t n = 0;
     get(n);
-    if (n < 0 || n > 1 << 20) fail();
+    if (n < 0 || n > static_cast<std::int64_t>(bytes.size() / 8)) fail();
     v.resize(static_cast<std::size_t>(n));
     for (double& d : v) get(d);
   };
@@ -320,21 +441,26 @@ Checkpoint read_checkpoint(const std::string& path) {
   pos = sizeof checkpoint_magic;
   std::int64_t version = 0;
   get(version);
-  if (version != checkpoint_version) throw InvalidInput(path + ": checkpoint version " + std::to_string(version) +
-                                                        " is not supported by this lgvi");
+  // Version 2 (one body, no linear momentum statistics) still resumes.
+  if (version != checkpoint_version && version != 2)
+    throw InvalidInput(path + ": checkpoint version " + std::to_string(version) + " is not supported by this lgvi");
   Checkpoint c;
   get(c.k);
   std::vector<double> st;
   get_vec(st);
-  if (st.size() != 13) fail();
-  c.state.x = {st[0], st[1], st[2]};
-  c.state.q = S3d(st[3], st[4], st[5], st[6]);
-  c.state.p = {st[7], st[8], st[9]};
-  c.state.w = {st[10], st[11], st[12]};
+  if (st.empty() || st.size() % 13 != 0 || (version == 2 && st.size() != 13)) fail();
+  c.state = SystemState(st.size() / 13);
+  for (std::size_t a = 0; a < c.state.size(); ++a) {
+    const double* v = st.data() + 13 * a;
+    c.state.x[a] = {v[0], v[1], v[2]};
+    c.state.q[a] = S3d(v[3], v[4], v[5], v[6]);
+    c.state.p[a] = {v[7], v[8], v[9]};
+    c.state.w[a] = {v[10], v[11], v[12]};
+  }
   get_vec(c.stepper_internal);
   std::vector<double> s;
   get_vec(s);
-  if (s.size() != 9) fail();
+  if (s.size() != (version == 2 ? 9u : 14u)) fail();
   RunStatistics& r = c.stats;
   r.energy0 = s[0];
   r.momentum0 = {s[1], s[2], s[3]};
@@ -343,6 +469,11 @@ Checkpoint read_checkpoint(const std::string& path) {
   r.max_momentum_error = s[6];
   r.last_t = s[7];
   r.wall_seconds_before = s[8];
+  if (version > 2) {
+    r.linear_momentum0 = {s[9], s[10], s[11]};
+    r.linear_momentum_scale = s[12];
+    r.max_linear_momentum_error = s[13];
+  }
   std::int64_t observed = 0, crc = 0;
   get(r.iterations_total);
   get(r.potential_evaluations);

@@ -7,8 +7,13 @@
 #include "scenario.hpp"
 #include "trajectory_sink.hpp"
 
+#include <lgvi/interaction.hpp>
+#include <lgvi/lennard_jones.hpp>
+#include <lgvi/mutual_gravity.hpp>
+#include <lgvi/parallel.hpp>
 #include <lgvi/potential.hpp>
 #include <lgvi/state.hpp>
+#include <lgvi/system.hpp>
 
 #include <csignal>
 #include <cstdint>
@@ -23,14 +28,59 @@ namespace lgvi::app {
 /// The built-in potentials a scenario can name.
 using ScenarioPotential = std::variant<NoPotential, CentralGravity, UniformGravity, HeavyTop>;
 
-/// The scenario's [potential].
+/// The scenario's [potential] for its first body (single-body tools: the
+/// continuous equations of `lgvi compare`'s reference).
 ScenarioPotential scenario_potential(const Scenario& s);
+
+/// The potential of a scenario's whole system: its external field on every
+/// body plus its mutual interaction. One type for every scenario (the field
+/// and the interaction are variants, visited once per evaluation), so that
+/// each method is compiled once. Counts its evaluations (the cost measure of
+/// `lgvi compare`).
+class ScenarioSystemPotential {
+ public:
+  using External = std::variant<ExternalField<NoPotential>, ExternalField<CentralGravity>,
+                                ExternalField<UniformGravity>, ExternalField<HeavyTop>,
+                                ExternalField<CallablePotential>>;
+  using Mutual = std::variant<NoMutualInteraction, MutualGravityBalls, MutualGravityInertia, LennardJones>;
+
+  ScenarioSystemPotential(External external, Mutual mutual, std::int64_t* evaluations)
+      : external_(std::move(external)), mutual_(std::move(mutual)), evaluations_(evaluations) {}
+
+  void evaluate(const SystemState& s, SystemEvaluation& e) const {
+    std::visit([&](const auto& field) { field.evaluate(s, e); }, external_);
+    std::visit([&](const auto& m) { m.add(s, e); }, mutual_);
+    ++*evaluations_;
+  }
+  /// No field and no interaction: the free body (for method "exact").
+  bool is_free() const {
+    return std::holds_alternative<ExternalField<NoPotential>>(external_) &&
+           std::holds_alternative<NoMutualInteraction>(mutual_);
+  }
+
+ private:
+  External external_;
+  Mutual mutual_;
+  std::int64_t* evaluations_;
+};
+
+/// The threads a scenario's per-body loops use: [run] threads, else all cores.
+Parallelism scenario_parallelism(const Scenario& s);
+
+/// The scenario's system potential, with `field` (e.g. a Python potential)
+/// in place of its [potential] when given; evaluations are counted in
+/// *evaluations.
+ScenarioSystemPotential scenario_system_potential(const Scenario& s, const CallablePotential* field,
+                                                  std::int64_t* evaluations);
 
 /// Diagnostics over every step, written or not.
 struct RunStatistics {
   double energy0 = 0.0;
-  Vector3<double> momentum0 = Vector3<double>::Zero();
+  Vector3<double> momentum0 = Vector3<double>::Zero();  ///< total angular momentum about the origin
   double max_energy_error = 0.0, max_quat_error = 0.0, max_momentum_error = 0.0;
+  Vector3<double> linear_momentum0 = Vector3<double>::Zero();  ///< total linear momentum P0
+  double linear_momentum_scale = 0.0;                           ///< sum_a |p_a0|
+  double max_linear_momentum_error = 0.0;                       ///< max |P - P0| / sum_a |p_a0|
   std::int64_t iterations_total = 0, steps_solved = 0;
   std::int64_t potential_evaluations = 0;  ///< the cost measure of method comparisons
   std::int64_t iterations_max = 0;
@@ -45,7 +95,7 @@ struct RunStatistics {
 /// statistics, and where the trajectory file ended.
 struct Checkpoint {
   std::int64_t k = 0;
-  RigidBodyState state;
+  SystemState state;
   std::vector<double> stepper_internal;
   RunStatistics stats;
   SinkPosition sink;
@@ -78,9 +128,13 @@ struct SimulationResult {
   bool interrupted = false;  ///< stopped on request (stop_flag)
   std::string error;         ///< why it failed or stopped; empty if completed
   RunStatistics stats;
-  RigidBodyState final_state;
+  SystemState final_state;
   double wall_seconds = 0.0;  ///< integration loop with diagnostics and row output, all legs
 };
+
+/// The trajectory layout of a scenario: the single-body columns for a [body]
+/// scenario, the long (per body) format for a [[bodies]] one.
+TrajectoryLayout scenario_layout(const Scenario& s);
 
 /// Runs the scenario, handing rows (every `output_every` steps, the first and
 /// the last) to `sink`. Integration failures are reported in the result, not

@@ -24,7 +24,8 @@ namespace {
 /// integration goes on (double buffering). The bytes do not depend on timing.
 class CsvTrajectory final : public TrajectorySink {
  public:
-  CsvTrajectory(const std::string& path, const SinkPosition* resume) : path_(path) {
+  CsvTrajectory(const std::string& path, const TrajectoryLayout& layout, const SinkPosition* resume)
+      : path_(path), columns_(static_cast<std::size_t>(layout.columns)) {
     if (resume) {
       std::error_code ec;
       std::filesystem::resize_file(path, static_cast<std::uintmax_t>(resume->bytes), ec);
@@ -35,9 +36,9 @@ class CsvTrajectory final : public TrajectorySink {
       file_ = std::fopen(path.c_str(), "wb");
     }
     if (!file_) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
-    if (!resume && std::fputs((std::string(trajectory_header) + "\n").c_str(), file_) < 0)
+    if (!resume && std::fputs((std::string(layout.header) + "\n").c_str(), file_) < 0)
       throw std::runtime_error("cannot write " + path);
-    filling_.reserve(rows_per_block * trajectory_columns);
+    filling_.reserve(rows_per_block * columns_);
     writing_.reserve(filling_.capacity());
     thread_ = std::thread([this] { writer_loop(); });
   }
@@ -50,9 +51,9 @@ class CsvTrajectory final : public TrajectorySink {
   }
 
   void row(const double* values) override {
-    filling_.insert(filling_.end(), values, values + trajectory_columns);
+    filling_.insert(filling_.end(), values, values + columns_);
     ++rows_;
-    if (filling_.size() >= rows_per_block * trajectory_columns) hand_over();
+    if (filling_.size() >= rows_per_block * columns_) hand_over();
   }
 
   SinkPosition sync() override {
@@ -125,13 +126,14 @@ class CsvTrajectory final : public TrajectorySink {
     for (std::size_t i = 0; i < block.size(); ++i) {
       const auto res = std::to_chars(number, number + sizeof number, block[i], std::chars_format::general, 17);
       text.append(number, res.ptr);
-      text.push_back((i + 1) % trajectory_columns == 0 ? '\n' : ',');
+      text.push_back((i + 1) % columns_ == 0 ? '\n' : ',');
     }
     if (std::fwrite(text.data(), 1, text.size(), file_) != text.size())
       error_ = "writing " + path_ + " failed: " + std::strerror(errno);
   }
 
   std::string path_;
+  std::size_t columns_;
   std::FILE* file_ = nullptr;
   std::int64_t rows_ = 0;
   std::vector<double> filling_, writing_;
@@ -154,11 +156,11 @@ const char* trajectory_file_name(TrajectoryFormat f) {
 }
 
 std::unique_ptr<TrajectorySink> open_trajectory(TrajectoryFormat format, const std::string& path,
-                                                const SinkPosition* resume) {
+                                                const TrajectoryLayout& layout, const SinkPosition* resume) {
   switch (format) {
-    case TrajectoryFormat::Csv: return std::make_unique<CsvTrajectory>(path, resume);
-    case TrajectoryFormat::Npz: return open_npz(path, resume);
-    case TrajectoryFormat::Hdf5: return open_hdf5(path, resume);
+    case TrajectoryFormat::Csv: return std::make_unique<CsvTrajectory>(path, layout, resume);
+    case TrajectoryFormat::Npz: return open_npz(path, layout, resume);
+    case TrajectoryFormat::Hdf5: return open_hdf5(path, layout, resume);
   }
   throw std::runtime_error("unknown trajectory format");
 }

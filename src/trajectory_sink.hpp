@@ -9,10 +9,35 @@
 
 namespace lgvi::app {
 
-/// The trajectory's columns, in order, in every format.
+/// The trajectory's columns of a single-body scenario, in order, in every format.
 inline constexpr const char* trajectory_header =
     "t,x,y,z,qw,qx,qy,qz,px,py,pz,wx,wy,wz,energy,energy_error,quat_norm_error,Lx,Ly,Lz,momentum_error";
 inline constexpr int trajectory_columns = 21;
+
+/// The columns of a [[bodies]] scenario's trajectory, the long format: one
+/// row per output step and body, with the body's index and state, its
+/// |q| - 1, then the system's energy, energy error, total linear momentum P,
+/// its error |P - P0| / sum |p_a0|, total angular momentum L about the origin
+/// and its error |L - L0| (the same on every row of a step).
+inline constexpr const char* bodies_trajectory_header =
+    "t,body,x,y,z,qw,qx,qy,qz,px,py,pz,wx,wy,wz,quat_norm_error,energy,energy_error,Px,Py,Pz,"
+    "linear_momentum_error,Lx,Ly,Lz,momentum_error";
+inline constexpr int bodies_trajectory_columns = 26;
+
+/// What a trajectory file holds: the column names, and how many rows make
+/// one output step (1 for a single-body scenario; N, one per body, for a
+/// [[bodies]] scenario, whose npz and HDF5 arrays are then shaped
+/// (steps, N, columns)).
+struct TrajectoryLayout {
+  const char* header = trajectory_header;
+  int columns = trajectory_columns;
+  std::int64_t bodies = 0;  ///< 0: the single-body layout, 2-D arrays; N >= 1: the long layout
+
+  static TrajectoryLayout single_body() { return {}; }
+  static TrajectoryLayout long_format(std::int64_t n) { return {bodies_trajectory_header, bodies_trajectory_columns, n}; }
+  /// Rows per output step.
+  std::int64_t rows_per_step() const { return bodies > 0 ? bodies : 1; }
+};
 
 /// How far a file has been written, as returned by TrajectorySink::sync() and
 /// kept in a checkpoint; a resumed run truncates the file back to it. The
@@ -27,7 +52,7 @@ struct SinkPosition {
 class TrajectorySink {
  public:
   virtual ~TrajectorySink() = default;
-  /// Appends one row of trajectory_columns values.
+  /// Appends one row of layout.columns values.
   virtual void row(const double* values) = 0;
   /// Makes every row so far durable in the file and says where it ends.
   virtual SinkPosition sync() = 0;
@@ -47,6 +72,12 @@ const char* trajectory_file_name(TrajectoryFormat f);
 /// and truncates it back to that position to append. Throws
 /// std::runtime_error naming the file on failure.
 std::unique_ptr<TrajectorySink> open_trajectory(TrajectoryFormat format, const std::string& path,
+                                                const TrajectoryLayout& layout = {},
                                                 const SinkPosition* resume = nullptr);
+/// The single-body layout.
+inline std::unique_ptr<TrajectorySink> open_trajectory(TrajectoryFormat format, const std::string& path,
+                                                       const SinkPosition* resume) {
+  return open_trajectory(format, path, TrajectoryLayout::single_body(), resume);
+}
 
 }  // namespace lgvi::app

@@ -25,12 +25,14 @@ lgvi::app::Scenario manchester_peck() {
 RigidBodyState run(lgvi::app::Scenario sc, Method m, double h, std::int64_t n, const RigidBodyState& s0) {
   sc.integrator.method = m;
   sc.integrator.step = h;
-  RigidBodyState s = s0;
-  lgvi::app::with_stepper<true>(sc, lgvi::NoPotential{}, [&](auto& stepper) {
-    lgvi::integrate_n_steps(stepper, s, 0.0, n, [](const lgvi::StepInfo&) {});
+  lgvi::SystemState s(s0);
+  std::int64_t evaluations = 0;
+  const auto potential = lgvi::app::scenario_system_potential(sc, nullptr, &evaluations);
+  lgvi::app::with_stepper(sc, potential, lgvi::Parallelism{}, [&](auto& stepper) {
+    lgvi::integrate_n_steps(stepper, s, 0.0, h, n, [](const lgvi::SystemStepInfo&) {});
     return 0;
   });
-  return s;
+  return s.body(0);
 }
 
 double distance(const RigidBodyState& a, const RigidBodyState& b) {
@@ -49,12 +51,12 @@ TEST_P(MethodOrders, AgainstTheExactFlow) {
   // ~1e-12 from the truth (test_exact.cpp), far below every error here.
   const auto sc = manchester_peck();
   const double T = 8.0;
-  const lgvi::ExactFreeRigidBody exact(sc.body, sc.initial);
+  const lgvi::ExactFreeRigidBody exact(sc.body(), sc.initial());
   const RigidBodyState ref = exact.at(T);
   double previous = 0;
   for (int j = 0; j < 4; ++j) {
     const double h = 0.2 / std::pow(2.0, j);
-    const double e = distance(run(sc, GetParam().method, h, std::lround(T / h), sc.initial), ref);
+    const double e = distance(run(sc, GetParam().method, h, std::lround(T / h), sc.initial()), ref);
     if (j > 0) {
       // Asymptotic regime: the ratio of errors on halving h is 2^p up to O(h) corrections.
       EXPECT_NEAR(std::log2(previous / e), GetParam().order, 0.15)
@@ -80,9 +82,9 @@ INSTANTIATE_TEST_SUITE_P(
 TEST(MethodOrders, ExactMethodHasNoErrorAtAnyStep) {
   // method = "exact" evaluates the flow at t = k h: no truncation error.
   const auto sc = manchester_peck();
-  const lgvi::ExactFreeRigidBody exact(sc.body, sc.initial);
+  const lgvi::ExactFreeRigidBody exact(sc.body(), sc.initial());
   for (double h : {0.5, 0.05})
-    EXPECT_LE(distance(run(sc, Method::Exact, h, std::lround(8.0 / h), sc.initial), exact.at(8.0)), 1e-13);
+    EXPECT_LE(distance(run(sc, Method::Exact, h, std::lround(8.0 / h), sc.initial()), exact.at(8.0)), 1e-13);
 }
 
 class MethodSymmetry : public ::testing::TestWithParam<Method> {};
@@ -91,7 +93,7 @@ TEST_P(MethodSymmetry, FlippingMomentaRetracesTheTrajectory) {
   // Symmetric methods: forward n steps, flip w, forward n steps, flip back ->
   // the start, up to rounding amplified by the flow (n = 200: ~1e-13).
   const auto sc = manchester_peck();
-  RigidBodyState s = run(sc, GetParam(), 0.1, 200, sc.initial);
+  RigidBodyState s = run(sc, GetParam(), 0.1, 200, sc.initial());
   s.w = -s.w;
   s = run(sc, GetParam(), 0.1, 200, s);
   s.w = -s.w;
@@ -100,7 +102,7 @@ TEST_P(MethodSymmetry, FlippingMomentaRetracesTheTrajectory) {
   // product (~eps) is amplified by (4/h)|J| ~ 120, so over 400 steps its
   // round-off bound is 400 * 120 * eps ~ 1e-11 rather than 1e-12.
   const double bound = GetParam() == Method::Lagrangian ? 400 * (4 / 0.1) * 3 * 2.2e-16 : 1e-12;
-  EXPECT_LE(distance(s, sc.initial), bound) << lgvi::app::to_string(GetParam());
+  EXPECT_LE(distance(s, sc.initial()), bound) << lgvi::app::to_string(GetParam());
 }
 
 INSTANTIATE_TEST_SUITE_P(SymmetricMethods, MethodSymmetry,

@@ -404,7 +404,7 @@ class ExactFreeBodyStepper {
 /// The exact flow on the system stepper contract (method = "exact" in a
 /// run): one free body only. Step k gives at(k h) from the initial state, so
 /// the step size must stay the same from call to call; t is not used.
-template <SystemPotential I>
+template <class I>
 class ExactFreeBodySystemStepper {
  public:
   /// `potential` must be the free body's (the caller checks: the exact flow
@@ -419,8 +419,7 @@ class ExactFreeBodySystemStepper {
   void initialize(const SystemState& s, double /*t*/) {
     stepper_.reset();
     pending_resume_ = false;
-    state0_ = s.body(0);
-    potential_.evaluate(s, eval_);
+    state0_ = s.body(0);  // the free body: no potential to evaluate (eval_ stays zero)
   }
 
   void step(SystemState& s, double /*t*/, double h) {

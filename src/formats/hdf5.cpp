@@ -31,6 +31,7 @@
 
 #include <hdf5.h>
 
+#include <algorithm>
 #include <array>
 #include <stdexcept>
 #include <string>
@@ -96,11 +97,16 @@ constexpr const char* dataset_name = "trajectory";
 
 class Hdf5Trajectory final : public TrajectorySink {
  public:
-  Hdf5Trajectory(const std::string& path, const SinkPosition* resume) : path_(path) {
+  Hdf5Trajectory(const std::string& path, const TrajectoryLayout& layout, const SinkPosition* resume)
+      : path_(path),
+        layout_(layout),
+        columns_(static_cast<hsize_t>(layout.columns)),
+        per_step_(static_cast<hsize_t>(layout.rows_per_step())),
+        rank_(layout.bodies > 0 ? 3 : 2) {
     H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
     if (resume) reopen(*resume);
     else create();
-    buffer_.reserve(chunk_rows * trajectory_columns);
+    buffer_.reserve(chunk_rows * columns_);
   }
 
   ~Hdf5Trajectory() override {
@@ -115,8 +121,10 @@ class Hdf5Trajectory final : public TrajectorySink {
 
   void row(const double* values) override {
     if (file_.get() < 0) throw std::runtime_error("row after close of " + path_);
-    buffer_.insert(buffer_.end(), values, values + trajectory_columns);
-    if (buffer_.size() >= chunk_rows * trajectory_columns) flush_rows();
+    buffer_.insert(buffer_.end(), values, values + layout_.columns);
+    // Whole steps only: the long layout's dataset grows by steps of N rows.
+    const hsize_t rows = buffer_.size() / columns_;
+    if (rows >= chunk_rows && rows % per_step_ == 0) flush_rows();
   }
 
   SinkPosition sync() override {
@@ -161,12 +169,13 @@ class Hdf5Trajectory final : public TrajectorySink {
 
   void create() {
     file_ = handle(H5Fcreate(path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose, "create");
-    const hsize_t dims[2] = {0, trajectory_columns};
-    const hsize_t maxdims[2] = {H5S_UNLIMITED, trajectory_columns};
-    const hsize_t chunk[2] = {chunk_rows, trajectory_columns};
-    Handle space = handle(H5Screate_simple(2, dims, maxdims), H5Sclose, "create the dataspace of");
+    // (rows, columns), or (steps, bodies, columns) for the long layout.
+    const hsize_t dims[3] = {0, rank_ == 3 ? per_step_ : columns_, columns_};
+    const hsize_t maxdims[3] = {H5S_UNLIMITED, dims[1], columns_};
+    const hsize_t chunk[3] = {rank_ == 3 ? std::max<hsize_t>(1, chunk_rows / per_step_) : chunk_rows, dims[1], columns_};
+    Handle space = handle(H5Screate_simple(rank_, dims, maxdims), H5Sclose, "create the dataspace of");
     Handle dcpl = handle(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, "create the dataset properties of");
-    check(H5Pset_chunk(dcpl.get(), 2, chunk), "set the chunk size of");
+    check(H5Pset_chunk(dcpl.get(), rank_, chunk), "set the chunk size of");
     // Every element is written before it is read: no fill values.
     check(H5Pset_fill_time(dcpl.get(), H5D_FILL_TIME_NEVER), "set the fill time of");
     dataset_ = handle(H5Dcreate2(file_.get(), dataset_name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, dcpl.get(),
@@ -174,7 +183,7 @@ class Hdf5Trajectory final : public TrajectorySink {
                       H5Dclose, "create /trajectory in");
 
     std::vector<std::string> names;
-    for (const char *p = trajectory_header, *q = p;; ++q)
+    for (const char *p = layout_.header, *q = p;; ++q)
       if (*q == ',' || *q == '\0') {
         names.emplace_back(p, q);
         if (*q == '\0') break;
@@ -196,16 +205,19 @@ class Hdf5Trajectory final : public TrajectorySink {
     file_ = handle(H5Fopen(path_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose, "open to resume");
     dataset_ = handle(H5Dopen2(file_.get(), dataset_name, H5P_DEFAULT), H5Dclose, "open /trajectory in");
     Handle space = handle(H5Dget_space(dataset_.get()), H5Sclose, "get the dataspace of /trajectory in");
-    hsize_t dims[2] = {0, 0};
-    if (H5Sget_simple_extent_ndims(space.get()) != 2 || H5Sget_simple_extent_dims(space.get(), dims, nullptr) != 2 ||
-        dims[1] != static_cast<hsize_t>(trajectory_columns))
+    hsize_t dims[3] = {0, 0, 0};
+    if (H5Sget_simple_extent_ndims(space.get()) != rank_ ||
+        H5Sget_simple_extent_dims(space.get(), dims, nullptr) != rank_ || dims[rank_ - 1] != columns_ ||
+        (rank_ == 3 && dims[1] != per_step_))
       throw std::runtime_error("cannot resume " + path_ + ": /trajectory is not an array of " +
-                               std::to_string(trajectory_columns) + " columns");
-    if (p.rows < 0 || dims[0] < static_cast<hsize_t>(p.rows))
-      throw std::runtime_error("cannot resume " + path_ + ": it has " + std::to_string(dims[0]) +
+                               std::to_string(columns_) + " columns" +
+                               (rank_ == 3 ? " for " + std::to_string(per_step_) + " bodies" : std::string()));
+    const hsize_t rows_in_file = rank_ == 3 ? dims[0] * per_step_ : dims[0];
+    if (p.rows < 0 || rows_in_file < static_cast<hsize_t>(p.rows) || static_cast<hsize_t>(p.rows) % per_step_ != 0)
+      throw std::runtime_error("cannot resume " + path_ + ": it has " + std::to_string(rows_in_file) +
                                " rows, fewer than the checkpoint's " + std::to_string(p.rows));
     rows_ = static_cast<hsize_t>(p.rows);
-    const hsize_t extent[2] = {rows_, trajectory_columns};
+    const hsize_t extent[3] = {rank_ == 3 ? rows_ / per_step_ : rows_, rank_ == 3 ? per_step_ : columns_, columns_};
     check(H5Dset_extent(dataset_.get(), extent), "set the extent of /trajectory to resume");
     for (const char* name : {"scenario", "summary"})
       if (check(H5Aexists(file_.get(), name), std::string("look for /@") + name + " in") > 0)
@@ -214,15 +226,18 @@ class Hdf5Trajectory final : public TrajectorySink {
 
   void flush_rows() {
     if (buffer_.empty()) return;
-    const hsize_t n = buffer_.size() / trajectory_columns;
-    const hsize_t extent[2] = {rows_ + n, trajectory_columns};
+    const hsize_t n = buffer_.size() / columns_;
+    // In steps for the long layout (rows_ and n are whole steps there).
+    const hsize_t first = rank_ == 3 ? rows_ / per_step_ : rows_, count0 = rank_ == 3 ? n / per_step_ : n;
+    const hsize_t middle = rank_ == 3 ? per_step_ : columns_;
+    const hsize_t extent[3] = {first + count0, middle, columns_};
     check(H5Dset_extent(dataset_.get(), extent), "extend /trajectory in");
     Handle fspace = handle(H5Dget_space(dataset_.get()), H5Sclose, "get the dataspace of /trajectory in");
-    const hsize_t start[2] = {rows_, 0};
-    const hsize_t count[2] = {n, trajectory_columns};
+    const hsize_t start[3] = {first, 0, 0};
+    const hsize_t count[3] = {count0, middle, columns_};
     check(H5Sselect_hyperslab(fspace.get(), H5S_SELECT_SET, start, nullptr, count, nullptr),
           "select rows of /trajectory in");
-    Handle mspace = handle(H5Screate_simple(2, count, nullptr), H5Sclose, "create a memory dataspace for");
+    Handle mspace = handle(H5Screate_simple(rank_, count, nullptr), H5Sclose, "create a memory dataspace for");
     check(H5Dwrite(dataset_.get(), H5T_NATIVE_DOUBLE, mspace.get(), fspace.get(), H5P_DEFAULT, buffer_.data()),
           "write rows to");
     rows_ += n;
@@ -242,6 +257,9 @@ class Hdf5Trajectory final : public TrajectorySink {
   }
 
   std::string path_;
+  TrajectoryLayout layout_;
+  hsize_t columns_, per_step_;
+  int rank_;  // 2: (rows, columns); 3: (steps, bodies, columns)
   // Members are destroyed in reverse order: the dataset closes before the file.
   Handle file_;
   Handle dataset_;
@@ -251,8 +269,9 @@ class Hdf5Trajectory final : public TrajectorySink {
 
 }  // namespace
 
-std::unique_ptr<TrajectorySink> open_hdf5(const std::string& path, const SinkPosition* resume) {
-  return std::make_unique<Hdf5Trajectory>(path, resume);
+std::unique_ptr<TrajectorySink> open_hdf5(const std::string& path, const TrajectoryLayout& layout,
+                                          const SinkPosition* resume) {
+  return std::make_unique<Hdf5Trajectory>(path, layout, resume);
 }
 
 }  // namespace lgvi::app

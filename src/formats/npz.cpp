@@ -179,12 +179,14 @@ std::string npy_header(const std::string& dict, std::size_t total = 0) {
 }
 
 constexpr std::size_t trajectory_header_bytes = 128;
-constexpr std::int64_t row_bytes = std::int64_t{8} * trajectory_columns;
 
-std::string trajectory_npy_header(std::int64_t rows) {
-  return npy_header("{'descr': '<f8', 'fortran_order': False, 'shape': (" + std::to_string(rows) + ", " +
-                        std::to_string(trajectory_columns) + "), }",
-                    trajectory_header_bytes);
+/// The .npy header of the trajectory after `rows` rows: shape (rows, columns),
+/// or (rows / bodies, bodies, columns) for the long layout.
+std::string trajectory_npy_header(std::int64_t rows, const TrajectoryLayout& layout) {
+  const std::string shape = layout.bodies > 0 ? std::to_string(rows / layout.bodies) + ", " +
+                                                    std::to_string(layout.bodies) + ", " + std::to_string(layout.columns)
+                                              : std::to_string(rows) + ", " + std::to_string(layout.columns);
+  return npy_header("{'descr': '<f8', 'fortran_order': False, 'shape': (" + shape + "), }", trajectory_header_bytes);
 }
 
 /// UTF-8 to code points; a malformed sequence becomes U+FFFD.
@@ -356,7 +358,8 @@ std::string end_records(std::uint64_t entries, std::uint64_t cd_offset, std::uin
 
 class NpzTrajectory final : public TrajectorySink {
  public:
-  NpzTrajectory(const std::string& path, const SinkPosition* resume) : path_(path) {
+  NpzTrajectory(const std::string& path, const TrajectoryLayout& layout, const SinkPosition* resume)
+      : path_(path), layout_(layout), row_bytes(std::int64_t{8} * layout.columns) {
     try {
       if (resume) {
         reopen(*resume);
@@ -364,7 +367,7 @@ class NpzTrajectory final : public TrajectorySink {
         file_ = std::fopen(path.c_str(), "wb");
         if (!file_) fail("cannot write");
         write_at(0, local_header(trajectory_local_entry(0, 0)));
-        write_at(local_header_bytes, trajectory_npy_header(0));
+        write_at(local_header_bytes, trajectory_npy_header(0, layout_));
       }
       buffer_.reserve(static_cast<std::size_t>(rows_per_block * row_bytes));
     } catch (...) {
@@ -391,7 +394,7 @@ class NpzTrajectory final : public TrajectorySink {
       const auto* bytes = reinterpret_cast<const unsigned char*>(values);
       buffer_.insert(buffer_.end(), bytes, bytes + row_bytes);
     } else {
-      for (int c = 0; c < trajectory_columns; ++c) {
+      for (int c = 0; c < layout_.columns; ++c) {
         std::uint64_t bits;
         std::memcpy(&bits, values + c, 8);
         for (int b = 0; b < 8; ++b) buffer_.push_back(static_cast<unsigned char>(bits >> (8 * b)));
@@ -415,14 +418,14 @@ class NpzTrajectory final : public TrajectorySink {
   void close(const std::string& scenario_toml, const std::string& summary_json) override {
     if (!file_) throw std::runtime_error("close of an already closed " + path_);
     flush_rows();
-    const std::string header = trajectory_npy_header(rows_);
+    const std::string header = trajectory_npy_header(rows_, layout_);
     const std::uint64_t data_bytes = static_cast<std::uint64_t>(end_ - data_offset);
     std::vector<Entry> entries;
     entries.push_back(trajectory_local_entry(crc32_combine(crc32_of(header), data_crc_, data_bytes),
                                              header.size() + data_bytes));
 
     std::vector<std::string> names;
-    for (const char *p = trajectory_header, *q = p;; ++q)
+    for (const char *p = layout_.header, *q = p;; ++q)
       if (*q == ',' || *q == '\0') {
         names.emplace_back(p, q);
         if (*q == '\0') break;
@@ -470,10 +473,7 @@ class NpzTrajectory final : public TrajectorySink {
     return e;
   }
 
-  static std::uint32_t placeholder_crc() {
-    static const std::uint32_t crc = crc32_of(trajectory_npy_header(0));
-    return crc;
-  }
+  std::uint32_t placeholder_crc() const { return crc32_of(trajectory_npy_header(0, layout_)); }
 
   /// Throws "<what> <path><after>: <errno's message>".
   [[noreturn]] void fail(const std::string& what, const char* after = "") const {
@@ -549,13 +549,15 @@ class NpzTrajectory final : public TrajectorySink {
     if (!file_) fail("cannot open to resume");
     at_ = 0;
     write_at(0, local_header(trajectory_local_entry(0, 0)));
-    write_at(local_header_bytes, trajectory_npy_header(0));
+    write_at(local_header_bytes, trajectory_npy_header(0, layout_));
     rows_ = p.rows;
     end_ = p.bytes;
     data_crc_ = crc;
   }
 
   std::string path_;
+  TrajectoryLayout layout_;
+  std::int64_t row_bytes;  // 8 bytes per column
   std::FILE* file_ = nullptr;
   std::int64_t rows_ = 0;
   std::int64_t end_ = data_offset;  // file offset of the end of the rows written to the file
@@ -566,8 +568,9 @@ class NpzTrajectory final : public TrajectorySink {
 
 }  // namespace
 
-std::unique_ptr<TrajectorySink> open_npz(const std::string& path, const SinkPosition* resume) {
-  return std::make_unique<NpzTrajectory>(path, resume);
+std::unique_ptr<TrajectorySink> open_npz(const std::string& path, const TrajectoryLayout& layout,
+                                         const SinkPosition* resume) {
+  return std::make_unique<NpzTrajectory>(path, layout, resume);
 }
 
 }  // namespace lgvi::app

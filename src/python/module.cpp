@@ -209,11 +209,13 @@ AnyPotential builtin_potential(const Scenario& s) {
   return std::visit([](const auto& p) -> AnyPotential { return p; }, lgvi::app::scenario_potential(s));
 }
 
+/// The Python Stepper's view of a method: one body (body 0 of the system),
+/// advanced by the same N-body stepper as simulate() builds.
 class AnyStepper {
  public:
   virtual ~AnyStepper() = default;
   virtual void initialize(const RigidBodyState& s) = 0;
-  virtual void step(RigidBodyState& s) = 0;
+  virtual void step(RigidBodyState& s, double t, double h) = 0;
   virtual const PotentialEvaluation& evaluation() const = 0;
   virtual SolveReport last_solve() const = 0;
   virtual std::vector<double> internal_state() const = 0;
@@ -223,30 +225,48 @@ class AnyStepper {
 template <class S>
 class StepperModel final : public AnyStepper {
  public:
-  template <class... A>
-  explicit StepperModel(A&&... a) : s_(std::forward<A>(a)...) {}
-  void initialize(const RigidBodyState& s) override { s_.initialize(s); }
-  void step(RigidBodyState& s) override { s_.step(s); }
-  const PotentialEvaluation& evaluation() const override { return s_.evaluation(); }
+  StepperModel(S&& s, std::shared_ptr<std::int64_t> evaluations)
+      : s_(std::move(s)), evaluations_(std::move(evaluations)) {}
+  void initialize(const RigidBodyState& s) override {
+    state_ = SystemState(s);
+    s_.initialize(state_, 0.0);
+    eval_ = s_.evaluation().body(0);
+  }
+  void step(RigidBodyState& s, double t, double h) override {
+    state_.set_body(0, s);
+    s_.step(state_, t, h);
+    s = state_.body(0);
+    eval_ = s_.evaluation().body(0);
+  }
+  const PotentialEvaluation& evaluation() const override { return eval_; }
   SolveReport last_solve() const override { return s_.last_solve(); }
   std::vector<double> internal_state() const override { return s_.internal_state(); }
-  void resume(const RigidBodyState& s, const std::vector<double>& internal) override { s_.resume(s, internal); }
+  void resume(const RigidBodyState& s, const std::vector<double>& internal) override {
+    state_ = SystemState(s);
+    s_.resume(state_, 0.0, internal);
+    eval_ = s_.evaluation().body(0);
+  }
 
  private:
   S s_;
+  std::shared_ptr<std::int64_t> evaluations_;  // the system potential counts into it
+  SystemState state_;
+  PotentialEvaluation eval_;
 };
 
 std::unique_ptr<AnyStepper> make_stepper(const Scenario& sc, const AnyPotential& potential) {
-  return std::visit(
-      [&](const auto& pot) -> std::unique_ptr<AnyStepper> {
-        using P = std::decay_t<decltype(pot)>;
-        // The same method table as the CLI's run loop (method_dispatch.hpp).
-        return lgvi::app::with_stepper<std::is_same_v<P, NoPotential>>(
-            sc, pot, [](auto& stepper) -> std::unique_ptr<AnyStepper> {
-              return std::make_unique<StepperModel<std::decay_t<decltype(stepper)>>>(std::move(stepper));
-            });
-      },
-      potential);
+  if (sc.bodies() != 1)
+    throw py::value_error("scenario: Stepper steps one body; this scenario has " + std::to_string(sc.bodies()) +
+                          " bodies (use lgvi.simulate for [[bodies]] scenarios)");
+  auto evaluations = std::make_shared<std::int64_t>(0);
+  const CallablePotential* field = std::get_if<CallablePotential>(&potential);
+  const lgvi::app::ScenarioSystemPotential pot =
+      lgvi::app::scenario_system_potential(sc, field, evaluations.get());
+  // The same method table as the CLI's run loop (method_dispatch.hpp).
+  return lgvi::app::with_stepper(
+      sc, pot, lgvi::app::scenario_parallelism(sc), [&](auto& stepper) -> std::unique_ptr<AnyStepper> {
+        return std::make_unique<StepperModel<std::decay_t<decltype(stepper)>>>(std::move(stepper), evaluations);
+      });
 }
 
 // ---------------------------------------------------------------------------
@@ -300,7 +320,7 @@ class PyStepper {
  public:
   PyStepper(const Scenario& sc, py::object potential) : sc_(sc) {
     set_potential_impl(std::move(potential));
-    state_ = sc_.initial;
+    state_ = sc_.initial();
     initialize_at(state_, "initial state");
     energy0_ = energy();
     momentum0_ = angular_momentum(state_);
@@ -360,7 +380,7 @@ class PyStepper {
   double h() const { return sc_.integrator.step; }
   const RigidBodyState& state() const { return state_; }
   const PotentialEvaluation& evaluation() const { return impl_->evaluation(); }
-  double energy() const { return total_energy(state_, sc_.body, impl_->evaluation()); }
+  double energy() const { return total_energy(state_, sc_.body(), impl_->evaluation()); }
   double energy0() const { return energy0_; }
   const Vector3<double>& momentum0() const { return momentum0_; }
   const Scenario& scenario() const { return sc_; }
@@ -418,7 +438,7 @@ class PyStepper {
     for (std::int64_t i = 0; i < n; ++i) {
       RigidBodyState next = state_;
       try {
-        impl_->step(next);
+        impl_->step(next, static_cast<double>(k_) * h, h);
       } catch (const StepFailure& f) {
         recover();
         throw IntegrationFailure(k_, static_cast<double>(k_) * h, f);
@@ -559,19 +579,19 @@ PYBIND11_MODULE(_core, m) {
                        "parse_scenario() or read_scenario().")
       .def_readonly("name", &Scenario::name, "The scenario's name (the file's stem).")
       .def_readonly("toml", &Scenario::source_text, "The TOML text it was read from.")
-      .def_property_readonly("body", [](const Scenario& s) { return s.body; }, "The body (a copy).")
+      .def_property_readonly("body", [](const Scenario& s) { return s.body(); }, "The body (a copy; the first body of a [[bodies]] scenario).")
       .def_property_readonly("potential_kind", [](const Scenario& s) { return std::string(to_string(s.potential.kind)); },
                              "\"none\", \"central\" or \"uniform\".")
       .def_property_readonly("mu", [](const Scenario& s) { return s.potential.mu; }, "mu of a central potential.")
       .def_property_readonly("g", [](const Scenario& s) { return array3(s.potential.g); },
                              "g of a uniform potential (3,).")
-      .def_property_readonly("position", [](const Scenario& s) { return array3(s.initial.x); },
+      .def_property_readonly("position", [](const Scenario& s) { return array3(s.initial().x); },
                              "Initial centre of mass x0 (3,).")
-      .def_property_readonly("quaternion", [](const Scenario& s) { return quaternion_array(s.initial.q); },
+      .def_property_readonly("quaternion", [](const Scenario& s) { return quaternion_array(s.initial().q); },
                              "Initial attitude q0 (4,), scalar-first (w, x, y, z), normalized.")
-      .def_property_readonly("momentum", [](const Scenario& s) { return array3(s.initial.p); },
+      .def_property_readonly("momentum", [](const Scenario& s) { return array3(s.initial().p); },
                              "Initial linear momentum p0 = m v0 (3,).")
-      .def_property_readonly("w", [](const Scenario& s) { return array3(s.initial.w); },
+      .def_property_readonly("w", [](const Scenario& s) { return array3(s.initial().w); },
                              "Initial w0 = 2 J Omega0 (3,), the paper's angular momentum variable.")
       .def_property_readonly("step", [](const Scenario& s) { return s.integrator.step; }, "Step size h.")
       .def_property_readonly("duration", [](const Scenario& s) { return s.integrator.duration; }, "Duration.")
@@ -662,10 +682,10 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("w", [](const PyStepper& s) { return array3(s.state().w); }, "w = 2 J Omega (3,).")
       .def_property_readonly(
           "omega",
-          [](const PyStepper& s) { return array3(project(s.state(), s.scenario().body).omega); },
+          [](const PyStepper& s) { return array3(project(s.state(), s.scenario().body()).omega); },
           "Body angular velocity Omega = J^-1 w / 2 (3,).")
       .def_property_readonly(
-          "velocity", [](const PyStepper& s) { return array3(project(s.state(), s.scenario().body).xdot); },
+          "velocity", [](const PyStepper& s) { return array3(project(s.state(), s.scenario().body()).xdot); },
           "Velocity p / m (3,).")
       .def_property_readonly("rotation_matrix",
                              [](const PyStepper& s) { return matrix_array(s.state().q.matrix()); },
