@@ -33,6 +33,11 @@ int run_cli(int argc, char** argv) {
   run->add_option("--checkpoint-every", options.checkpoint_every,
                   "Write the full state to DIR/checkpoint.bin every N steps (and on SIGINT/SIGTERM)")
       ->check(CLI::NonNegativeNumber);
+  int threads = 0;
+  run->add_option("--threads", threads,
+                  "Threads for the per-body loops of many-body runs (default: [run] threads, else all cores); "
+                  "results do not depend on it")
+      ->check(CLI::Range(1, 1024));
   run->add_flag("--no-figures", no_figures, "Do not draw the PNG figures");
   run->add_flag("-q,--quiet", options.quiet, "Print nothing on success");
   run->footer(
@@ -92,9 +97,11 @@ int run_cli(int argc, char** argv) {
       lgvi::app::show_run(show_dir, std::cout);
       return lgvi::app::kSuccess;
     }
+    options.threads = threads;
     if (!resume_dir.empty()) return lgvi::app::resume_run(resume_dir, options);
     if (scenario_path.empty()) throw CLI::RequiredError("SCENARIO (or --resume DIR)");
-    const lgvi::app::Scenario scenario = lgvi::app::read_scenario(scenario_path);
+    lgvi::app::Scenario scenario = lgvi::app::read_scenario(scenario_path);
+    if (threads > 0) scenario.threads = threads;
     return lgvi::app::run_scenario(scenario, options);
   } catch (const CLI::Error& e) {
     std::cerr << "lgvi: error: " << e.what() << " (see lgvi run --help)\n";

@@ -228,6 +228,7 @@ int resume_run(const std::string& dir, RunOptions opt) {
   Scenario sc = read_scenario((fs::path(dir) / "scenario.toml").string());
   const Checkpoint c = read_checkpoint((fs::path(dir) / "checkpoint.bin").string());
   if (!c.scenario_name.empty()) sc.name = c.scenario_name;
+  if (opt.threads > 0) sc.threads = opt.threads;
   if (opt.checkpoint_every == 0) opt.checkpoint_every = c.checkpoint_every;
   if (c.k > sc.integrator.steps)
     throw InvalidInput(dir + "/checkpoint.bin: step " + std::to_string(c.k) + " is beyond the scenario's " +

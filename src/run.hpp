@@ -15,6 +15,7 @@ struct RunOptions {
   bool figures = true;             ///< draw the PNG figures with matplotlib
   bool quiet = false;              ///< no summary line, no progress line
   std::int64_t checkpoint_every = 0;  ///< write DIR/checkpoint.bin every N steps (0: never)
+  int threads = 0;                    ///< --threads (0: the scenario's [run] threads, else all cores)
 };
 
 /// Exit statuses of `lgvi run`.

@@ -4,6 +4,8 @@
 
 #include <toml++/toml.h>
 
+#include <Eigen/Cholesky>
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -11,6 +13,7 @@
 #include <fstream>
 #include <initializer_list>
 #include <limits>
+#include <random>
 #include <sstream>
 #include <string_view>
 
@@ -268,34 +271,121 @@ RigidBodyState read_initial(const Reader& r, const toml::table& root, const Rigi
   return read_state(r, t, "initial", body);
 }
 
-/// The [[bodies]] tables: each a body and its initial state, with a unique name.
+/// A block of identical bodies from one [[bodies]] table with `count`: on a
+/// cubic lattice of side ceil(count^(1/3)) and spacing `spacing` from
+/// `position`; attitudes uniform on S^3 from `seed` (unless `quaternion`);
+/// momenta and angular momenta drawn at `temperature` kT (Maxwell-Boltzmann:
+/// p ~ N(0, m kT) per component, body angular momentum J Omega ~ N(0, kT J))
+/// with the block's total momentum removed (unless momentum | velocity and
+/// w | omega are given). Names: `name` followed by the index in the block.
+void read_block(const Reader& r, const toml::table& t, const std::string& prefix, const RigidBody& body,
+                std::int64_t count, std::vector<RigidBodyState>& states) {
+  if (count < 1 || count > 1000000) r.fail(prefix + ".count", "must be an integer in [1, 10^6]");
+  const Vector3<double> origin = r.vector<3>(t, prefix, "position");
+  const double spacing = count > 1 ? r.number(t, prefix, "spacing") : 0.0;
+  if (count > 1 && !(spacing > 0.0)) r.fail(prefix + ".spacing", "must be > 0 (the lattice spacing)");
+  std::uint64_t seed = 0;
+  const bool random_attitude = !t.contains("quaternion");
+  if (t.contains("seed")) {
+    const std::int64_t s = r.integer(t, prefix, "seed");
+    if (s < 0) r.fail(prefix + ".seed", "must be an integer >= 0");
+    seed = static_cast<std::uint64_t>(s);
+  } else if (random_attitude) {
+    r.fail(prefix, "a block of bodies (count) needs quaternion = [...] or seed = N (random attitudes)");
+  }
+  const bool thermal = t.contains("temperature");
+  double kT = 0.0;
+  if (thermal) {
+    kT = r.number(t, prefix, "temperature");
+    if (!(kT >= 0.0)) r.fail(prefix + ".temperature", "must be >= 0 (kT in the scenario's energy units)");
+    for (const char* k : {"momentum", "velocity", "w", "omega"})
+      if (t.contains(k))
+        r.fail(prefix + "." + k, "give either temperature or the block's momenta and angular velocities, not both");
+  }
+  RigidBodyState common;
+  if (!random_attitude || !thermal) {
+    // The keys the block shares, read as for a single body (quaternion, momentum, w).
+    toml::table shared = t;
+    if (random_attitude) shared.insert_or_assign("quaternion", toml::array{1.0, 0.0, 0.0, 0.0});
+    if (thermal) {
+      shared.insert_or_assign("momentum", toml::array{0.0, 0.0, 0.0});
+      shared.insert_or_assign("w", toml::array{0.0, 0.0, 0.0});
+    }
+    common = read_state(r, shared, prefix, body);
+  }
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const auto side = static_cast<std::int64_t>(std::ceil(std::cbrt(static_cast<double>(count)) - 1e-9));
+  const Eigen::LLT<Matrix3<double>> chol(kT * body.inertia());
+  const std::size_t first = states.size();
+  Vector3<double> total = Vector3<double>::Zero();
+  for (std::int64_t i = 0; i < count; ++i) {
+    RigidBodyState s = common;
+    s.x = origin + spacing * Vector3<double>(static_cast<double>(i % side), static_cast<double>((i / side) % side),
+                                             static_cast<double>(i / (side * side)));
+    if (random_attitude) {
+      Vector4<double> q(normal(rng), normal(rng), normal(rng), normal(rng));
+      q /= q.norm();
+      s.q = S3d(q(0), q(1), q(2), q(3));
+    }
+    if (thermal) {
+      s.p = std::sqrt(body.mass() * kT) * Vector3<double>(normal(rng), normal(rng), normal(rng));
+      const Vector3<double> z(normal(rng), normal(rng), normal(rng));
+      const Vector3<double> pi = kT > 0.0 ? Vector3<double>(chol.matrixL() * z) : Vector3<double>::Zero();
+      s.w = 2.0 * pi;  // w = 2 J Omega, J Omega ~ N(0, kT J)
+      total += s.p;
+    }
+    states.push_back(s);
+  }
+  if (thermal)
+    for (std::size_t a = first; a < states.size(); ++a) states[a].p -= total / static_cast<double>(count);
+}
+
+/// The [[bodies]] tables: each a body and its initial state (or a block of
+/// identical bodies, with `count`), with unique names.
 void read_bodies(const Reader& r, const toml::table& root, std::vector<RigidBody>& bodies,
                  std::vector<std::string>& names, SystemState& state) {
   const toml::array* arr = root.get("bodies")->as_array();
   if (!arr || arr->empty() || !arr->is_array_of_tables())
     r.fail("bodies", "must be one or more [[bodies]] tables");
-  if (arr->size() > 1000000) r.fail("bodies", "more than 10^6 bodies");
   std::vector<RigidBodyState> states;
   for (std::size_t i = 0; i < arr->size(); ++i) {
     const toml::table& t = *arr->get(i)->as_table();
     const std::string prefix = "bodies[" + std::to_string(i) + "]";
     r.only_keys(t, prefix, {"name", "mass", "inertia", "ball", "physical", "position", "quaternion", "momentum",
-                            "velocity", "w", "omega"});
-    std::string name = "body" + std::to_string(i);
+                            "velocity", "w", "omega", "count", "spacing", "seed", "temperature"});
+    std::string name;
     if (const toml::node* n = t.get("name")) {
       if (!n->is_string()) r.fail(prefix + ".name", "must be a string");
       name = n->value<std::string>().value();
       if (name.empty() || name.size() > 64 || name.find_first_of("\"\\,\n\r\t") != std::string::npos)
         r.fail(prefix + ".name", "must be 1 to 64 characters without quotes, backslashes, commas or control characters");
     }
-    for (std::size_t j = 0; j < names.size(); ++j)
-      if (names[j] == name)
-        r.fail(prefix + ".name", "\"" + printable(name) + "\" is already the name of bodies[" + std::to_string(j) +
-                                     "]; names must be unique");
-    bodies.push_back(read_body_table(r, t, prefix));
-    states.push_back(read_state(r, t, prefix, bodies.back()));
-    names.push_back(std::move(name));
+    const RigidBody body = read_body_table(r, t, prefix);
+    const std::size_t before = states.size();
+    if (t.contains("count")) {
+      read_block(r, t, prefix, body, r.integer(t, prefix, "count"), states);
+    } else {
+      for (const char* k : {"spacing", "seed", "temperature"})
+        if (t.contains(k)) r.fail(prefix + "." + k, "belongs to a block of bodies: give count = N too");
+      states.push_back(read_state(r, t, prefix, body));
+    }
+    if (states.size() > 1000000) r.fail("bodies", "more than 10^6 bodies");
+    const bool block = t.contains("count");
+    for (std::size_t a = before; a < states.size(); ++a) {
+      bodies.push_back(body);
+      names.push_back(name.empty() ? "body" + std::to_string(a) : block ? name + std::to_string(a - before) : name);
+    }
   }
+  // Unique names (sorted copy: O(N log N) for large systems).
+  std::vector<std::pair<std::string, std::size_t>> sorted;
+  for (std::size_t a = 0; a < names.size(); ++a) sorted.emplace_back(names[a], a);
+  std::sort(sorted.begin(), sorted.end());
+  for (std::size_t k = 1; k < sorted.size(); ++k)
+    if (sorted[k].first == sorted[k - 1].first)
+      r.fail("bodies", "the name \"" + printable(sorted[k].first) + "\" is given to two bodies (bodies " +
+                           std::to_string(sorted[k - 1].second) + " and " + std::to_string(sorted[k].second) +
+                           " in order); names must be unique");
   state = SystemState(bodies.size());
   for (std::size_t a = 0; a < bodies.size(); ++a) state.set_body(a, states[a]);
 }

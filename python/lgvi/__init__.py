@@ -7,9 +7,9 @@ variational integrator), from Python.
     result.q                                  # (N, 4) unit quaternions, scalar-first (w, x, y, z)
     lgvi.plot.draw_figures(result, "figures")
 
-Public names: Body, Scenario, simulate, Result, Stepper, PythonPotential, IntegrationError, load,
-potential (none(), central(mu), uniform(g)), plot (the paper's figures), load_run, COLUMNS, METHODS,
-SOLVERS. Quaternions are scalar-first (w, x, y, z) numpy arrays everywhere. Invalid arguments raise
+Public names: Body, Scenario, simulate, Result, SystemResult (many-body runs), Stepper,
+PythonPotential, IntegrationError, load, potential (none(), central(mu), uniform(g)), plot (the
+paper's figures), load_run, COLUMNS, BODIES_COLUMNS, METHODS, SOLVERS. Quaternions are scalar-first (w, x, y, z) numpy arrays everywhere. Invalid arguments raise
 ValueError naming the argument.
 
 `import lgvi` itself is cheap: names are loaded on first use (numpy, and the compiled lgvi._core
@@ -24,14 +24,14 @@ _EXPORTS = {
     "Body": "_api", "Scenario": "_api", "simulate": "_api", "Stepper": "_api", "IntegrationError": "_api",
     "METHODS": "_api", "SOLVERS": "_api", "FORMATS": "_api", "__version__": "_api",
     "PythonPotential": "potential",
-    "Result": "_result", "COLUMNS": "_result",
+    "Result": "_result", "COLUMNS": "_result", "SystemResult": "_result", "BODIES_COLUMNS": "_result",
     "load": "_io",
     "load_run": "plot",
 }
 _SUBMODULES = ("plot", "potential")
 
-__all__ = ["Body", "Scenario", "simulate", "Result", "Stepper", "PythonPotential", "IntegrationError", "load",
-           "potential", "plot", "load_run", "COLUMNS", "METHODS", "SOLVERS", "FORMATS"]
+__all__ = ["Body", "Scenario", "simulate", "Result", "SystemResult", "Stepper", "PythonPotential", "IntegrationError",
+           "load", "potential", "plot", "load_run", "COLUMNS", "BODIES_COLUMNS", "METHODS", "SOLVERS", "FORMATS"]
 
 
 def _import(submodule):

@@ -16,6 +16,7 @@ from .potential import PythonPotential as PythonPotential
 __version__: str
 
 COLUMNS: Tuple[str, ...]
+BODIES_COLUMNS: Tuple[str, ...]
 METHODS: Tuple[str, ...]
 SOLVERS: Tuple[str, ...]
 FORMATS: Tuple[str, ...]
@@ -236,8 +237,39 @@ class Stepper:
     @property
     def state(self) -> Dict[str, Any]: ...
 
-def load(path: PathLike) -> Result:
-    """A run folder or trajectory file (.csv, .npz, .h5) as a Result."""
+class SystemResult:
+    """A many-body trajectory: data (steps, N, 26) with columns BODIES_COLUMNS, and its summary dict."""
+    data: npt.NDArray[np.float64]
+    columns: Dict[str, npt.NDArray[np.float64]]
+    summary: Dict[str, Any]
+    scenario_toml: Optional[str]
+    source: Optional[str]
+    names: List[str]
+    def __init__(self, data: npt.ArrayLike, summary: Optional[Mapping[str, Any]] = ...,
+                 scenario_toml: Optional[str] = ..., source: Optional[str] = ...) -> None: ...
+    @property
+    def bodies(self) -> int: ...
+    t: npt.NDArray[np.float64]
+    x: npt.NDArray[np.float64]
+    q: npt.NDArray[np.float64]
+    p: npt.NDArray[np.float64]
+    w: npt.NDArray[np.float64]
+    quat_norm_error: npt.NDArray[np.float64]
+    energy: npt.NDArray[np.float64]
+    energy_error: npt.NDArray[np.float64]
+    P: npt.NDArray[np.float64]
+    linear_momentum_error: npt.NDArray[np.float64]
+    L: npt.NDArray[np.float64]
+    momentum_error: npt.NDArray[np.float64]
+    @property
+    def completed(self) -> bool: ...
+    @property
+    def error(self) -> str: ...
+    def __len__(self) -> int: ...
+    def draw_figures(self, out_dir: PathLike) -> List[str]: ...
+
+def load(path: PathLike) -> Union[Result, SystemResult]:
+    """A run folder or trajectory file (.csv, .npz, .h5) as a Result (a SystemResult for [[bodies]] runs)."""
     ...
 
 def load_run(run_dir: PathLike) -> Tuple[Dict[str, npt.NDArray[np.float64]], Dict[str, Any]]: ...

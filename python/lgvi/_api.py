@@ -12,7 +12,7 @@ import numpy as np
 
 from . import _check, _core
 from . import potential as _potential
-from ._result import Result
+from ._result import BODIES_COLUMNS, Result, SystemResult
 
 __version__ = _core.__version__
 
@@ -519,7 +519,8 @@ def simulate(scenario, potential=None, *, check=True):
     summary = json.loads(summary_text)
     if core_pot is not None:
         summary["setup"]["potential"] = {"kind": "python", "function": repr(potential)}
-    result = Result(data, summary, sc.toml)
+    many = data.shape[1] == len(BODIES_COLUMNS)  # a [[bodies]] scenario: the long format
+    result = SystemResult(data, summary, sc.toml) if many else Result(data, summary, sc.toml)
     if not completed and check:
         e = IntegrationError(error)
         e.step = summary.get("steps", 0)

@@ -20,7 +20,7 @@ import zipfile
 
 import numpy as np
 
-from ._result import COLUMNS, Result
+from ._result import BODIES_COLUMNS, COLUMNS, Result, SystemResult
 
 TRAJECTORY_FILES = ("trajectory.csv", "trajectory.npz", "trajectory.h5")
 
@@ -132,6 +132,11 @@ def load(path):
         data, names, scenario, summary_text = read_h5(file)
     else:
         raise ValueError(f"{file}: unknown trajectory format (expected .csv, .npz or .h5)")
+    if tuple(_text(n).strip() for n in names) == BODIES_COLUMNS:
+        summary = _summary(folder, summary_text)
+        if scenario is None:
+            scenario = _read_side_file(folder, "scenario.toml")
+        return SystemResult(data, summary, scenario, source=file)
     _check_columns(names, file)
     if data.ndim != 2 or data.shape[1] != len(COLUMNS):
         raise ValueError(f"{file}: trajectory has shape {data.shape}, expected (rows, {len(COLUMNS)})")
@@ -144,6 +149,16 @@ def load(path):
     except json.JSONDecodeError as e:
         raise ValueError(f"{folder}: summary is not valid JSON ({e})") from None
     return Result(data, summary, scenario, source=file)
+
+
+def _summary(folder, summary_text):
+    """The summary dict from the file's own text or the folder's summary.json."""
+    if summary_text is None:
+        summary_text = _read_side_file(folder, "summary.json")
+    try:
+        return json.loads(summary_text) if summary_text else {}
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{folder}: summary is not valid JSON ({e})") from None
 
 
 def load_columns(path):

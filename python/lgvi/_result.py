@@ -12,6 +12,14 @@ COLUMNS = ("t", "x", "y", "z", "qw", "qx", "qy", "qz", "px", "py", "pz", "wx", "
            "quat_norm_error", "Lx", "Ly", "Lz", "momentum_error")
 HEADER = ",".join(COLUMNS)
 
+#: The columns of a many-body ([[bodies]]) trajectory, the long format: per
+#: written step and body the body's index and state and its |q| - 1, then
+#: the system's energy, energy error, total linear momentum P and its error
+#: |P - P0| / sum |p_a0|, total angular momentum L and its error |L - L0|.
+BODIES_COLUMNS = ("t", "body", "x", "y", "z", "qw", "qx", "qy", "qz", "px", "py", "pz", "wx", "wy", "wz",
+                  "quat_norm_error", "energy", "energy_error", "Px", "Py", "Pz", "linear_momentum_error",
+                  "Lx", "Ly", "Lz", "momentum_error")
+
 
 class Result:
     """A trajectory: one row per written step (every `every` steps, plus the first and the last).
@@ -157,3 +165,84 @@ def _body(summary):
     if body is None:
         body = (summary.get("setup") or {}).get("body")
     return body or {}
+
+
+class SystemResult:
+    """The trajectory of a many-body ([[bodies]]) scenario, from lgvi.simulate() or lgvi.load().
+
+    ``data`` is the (steps, N, 26) float64 array with the columns BODIES_COLUMNS
+    (steps: the written steps; N: the bodies, in scenario order). Arrays:
+
+    * ``t`` (steps,): time k h;
+    * ``x``, ``p``, ``w`` (steps, N, 3): centres of mass, linear momenta, the
+      paper's w = 2 J Omega of every body; ``q`` (steps, N, 4): attitudes,
+      scalar-first (w, x, y, z); ``quat_norm_error`` (steps, N): |q| - 1;
+    * the system's ``energy``, ``energy_error``, ``linear_momentum_error``,
+      ``momentum_error`` (steps,), and ``P``, ``L`` (steps, 3): total linear
+      momentum and total angular momentum about the origin.
+
+    ``names`` are the bodies' names; ``summary`` the run's summary dict.
+    """
+
+    def __init__(self, data, summary=None, scenario_toml=None, source=None):
+        data = np.asarray(data, dtype=float)
+        if data.ndim == 2:  # the long format's rows: regroup them by step
+            if data.shape[1] != len(BODIES_COLUMNS):
+                raise ValueError(f"data: must have {len(BODIES_COLUMNS)} columns, got shape {data.shape}")
+            bodies = int(data[:, 1].max()) + 1 if len(data) else 0
+            if bodies == 0 or len(data) % bodies:
+                raise ValueError(f"data: {len(data)} rows are not whole steps of {bodies} bodies")
+            data = data.reshape(len(data) // bodies, bodies, len(BODIES_COLUMNS))
+        if data.ndim != 3 or data.shape[2] != len(BODIES_COLUMNS):
+            raise ValueError(f"data: must have shape (steps, N, {len(BODIES_COLUMNS)}), got shape {data.shape}")
+        #: The (steps, N, 26) array.
+        self.data = data
+        self.summary = dict(summary or {})
+        self.scenario_toml = scenario_toml
+        self.source = source
+        names = [b.get("name") for b in self.summary.get("final_bodies", [])]
+        #: The bodies' names, in scenario order.
+        self.names = names if len(names) == data.shape[1] else [f"body{i}" for i in range(data.shape[1])]
+        #: Column name -> array: (steps, N) for per-body columns, (steps,) for the system's.
+        self.columns = {name: (data[:, :, i] if i < 16 else data[:, 0, i]) for i, name in enumerate(BODIES_COLUMNS)}
+
+    @property
+    def bodies(self):
+        """The number of bodies N."""
+        return self.data.shape[1]
+
+    t = property(lambda self: self.data[:, 0, 0], doc="Time t_k = k h of each written step, shape (steps,).")
+    x = property(lambda self: self.data[:, :, 2:5], doc="Centres of mass, shape (steps, N, 3).")
+    q = property(lambda self: self.data[:, :, 5:9], doc="Attitudes, shape (steps, N, 4), scalar-first.")
+    p = property(lambda self: self.data[:, :, 9:12], doc="Linear momenta, shape (steps, N, 3).")
+    w = property(lambda self: self.data[:, :, 12:15], doc="The paper's w = 2 J Omega, shape (steps, N, 3).")
+    quat_norm_error = property(lambda self: self.data[:, :, 15], doc="|q| - 1 of every body, (steps, N).")
+    energy = property(lambda self: self.data[:, 0, 16], doc="Total energy, shape (steps,).")
+    energy_error = property(lambda self: self.data[:, 0, 17], doc="E(t) - E(0), shape (steps,).")
+    P = property(lambda self: self.data[:, 0, 18:21], doc="Total linear momentum, shape (steps, 3).")
+    linear_momentum_error = property(lambda self: self.data[:, 0, 21],
+                                     doc="|P(t) - P(0)| / sum_a |p_a(0)|, shape (steps,).")
+    L = property(lambda self: self.data[:, 0, 22:25], doc="Total angular momentum about the origin, (steps, 3).")
+    momentum_error = property(lambda self: self.data[:, 0, 25], doc="|L(t) - L(0)|, shape (steps,).")
+
+    @property
+    def completed(self):
+        """Whether the run reached its end (from the summary)."""
+        return bool(self.summary.get("completed", True))
+
+    @property
+    def error(self):
+        """Why the run stopped early ('' if completed)."""
+        return self.summary.get("error", "")
+
+    def __len__(self):
+        return self.data.shape[0]
+
+    def __repr__(self):
+        return (f"<lgvi.SystemResult {self.bodies} bodies, {len(self)} steps written, "
+                f"t = {self.t[0] if len(self) else 0:g} .. {self.t[-1] if len(self) else 0:g}>")
+
+    def draw_figures(self, out_dir):
+        """Draw the run's figures into out_dir (lgvi.plot.draw_figures); returns the paths."""
+        from . import plot
+        return plot.draw_figures(self, out_dir)

@@ -187,6 +187,87 @@ def _columns_and_summary(source):
     return columns, summary, None
 
 
+def _system_result(source):
+    """The SystemResult of a many-body run folder/file or object, else None."""
+    from ._result import SystemResult
+    if isinstance(source, SystemResult):
+        return source
+    if isinstance(source, (str, bytes, os.PathLike)):
+        path = os.fsdecode(source)
+        file = path
+        if os.path.isdir(path):
+            from ._io import _trajectory_in
+            file = _trajectory_in(path)
+        if file.endswith(".csv"):
+            with open(file, encoding="utf-8") as f:
+                if not f.readline().startswith("t,body,"):
+                    return None
+        from ._io import load
+        result = load(path)
+        return result if isinstance(result, SystemResult) else None
+    return None
+
+
+MAX_PATHS = 50  # bodies whose paths are drawn (a gas of thousands would be a blot)
+
+
+def _draw_system(plt, r, out_dir, written):
+    """The figures of a many-body run: the system's energy and momentum errors,
+    the bodies' |q| - 1, their paths (projected), and for two bodies the
+    secondary's libration about the line of centres."""
+    t = r.t
+    _error_plot(plt, t, r.energy_error, "energy error",
+                f"System energy error (max |.| = {_max_abs(r.energy_error):.3e})", "energy_error.png",
+                out_dir, written)
+    _error_plot(plt, t, np.max(np.abs(r.quat_norm_error), axis=1), "max over bodies of ||q| - 1|",
+                f"Quaternion norm error, {r.bodies} bodies (max = {_max_abs(r.quat_norm_error):.3e})",
+                "quaternion_error.png", out_dir, written)
+    scale = np.sum(np.linalg.norm(np.cross(r.x[0], r.p[0]), axis=1) + 0.5 * np.linalg.norm(r.w[0], axis=1))
+    fig, ax = plt.subplots(figsize=FIGSIZE)
+    rel = r.momentum_error / scale if scale > 0 else r.momentum_error
+    ax.semilogy(t, np.maximum(rel, 1e-18), label="|L - L0| / sum |x x p| + |w|/2")
+    ax.semilogy(t, np.maximum(r.linear_momentum_error, 1e-18), label="|P - P0| / sum |p_a0|")
+    ax.set_xlabel("t")
+    ax.set_ylabel("relative error (floor 1e-18)")
+    ax.set_title(f"Total angular and linear momentum (max {_max_abs(rel):.2e}, {_max_abs(r.linear_momentum_error):.2e})")
+    ax.legend(loc="best", fontsize="small")
+    _save(fig, out_dir, "momentum_error.png", written)
+    fig, ax = plt.subplots(figsize=FIGSIZE)
+    shown = np.unique(np.linspace(0, r.bodies - 1, min(r.bodies, MAX_PATHS)).astype(int))
+    for a in shown:
+        ax.plot(r.x[:, a, 0], r.x[:, a, 1], lw=0.8, label=r.names[a] if len(shown) <= 8 else None)
+        ax.plot(r.x[-1, a, 0], r.x[-1, a, 1], "o", ms=3, color=ax.lines[-1].get_color())
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x")
+    ax.set_ylabel("y")
+    more = "" if len(shown) == r.bodies else f" ({len(shown)} of {r.bodies} bodies)"
+    ax.set_title("Paths of the centres of mass, projected on x-y" + more)
+    if len(shown) <= 8:
+        ax.legend(loc="best", fontsize="small")
+    _save(fig, out_dir, "trajectory.png", written)
+    if r.bodies == 2:
+        # The angle between the secondary's body x-axis and the direction to
+        # the primary, both projected on the plane normal to the relative
+        # orbit's angular momentum: its libration about the synchronous state.
+        rel_x = r.x[:, 0] - r.x[:, 1]
+        rel_v = r.p[:, 0] / 1.0 - r.p[:, 1] / 1.0
+        normal = np.cross(rel_x[0], rel_v[0])
+        normal = normal / np.linalg.norm(normal) if np.linalg.norm(normal) > 0 else np.array([0.0, 0.0, 1.0])
+        axis = np.array([rotation_matrix(q)[:, 0] for q in r.q[:, 1]])
+        e1 = rel_x / np.linalg.norm(rel_x, axis=1)[:, None]
+        e2 = np.cross(normal, e1)
+        angle = np.degrees(np.arctan2(np.sum(axis * e2, axis=1), np.sum(axis * e1, axis=1)))
+        # An axis, not a direction: +-x are the same line (a dumbbell's two ends).
+        angle = (angle + 90.0) % 180.0 - 90.0
+        fig, ax = plt.subplots(figsize=FIGSIZE)
+        ax.plot(t, angle, lw=0.8)
+        ax.set_xlabel("t")
+        ax.set_ylabel("angle of the x-axis to the line of centres (degrees)")
+        ax.set_title(f"Libration of {r.names[1]}: its x-axis against the line to {r.names[0]}")
+        _save(fig, out_dir, "libration.png", written)
+    return written
+
+
 def draw_figures(source, out_dir=None):
     """Draw the paper's five PNG figures of a run into out_dir.
 
@@ -196,8 +277,23 @@ def draw_figures(source, out_dir=None):
     header, and ``.summary``, the summary dict). ``out_dir`` defaults to the
     run folder; it is required for an in-memory result. Quaternion columns
     are scalar-first (qw, qx, qy, qz). Returns the list of written paths.
-    Raises OSError/ValueError on bad input.
+    Raises OSError/ValueError on bad input. A many-body run (an
+    lgvi.SystemResult, or a folder of a [[bodies]] scenario) gets its own
+    figures: energy_error.png, quaternion_error.png, momentum_error.png (total
+    angular and linear momentum), trajectory.png (the bodies' paths) and, for
+    two bodies, libration.png.
     """
+    system = _system_result(source)
+    if system is not None:
+        if out_dir is None:
+            if not isinstance(source, (str, bytes, os.PathLike)):
+                raise ValueError("out_dir: required when drawing an in-memory result")
+            path = os.fsdecode(source)
+            out_dir = path if os.path.isdir(path) else (os.path.dirname(path) or ".")
+        if len(system) == 0:
+            raise ValueError("draw_figures: the trajectory has no rows")
+        os.makedirs(out_dir, exist_ok=True)
+        return _draw_system(_pyplot(), system, out_dir, [])
     c, summary, default_out = _columns_and_summary(source)
     missing = [n for n in REQUIRED_COLUMNS if n not in c]
     if missing:

@@ -121,13 +121,14 @@ S3d unit_quaternion(py::handle obj, const std::string& name, bool normalize = tr
   return normalize ? S3d(d[0] / n, d[1] / n, d[2] / n, d[3] / n) : S3d(d[0], d[1], d[2], d[3]);
 }
 
-/// The trajectory rows as an (rows, 21) float64 array owning the vector.
-py::array_t<double> rows_array(std::vector<double>&& data, std::int64_t rows) {
-  if (rows == 0) return py::array_t<double>(std::vector<py::ssize_t>{0, trajectory_columns});
+/// The trajectory rows as a (rows, columns) float64 array owning the vector
+/// (21 columns for a single-body scenario, 26 in the long layout).
+py::array_t<double> rows_array(std::vector<double>&& data, std::int64_t rows, int columns = trajectory_columns) {
+  if (rows == 0) return py::array_t<double>(std::vector<py::ssize_t>{0, columns});
   auto* heap = new std::vector<double>(std::move(data));
   py::capsule owner(heap, [](void* p) { delete static_cast<std::vector<double>*>(p); });
-  return py::array_t<double>({static_cast<py::ssize_t>(rows), py::ssize_t{trajectory_columns}},
-                             {py::ssize_t{trajectory_columns * sizeof(double)}, py::ssize_t{sizeof(double)}},
+  return py::array_t<double>({static_cast<py::ssize_t>(rows), py::ssize_t{columns}},
+                             {py::ssize_t{columns} * py::ssize_t{sizeof(double)}, py::ssize_t{sizeof(double)}},
                              heap->data(), owner);
 }
 
@@ -294,7 +295,8 @@ struct InterruptWatch {
 
 py::tuple run_simulation(const Scenario& sc, py::object potential) {
   const std::int64_t every = sc.output_every;
-  MemorySink sink(sc.integrator.steps / every + 2);
+  const TrajectoryLayout layout = lgvi::app::scenario_layout(sc);
+  MemorySink sink((sc.integrator.steps / every + 2) * layout.rows_per_step(), layout);
   SimulationResult r;
   InterruptWatch watch;
   SimulationOptions opt;
@@ -310,7 +312,7 @@ py::tuple run_simulation(const Scenario& sc, py::object potential) {
   const std::string summary = summary_json(sc, r);
   sink.close(sc.source_text, summary);
   const std::int64_t rows = sink.rows();
-  return py::make_tuple(rows_array(sink.take(), rows), summary, r.completed, r.error);
+  return py::make_tuple(rows_array(sink.take(), rows, layout.columns), summary, r.completed, r.error);
 }
 
 // ---------------------------------------------------------------------------
@@ -535,6 +537,7 @@ PYBIND11_MODULE(_core, m) {
       "Quaternions are scalar-first (w, x, y, z) numpy arrays of shape (4,).";
   m.attr("__version__") = LGVI_VERSION;
   m.attr("TRAJECTORY_HEADER") = trajectory_header;
+  m.attr("BODIES_TRAJECTORY_HEADER") = lgvi::app::bodies_trajectory_header;
 
   // lgvi::IntegrationFailure -> IntegrationError(RuntimeError) with .step, .time and .result (None here).
   static py::exception<IntegrationFailure> integration_error(m, "IntegrationError", PyExc_RuntimeError);
