@@ -1,0 +1,134 @@
+"""Many-body scenarios ([[bodies]]) through `lgvi run` and the Python package:
+the long trajectory format in every file format, the summary's per-body
+states, results that do not depend on the number of threads, checkpoints and
+resume, and the binary asteroid's conservation laws. Run by ctest with
+LGVI_BINARY set."""
+import json
+import os
+import pathlib
+import signal
+import subprocess
+import time
+
+import numpy as np
+import pytest
+
+BINARY = os.environ.get("LGVI_BINARY")
+SOURCE = pathlib.Path(os.environ.get("LGVI_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
+pytestmark = pytest.mark.skipif(BINARY is None, reason="LGVI_BINARY not set (run through ctest)")
+
+BODIES_HEADER = ("t,body,x,y,z,qw,qx,qy,qz,px,py,pz,wx,wy,wz,quat_norm_error,energy,energy_error,Px,Py,Pz,"
+                 "linear_momentum_error,Lx,Ly,Lz,momentum_error")
+
+
+def run(*args):
+    return subprocess.run([BINARY, "run", *map(str, args), "--no-figures", "-q"], capture_output=True, text=True)
+
+
+def variant(tmp_path, name, replacements, file_name=None):
+    text = (SOURCE / "scenarios" / f"{name}.toml").read_text()
+    for old, new in replacements:
+        assert old in text, old
+        text = text.replace(old, new)
+    path = tmp_path / (file_name or f"{name}.toml")
+    path.write_text(text)
+    return path
+
+
+def test_binary_asteroid_conserves_momenta_and_writes_the_long_format(tmp_path):
+    out = tmp_path / "run"
+    proc = run(SOURCE / "scenarios" / "binary-asteroid.toml", "--out", out)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["completed"]
+    # Mutual gravity only: total linear and angular momentum are conserved by
+    # the discrete Noether theorem, to round-off (40000 steps: ~1e-14).
+    assert summary["max_linear_momentum_error"] <= 1e-13
+    assert summary["max_relative_momentum_error"] <= 1e-12
+    assert summary["max_abs_quat_norm_error"] <= 1e-13
+    # The energy error is bounded and small for this smooth, well-resolved orbit
+    # (h = 0.01, orbit period ~40): second order, ~1e-10 here.
+    assert summary["max_abs_energy_error"] <= 1e-9
+    names = [b["name"] for b in summary["final_bodies"]]
+    assert names == ["primary", "secondary"]
+    lines = (out / "trajectory.csv").read_text().splitlines()
+    assert lines[0] == BODIES_HEADER
+    assert len(lines) - 1 == 2 * (40000 // 10 + 1)  # two rows (one per body) per written step
+    last = np.array([float(v) for v in lines[-1].split(",")])
+    assert last[1] == 1.0 and np.array_equal(last[2:5], summary["final_bodies"][1]["position"])
+
+
+@pytest.mark.parametrize("fmt", ["csv", "npz", "hdf5"])
+def test_every_format_holds_steps_by_bodies_and_loads_bit_identically(tmp_path, fmt):
+    import lgvi
+    path = variant(tmp_path, "binary-asteroid", [("duration = 400.0", "duration = 5.0"),
+                                                  ("every = 10", f'every = 10\nformat = "{fmt}"')])
+    out = tmp_path / "run"
+    proc = run(path, "--out", out)
+    assert proc.returncode == 0, proc.stderr
+    loaded = lgvi.load(out)
+    assert isinstance(loaded, lgvi.SystemResult)
+    assert loaded.data.shape == (51, 2, 26)
+    assert loaded.names == ["primary", "secondary"]
+    if fmt == "npz":
+        with np.load(out / "trajectory.npz") as z:
+            assert z["trajectory"].shape == (51, 2, 26)
+    if fmt == "hdf5":
+        import h5py
+        with h5py.File(out / "trajectory.h5") as f:
+            assert f["trajectory"].shape == (51, 2, 26)
+    memory = lgvi.simulate(lgvi.Scenario.from_toml(str(path)))
+    assert np.array_equal(memory.data, loaded.data)  # the same run loop, bit for bit
+
+
+def test_results_do_not_depend_on_the_number_of_threads(tmp_path):
+    # 216 molecules: enough bodies for the per-body loops to use both threads.
+    path = variant(tmp_path, "lj-gas", [("count = 1000", "count = 216"), ("duration = 2.0", "duration = 0.4"),
+                                        ("every = 100", "every = 20")])
+    one, two = tmp_path / "one", tmp_path / "two"
+    assert run(path, "--out", one, "--threads", 1).returncode == 0
+    assert run(path, "--out", two, "--threads", 2).returncode == 0
+    assert (one / "trajectory.csv").read_bytes() == (two / "trajectory.csv").read_bytes()
+    s1, s2 = (json.loads((d / "summary.json").read_text()) for d in (one, two))
+    assert s1["final_bodies"] == s2["final_bodies"]
+
+
+def test_resume_of_a_many_body_run_is_byte_identical(tmp_path):
+    path = variant(tmp_path, "lj-gas", [("count = 1000", "count = 125"), ("duration = 2.0", "duration = 200.0"),
+                                        ("every = 100", "every = 500")])
+    full = tmp_path / "full"
+    assert run(path, "--out", full, "--threads", 1).returncode == 0
+    out = tmp_path / "run"
+    proc = subprocess.Popen([BINARY, "run", str(path), "--out", str(out), "--checkpoint-every", "5000", "--no-figures",
+                             "-q", "--threads", "1"], stderr=subprocess.PIPE, text=True)
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode in (0, 130), err
+    if proc.returncode == 130:
+        resumed = subprocess.run([BINARY, "run", "--resume", str(out), "--no-figures", "-q"], capture_output=True,
+                                 text=True)
+        assert resumed.returncode == 0, resumed.stderr
+    assert (out / "trajectory.csv").read_bytes() == (full / "trajectory.csv").read_bytes()
+    s_full, s_run = (json.loads((d / "summary.json").read_text()) for d in (full, out))
+    for key in ("max_abs_energy_error", "max_linear_momentum_error", "max_momentum_error", "final_bodies"):
+        assert s_full[key] == s_run[key], key
+
+
+@pytest.mark.parametrize("replacements,message", [
+    ([('name = "secondary"', 'name = "primary"')], 'the name "primary" is given to two bodies'),
+    ([("position = [3.431372549019608", "position = [0.1")], "overlaps bodies[0]"),
+    ([("[potential]\nkind = \"none\"", "[potential]\nkind = \"heavy-top\"\ng = [0, 0, -1]\npivot_to_com = [0, 0, 1]")],
+     '"heavy-top" is a single body'),
+    ([('method = "lgvi"', 'method = "exact"')], '"exact" is the exact flow of one free body'),
+    ([("G = 1.0", "G = -1.0")], "interaction.G"),
+    ([('model = "balls"', 'model = "spheres"')], "interaction.model"),
+    ([("[[bodies]]\nname = \"primary\"", "[body]\nmass = 1.0\n[[bodies]]\nname = \"primary\"")],
+     "give either [body] + [initial] (one body) or [[bodies]] tables, not both"),
+])
+def test_bad_many_body_scenarios_get_one_line_naming_the_key(tmp_path, replacements, message):
+    path = variant(tmp_path, "binary-asteroid", replacements, "bad.toml")
+    proc = run(path, "--out", tmp_path / "out")
+    assert proc.returncode == 2
+    assert message in proc.stderr, proc.stderr
+    assert proc.stderr.count("\n") == 1
