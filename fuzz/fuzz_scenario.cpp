@@ -2,8 +2,8 @@
 // `lgvi run` does with a file), on arbitrary bytes.
 //
 // Contract checked: any input either is rejected with lgvi::InvalidInput (one
-// line, starting with the file name), or runs (at most 200 steps, to bound
-// the time per input) to completion or to a reported IntegrationFailure
+// line, starting with the file name), or runs (at most 200 steps, and at most
+// 20000 site-steps for many bodies, to bound the time per input) to completion or to a reported IntegrationFailure
 // whose rows are all finite. Any other exception, crash, sanitizer report or
 // hang is a finding; each becomes a file in fuzz/regressions/.
 #include "scenario.hpp"
@@ -11,6 +11,7 @@
 
 #include <lgvi/error.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -19,12 +20,14 @@
 namespace {
 
 struct CheckingSink final : lgvi::app::TrajectorySink {
+  explicit CheckingSink(int columns) : columns_(columns) {}
   void row(const double* v) override {
-    for (int i = 0; i < lgvi::app::trajectory_columns; ++i)
+    for (int i = 0; i < columns_; ++i)
       if (!std::isfinite(v[i])) std::abort();  // a non-finite row must never be written
   }
   lgvi::app::SinkPosition sync() override { return {}; }
   void close(const std::string&, const std::string&) override {}
+  int columns_;
 };
 
 }  // namespace
@@ -46,8 +49,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                                                "quaternion = [1,0,0,0]\nmomentum = [0,0,0]\nw = [0,0,0]\n"
                                                "[integrator]\nstep = 0.1\nduration = 0.0\n",
                                                "fallback.toml"));
-  scenario.integrator.steps = std::min<std::int64_t>(scenario.integrator.steps, 200);
-  CheckingSink sink;
+  std::int64_t sites = 0;
+  for (const lgvi::RigidBody& b : scenario.system.bodies())
+    sites += std::max<std::int64_t>(1, static_cast<std::int64_t>(b.balls().size()));
+  scenario.integrator.steps =
+      std::min<std::int64_t>({scenario.integrator.steps, 200, std::max<std::int64_t>(1, 20000 / sites)});
+  scenario.threads = 1;
+  CheckingSink sink(lgvi::app::scenario_layout(scenario).columns);
   const lgvi::app::SimulationResult r = lgvi::app::simulate(scenario, sink);
   if (!r.completed && r.error.empty()) std::abort();  // a failure must say why
   return 0;

@@ -321,8 +321,9 @@ void read_block(const Reader& r, const toml::table& t, const std::string& prefix
   Vector3<double> total = Vector3<double>::Zero();
   for (std::int64_t i = 0; i < count; ++i) {
     RigidBodyState s = common;
-    s.x = origin + spacing * Vector3<double>(static_cast<double>(i % side), static_cast<double>((i / side) % side),
-                                             static_cast<double>(i / (side * side)));
+    // Lattice indices (integer division on purpose): i = ix + side (iy + side iz).
+    const std::int64_t ix = i % side, iy = (i / side) % side, iz = i / (side * side);
+    s.x = origin + spacing * Vector3<double>(static_cast<double>(ix), static_cast<double>(iy), static_cast<double>(iz));
     if (random_attitude) {
       Vector4<double> q(normal(rng), normal(rng), normal(rng), normal(rng));
       q /= q.norm();

@@ -140,7 +140,7 @@ class So3LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I
     const std::size_t n = this->system_.size();
     for (const RigidBody& b : this->system_.bodies()) {
       equations_.emplace_back(b.inertia());
-      jd_.push_back((0.5 * b.inertia().trace()) * Matrix3<double>::Identity() - b.inertia());
+      jd_.emplace_back((0.5 * b.inertia().trace()) * Matrix3<double>::Identity() - b.inertia());
     }
     R_.assign(n, Matrix3<double>::Identity());
     w_half_.resize(n);
