@@ -14,6 +14,7 @@
 
 #include <cmath>
 #include <random>
+#include <type_traits>
 #include <vector>
 
 namespace {
@@ -73,6 +74,9 @@ void run(benchmark::State& st, std::size_t n, int threads, double h, Make make_m
     ++k;
   }
   st.counters["bodies"] = static_cast<double>(n);  // ns per body-step = time / bodies
+  if constexpr (std::is_same_v<Mutual, lgvi::LennardJones>)
+    st.counters["steps_per_list_build"] =
+        static_cast<double>(k) / static_cast<double>(std::max<std::int64_t>(1, integ.potential().mutual().list_builds()));
 }
 
 void BM_LennardJonesGas(benchmark::State& st) {

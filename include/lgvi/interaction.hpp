@@ -62,6 +62,13 @@ class ExternalField {
   void evaluate(const SystemState& s, SystemEvaluation& e) const {
     const std::size_t n = s.size();
     if (e.size() != n) e.reset(n);
+    if (n == 1) {  // one body: no loop, no per-body energies to sum
+      const PotentialEvaluation pe = per_body_[0].evaluate(s.x[0], s.q[0]);
+      e.energy = pe.energy;
+      e.force[0] = pe.force;
+      e.torque[0] = pe.torque;
+      return;
+    }
     energies_.resize(n);
     parallel_for(n, par_, [&](std::size_t a) {
       const PotentialEvaluation pe = per_body_[a].evaluate(s.x[a], s.q[a]);

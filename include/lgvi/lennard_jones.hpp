@@ -17,6 +17,10 @@
 // skin/2 since the last build (then no pair can have crossed into r_c
 // unseen), so the cost grows like the number of sites, not its square.
 //
+// Each pair is computed once (a half list, as LAMMPS's newton on): the force
+// of j on i, f_ij, is kept per pair, and j takes -f_ij, exactly. Then every
+// body sums its sites' pair forces.
+//
 // Determinism: each site's list is sorted by site index, so the sum over a
 // site's neighbours runs in an order that depends on the current positions
 // only, not on when the lists were built; each body's force and torque are
@@ -30,6 +34,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace lgvi {
@@ -55,26 +60,44 @@ class LennardJones {
     const std::size_t n = s.size();
     sites_.place(s, par_, position_, arm_);
     if (needs_rebuild()) build_lists();
-    energy_.assign(n, 0.0);
+    // Pass 1, once per pair of sites (i < j) within r_c + skin: the force on
+    // i, f_ij = coef d with d = X_j - X_i; the force on j is -f_ij exactly.
     const double rc2 = cutoff_ * cutoff_;
+    pair_force_.resize(pairs_.size());
+    pair_energy_.resize(pairs_.size());
+    parallel_for(pairs_.size(), par_, [&](std::size_t k) {
+      const auto [i, j] = pairs_[k];
+      const Vector3<double> d = position_[j] - position_[i];
+      const double r2 = d.squaredNorm();
+      if (r2 >= rc2) {
+        pair_force_[k].setZero();
+        pair_energy_[k] = 0.0;
+        return;
+      }
+      const double sr2 = sigma2_ / r2;
+      const double sr6 = sr2 * sr2 * sr2;
+      const double sr12 = sr6 * sr6;
+      const double coef = -24.0 * eps_ * (2.0 * sr12 - sr6) / r2;
+      if (!std::isfinite(coef)) detail::close_approach(sys_, sites_, i, j, std::sqrt(r2));
+      pair_force_[k] = coef * d;
+      pair_energy_[k] = 4.0 * eps_ * (sr12 - sr6) - shift_;
+    });
+    // Pass 2, per body on one thread: each site's neighbours in the list's
+    // order (by site index), so the sums do not depend on the threads.
+    energy_.assign(n, 0.0);
     parallel_for(n, par_, [&](std::size_t a) {
       Vector3<double> force = Vector3<double>::Zero(), torque = Vector3<double>::Zero();
       double energy = 0.0;
       for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
-        const Vector3<double>& xi = position_[i];
         Vector3<double> fi = Vector3<double>::Zero();
         for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
-          const std::size_t j = neighbours_[k];
-          const Vector3<double> d = position_[j] - xi;
-          const double r2 = d.squaredNorm();
-          if (r2 >= rc2) continue;
-          const double sr2 = sigma2_ / r2;
-          const double sr6 = sr2 * sr2 * sr2;
-          const double sr12 = sr6 * sr6;
-          const double coef = -24.0 * eps_ * (2.0 * sr12 - sr6) / r2;
-          if (!std::isfinite(coef)) detail::close_approach(sys_, sites_, i, j, std::sqrt(r2));
-          fi += coef * d;
-          if (sites_.body_of(j) > a) energy += 4.0 * eps_ * (sr12 - sr6) - shift_;
+          const std::size_t pair = pair_of_[k];
+          if (pairs_[pair].first == i) {
+            fi += pair_force_[pair];
+          } else {
+            fi -= pair_force_[pair];
+          }
+          if (sites_.body_of(neighbours_[k]) > a) energy += pair_energy_[pair];
         }
         force += fi;
         torque += arm_[i].cross(fi);
@@ -176,6 +199,24 @@ class LennardJones {
       std::sort(neighbours_.begin() + static_cast<std::ptrdiff_t>(first), neighbours_.end());
       list_start_[i + 1] = neighbours_.size();
     }
+    // The unordered pairs (i < j), numbered as they come in i's lists; an
+    // entry (i, j) with j < i finds its pair in j's (sorted) list.
+    pairs_.clear();
+    pair_of_.assign(neighbours_.size(), 0);
+    for (std::size_t i = 0; i < m; ++i)
+      for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k)
+        if (neighbours_[k] > i) {
+          pair_of_[k] = pairs_.size();
+          pairs_.emplace_back(i, neighbours_[k]);
+        }
+    for (std::size_t i = 0; i < m; ++i)
+      for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
+        const std::size_t j = neighbours_[k];
+        if (j > i) continue;
+        const auto begin = neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[j]);
+        const auto end = neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[j + 1]);
+        pair_of_[k] = pair_of_[static_cast<std::size_t>(std::lower_bound(begin, end, i) - neighbours_.begin())];
+      }
     built_at_ = position_;
   }
 
@@ -187,7 +228,10 @@ class LennardJones {
   mutable std::vector<double> energy_;
   mutable Vector3<double> origin_ = Vector3<double>::Zero(), inv_cell_ = Vector3<double>::Ones();
   mutable std::array<std::int64_t, 3> dims_{1, 1, 1};
-  mutable std::vector<std::size_t> cell_index_, cell_start_, fill_, sorted_, list_start_, neighbours_;
+  mutable std::vector<std::size_t> cell_index_, cell_start_, fill_, sorted_, list_start_, neighbours_, pair_of_;
+  mutable std::vector<std::pair<std::size_t, std::size_t>> pairs_;
+  mutable std::vector<Vector3<double>> pair_force_;
+  mutable std::vector<double> pair_energy_;
   mutable std::vector<Vector3<double>> built_at_;
   mutable std::int64_t builds_ = 0;
 };

@@ -91,6 +91,11 @@ inline void require_finite(const System& sys, const SystemState& s, const System
 /// Sums the per-body solve reports: iterations and residual evaluations in
 /// all, and the most iterations one body needed.
 inline SolveReport combine(const std::vector<SolveReport>& reports) {
+  if (reports.size() == 1) {
+    SolveReport r = reports[0];
+    r.worst_iterations = r.iterations;
+    return r;
+  }
   SolveReport r;
   for (const SolveReport& b : reports) {
     r.iterations += b.iterations;

@@ -1,0 +1,139 @@
+#!/usr/bin/python3
+"""The Lennard-Jones gas of rigid triangle molecules (scenarios/lj-gas.toml) in
+lgvi and in LAMMPS (fix rigid/nve/small, the NO_SQUISH integrator of Miller
+et al.), from the same initial state, with the same step, cutoff and
+neighbour settings, timed in one invocation:
+
+    /usr/bin/python3 benchmarks/lammps/compare_lammps.py LGVI_BINARY LMP_BINARY [--steps 2000] [--repeat 5]
+
+(LMP_BINARY: Debian's `lmp`, package lammps.) It writes a scratch folder with
+the LAMMPS data file and input (in.lj-triangles, next to this script, is the
+input it uses), runs each program `--repeat` times on one thread (lgvi
+--threads 1; LAMMPS serial), and prints a Markdown table: median time per
+step, the ratio, and each program's max |E - E0| over the run.
+
+The initial state comes from lgvi itself (a run of zero steps writes every
+body's x, q, p, w), converted to atoms: positions x + R rho_i and velocities
+p/m + (R Omega) x (R rho_i), Omega = J^{-1} w / 2, so that LAMMPS's rigid
+bodies start with exactly lgvi's momenta. The balls are point masses in both
+(radius 0: LAMMPS atoms have no inertia of their own), the LJ sites interact
+only between molecules (neigh_modify exclude molecule/intra), the energy is
+shifted at the cutoff 2.5 (pair_modify shift yes), Verlet lists with skin 0.3.
+"""
+import argparse
+import json
+import pathlib
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+HERE = pathlib.Path(__file__).resolve().parent
+ROOT = HERE.parent.parent
+
+
+def scenario_text(steps, step, every):
+    text = (ROOT / "scenarios" / "lj-gas.toml").read_text()
+    text = text.replace("radius = 0.5", "radius = 0.0")  # point masses, as LAMMPS atoms
+    text = re.sub(r"duration = [0-9.]+", f"duration = {steps * step!r}", text)
+    text = re.sub(r"step = [0-9.]+", f"step = {step!r}", text)
+    text = re.sub(r"every = \d+", f"every = {every}", text)
+    return text
+
+
+def rotation(q):
+    w, x, y, z = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def lammps_data(lgvi, work):
+    """Writes the LAMMPS data file of lgvi's initial state; returns its path."""
+    scen = work / "initial.toml"
+    scen.write_text(scenario_text(0, 0.002, 1))
+    subprocess.run([lgvi, "run", scen, "--out", work / "initial", "--no-figures", "-q"], check=True)
+    rows = np.loadtxt(work / "initial" / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
+    summary = json.loads((work / "initial" / "summary.json").read_text())
+    body = summary["setup"]["bodies"][0]
+    rho = np.array([b["position"] for b in body["balls"]])
+    inertia = np.array(body["inertia"])
+    mass = body["mass"]
+    atoms, velocities = [], []
+    for row in rows:
+        x, q, p, w = row[2:5], row[5:9], row[9:12], row[12:15]
+        r = rotation(q)
+        omega = r @ np.linalg.solve(inertia, 0.5 * w)  # inertial angular velocity
+        for k, rk in enumerate(rho):
+            arm = r @ rk
+            atoms.append((int(row[1]) + 1, x + arm))
+            velocities.append(p / mass + np.cross(omega, arm))
+    pos = np.array([a[1] for a in atoms])
+    lo, hi = pos.min(axis=0) - 50.0, pos.max(axis=0) + 50.0
+    lines = ["LAMMPS data: lgvi's lj-gas initial state (benchmarks/lammps/compare_lammps.py)", "",
+             f"{len(atoms)} atoms", "1 atom types", ""]
+    lines += [f"{lo[i]!r} {hi[i]!r} {c}lo {c}hi" for i, c in enumerate("xyz")]
+    lines += ["", "Masses", "", "1 1.0", "", "Atoms # molecular", ""]
+    lines += [f"{i + 1} {mol} 1 {x[0]!r} {x[1]!r} {x[2]!r}" for i, (mol, x) in enumerate(atoms)]
+    lines += ["", "Velocities", ""]
+    lines += [f"{i + 1} {v[0]!r} {v[1]!r} {v[2]!r}" for i, v in enumerate(velocities)]
+    path = work / "lj-triangles.data"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def run_lammps(lmp, work, steps, step, thermo):
+    out = subprocess.run([lmp, "-in", str(HERE / "in.lj-triangles"), "-log", "none", "-screen", "none",
+                          "-var", "data", str(work / "lj-triangles.data"), "-var", "steps", str(steps),
+                          "-var", "dt", repr(step), "-var", "thermo", str(thermo),
+                          "-var", "log", str(work / "lammps.log")],
+                         capture_output=True, text=True, cwd=work)
+    if out.returncode != 0:
+        sys.exit(f"LAMMPS failed: {out.stderr or out.stdout}")
+    log = (work / "lammps.log").read_text()
+    loop = float(re.search(r"Loop time of ([0-9.eE+-]+)", log).group(1))
+    energies = [float(m.group(1)) for m in re.finditer(r"^\s*\d+\s+([-0-9.eE+]+)\s", log, re.M)]
+    return loop / steps, max(abs(e - energies[0]) for e in energies), energies[0]
+
+
+def run_lgvi(lgvi, work, steps, step, every):
+    scen = work / "gas.toml"
+    scen.write_text(scenario_text(steps, step, every))
+    subprocess.run([lgvi, "run", scen, "--out", work / "lgvi", "--no-figures", "-q", "--threads", "1"], check=True)
+    s = json.loads((work / "lgvi" / "summary.json").read_text())
+    return s["wall_seconds"] / steps, s["max_abs_energy_error"], s["initial_energy"]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("lgvi")
+    ap.add_argument("lmp")
+    ap.add_argument("--steps", type=int, default=2000)
+    ap.add_argument("--step", type=float, default=0.002)
+    ap.add_argument("--repeat", type=int, default=5)
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        work = pathlib.Path(tmp)
+        lammps_data(args.lgvi, work)
+        # Energy errors: every 10th step written (LAMMPS thermo output costs time, so timed runs write rarely).
+        _, lmp_de, lmp_e0 = run_lammps(args.lmp, work, args.steps, args.step, 10)
+        _, lgvi_de, lgvi_e0 = run_lgvi(args.lgvi, work, args.steps, args.step, 10)
+        times = {"lgvi": [], "lammps": []}
+        for _ in range(args.repeat):  # interleaved, so that both see the same machine load
+            times["lgvi"].append(run_lgvi(args.lgvi, work, args.steps, args.step, args.steps)[0])
+            times["lammps"].append(run_lammps(args.lmp, work, args.steps, args.step, args.steps)[0])
+    t_lgvi, t_lmp = statistics.median(times["lgvi"]), statistics.median(times["lammps"])
+    print(f"Lennard-Jones gas of 1000 rigid triangle molecules, h = {args.step}, {args.steps} steps, one thread, "
+          f"medians of {args.repeat}:\n")
+    print("| program | ms per step | / LAMMPS | E0 | max abs(E - E0) (every 10th step) |")
+    print("|---|---:|---:|---:|---:|")
+    print(f"| lgvi (quaternion LGVI) | {t_lgvi * 1e3:.3f} | {t_lgvi / t_lmp:.2f} | {lgvi_e0:.6f} | {lgvi_de:.3e} |")
+    print(f"| LAMMPS (fix rigid/nve/small) | {t_lmp * 1e3:.3f} | 1.00 | {lmp_e0:.6f} | {lmp_de:.3e} |")
+    print(f"\nall timings (s per step): {json.dumps(times)}")
+
+
+if __name__ == "__main__":
+    main()
