@@ -1,6 +1,8 @@
 // Many rigid bodies: the mutual interactions (derivatives, Newton's third law,
 // invariance), the N-body LGVI (Kepler's orbit, conservation laws, second
 // order), and results independent of the number of threads.
+#include "scenario.hpp"
+#include "simulation.hpp"
 #include "test_support.hpp"
 
 #include <lgvi/integrate.hpp>
@@ -459,6 +461,30 @@ TEST(NBodyMethods, EveryMethodConservesLinearMomentumOfAnIsolatedSystem) {
   check(lgvi::RattleQuaternionIntegrator<GravitySystem>(sys, gravity(sys, 1.0)), "rattle-quaternion");
   check(lgvi::Rk4NormalizedIntegrator<GravitySystem>(sys, gravity(sys, 1.0)), "rk4-normalized");
   check(lgvi::EulerExpIntegrator<GravitySystem>(sys, gravity(sys, 1.0)), "euler-exp");
+}
+
+}  // namespace
+
+// --- against GUBAS ---------------------------------------------------------------
+
+namespace {
+
+TEST(AgainstGubas, DidymosOrderTwoPotentialAndEnergyAtTheStart) {
+  // scenarios/didymos-order2.toml is GUBAS's Didymos example at order 2
+  // (scripts/compare_gubas.py runs both programs). GUBAS printed, for this
+  // initial state, the mutual potential U = -491886924.8644644 J (first row of
+  // LagrangianStateOut_*.csv) and the total energy 69814.11468941689 kg km^2/s^2
+  // (Energy+AngMom_*.csv). Both compute the same second-order potential from the
+  // same masses and inertias: they agree to round-off (a few eps of the terms,
+  // which are of the size of the potential itself).
+  const lgvi::app::Scenario sc = lgvi::app::read_scenario(std::string(LGVI_SCENARIO_DIR) + "/didymos-order2.toml");
+  std::int64_t evaluations = 0;
+  const auto potential = lgvi::app::scenario_system_potential(sc, nullptr, &evaluations);
+  SystemEvaluation e(sc.bodies());
+  potential.evaluate(sc.initial_state, e);
+  EXPECT_NEAR(e.energy, -491886924.8644644, 1e-13 * 491886924.8644644);
+  const double energy = lgvi::total_energy(sc.initial_state, sc.system, e);
+  EXPECT_NEAR(energy, 69814.11468941689e6, 1e-13 * 491886924.8644644);
 }
 
 }  // namespace
