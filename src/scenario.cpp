@@ -13,6 +13,7 @@
 #include <fstream>
 #include <initializer_list>
 #include <limits>
+#include <numbers>
 #include <random>
 #include <sstream>
 #include <string_view>
@@ -246,12 +247,11 @@ RigidBodyState read_state(const Reader& r, const toml::table& t, const std::stri
   RigidBodyState s;
   s.x = r.vector<3>(t, prefix, "position");
   const Vector4<double> q = r.vector<4>(t, prefix, "quaternion");
-  const double n = q.norm();
-  if (!(std::abs(n - 1.0) <= 1e-6))
-    r.fail(prefix + ".quaternion",
-           "must be a unit quaternion (scalar first, [w, x, y, z]); its norm is " + std::to_string(n) +
-               ", more than 1e-6 from 1");
-  s.q = S3d(q(0) / n, q(1) / n, q(2) / n, q(3) / n);
+  try {
+    s.q = S3d::from_quaternion_checked(q(0), q(1), q(2), q(3));
+  } catch (const InvalidInput& e) {
+    r.fail(prefix + ".quaternion", e.what());
+  }
   if (t.contains("momentum") == t.contains("velocity"))
     r.fail(prefix, "give exactly one of momentum = [px, py, pz] or velocity = [vx, vy, vz]");
   s.p = t.contains("momentum") ? r.vector<3>(t, prefix, "momentum")
@@ -601,9 +601,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
                                     (interaction.kind != InteractionKind::None ? " and an [interaction]" : ""));
   if (integrator.method == Method::NoSquish || integrator.method == Method::SplittingDlm) {
     for (std::size_t a = 0; a < bodies.size(); ++a) {
-      const Matrix3<double>& J = bodies[a].inertia();
-      const double off = std::max({std::abs(J(0, 1)), std::abs(J(0, 2)), std::abs(J(1, 2))});
-      if (off > 8 * std::numeric_limits<double>::epsilon() * J.diagonal().maxCoeff())
+      if (!bodies[a].has_principal_axes())
         r.fail("integrator.method", std::string("\"") + to_string(integrator.method) +
                                         "\" rotates about the principal axes: " +
                                         (bodies_format ? "bodies[" + std::to_string(a) + "]" : std::string("body")) +
@@ -614,7 +612,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   // (and the rotation equation has no root well before, near 1 rad).
   for (std::size_t a = 0; a < bodies.size(); ++a) {
     const double rotation = (0.5 * bodies[a].inertia_inverse() * initial.w[a]).norm() * integrator.step;
-    if (rotation >= 3.14159)
+    if (rotation >= std::numbers::pi)
       r.fail("integrator.step", std::string("the initial rotation per step |Omega| h") +
                                     (bodies_format ? " of bodies[" + std::to_string(a) + "]" : std::string()) + " = " +
                                     std::to_string(rotation) + " rad reaches pi; use a step below " +

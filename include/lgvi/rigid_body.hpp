@@ -12,6 +12,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -79,6 +80,16 @@ class RigidBody {
   /// Standard inertia J (the paper's J = tr[J_d] I - J_d).
   const Matrix3<double>& inertia() const { return inertia_; }
   const Matrix3<double>& inertia_inverse() const { return inertia_inverse_; }
+  /// Whether the body frame is a principal frame: J diagonal, its
+  /// off-diagonal entries within 8 eps of the largest moment (the round-off of
+  /// a sum of ball inertias; user input must be diagonal as written). The
+  /// splitting methods (NO_SQUISH, DLM) rotate about the body axes and need it.
+  bool has_principal_axes() const {
+    const double off = std::max({std::abs(inertia_(0, 1)), std::abs(inertia_(0, 2)), std::abs(inertia_(1, 2)),
+                                 std::abs(inertia_(1, 0)), std::abs(inertia_(2, 0)), std::abs(inertia_(2, 1))});
+    return off <= 8 * eps * inertia_.diagonal().cwiseAbs().maxCoeff();
+  }
+
   /// The balls, with positions relative to the centre of mass. Empty for a
   /// body given by mass and inertia.
   const std::vector<Ball>& balls() const { return balls_; }

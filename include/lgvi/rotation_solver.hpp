@@ -38,12 +38,21 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <string>
 #include <vector>
 
 namespace lgvi {
 
 namespace detail {
+/// The cure of a step that failed because the rotation per step was too
+/// large (every implicit method says it the same way). The discrete
+/// equations have roots up to about 1 rad per step, and none at pi.
+inline constexpr const char* smaller_step_hint =
+    "take a smaller step, so that the rotation |Omega| h per step stays well below 1 rad";
+inline constexpr const char* smaller_step_hint_pi =
+    "take a smaller step, so that the rotation |Omega| h per step stays well below pi";
+
 /// Solves a r = y for a 3x3 matrix by its adjugate (Cramer's rule): about 40
 /// flops and one division, several times faster than a general LU at this
 /// size. A singular or non-finite system gives non-finite values, which the
@@ -334,7 +343,7 @@ class RotationSolver {
   static StepFailure left_branch() {
     return StepFailure("the rotation in one step reached pi (|xi0| >= pi/2, Re(q0^* q1) <= 0), where the discrete "
                        "flow is not defined",
-                       "take a smaller step, so that the rotation |Omega| h per step stays well below pi");
+                       detail::smaller_step_hint_pi);
   }
 
   static void check_branch(const Vector3<double>& xi) {
@@ -349,8 +358,8 @@ class RotationSolver {
   StepFailure not_converged(const Vector3<double>& r, double scale, const Vector3<double>& b) const {
     const double rotation = 2.0 * eq_.inertia().ldlt().solve(b).norm();
     const std::string estimate = "estimated rotation per step |Omega| h = " + std::to_string(rotation) + " rad";
-    const std::string hint = "take a smaller step, so that the rotation |Omega| h per step stays well below 1 rad";
-    if (rotation >= 3.14159)
+    const std::string hint = detail::smaller_step_hint;
+    if (rotation >= std::numbers::pi)
       return StepFailure("the rotation in one step reached pi (" + estimate +
                              "), where the discrete flow is not defined; the solver found no root",
                          hint);

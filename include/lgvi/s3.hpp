@@ -14,11 +14,14 @@
 //   * A 4-vector "d/dq" (the paper's dV/dq) is ordered (d/dq_s, d/dq_v).
 #pragma once
 
+#include <lgvi/error.hpp>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
 #include <cmath>
 #include <limits>
+#include <string>
 
 namespace lgvi {
 
@@ -63,6 +66,39 @@ class S3 {
 
   /// Scalar-first constructor: (q_s, q_x, q_y, q_z).
   S3(Scalar qs, Scalar qx, Scalar qy, Scalar qz) : q_(qs, qx, qy, qz) {}
+
+  /// How far from 1 the norm of a user's quaternion may be: 1e-6 accepts
+  /// quaternions written with 7 or more significant digits (and their
+  /// round-off) and rejects any that is not meant to be unit.
+  static constexpr double unit_tolerance = 1e-6;
+
+  /// A unit quaternion from user input (scalar first): its norm must be
+  /// within unit_tolerance of 1, and it is then normalized (the only place
+  /// where S3 normalizes: input, never a step). Throws InvalidInput with
+  /// "must be a unit quaternion, ...": callers prefix the field's name.
+  static S3 from_quaternion_checked(Scalar qs, Scalar qx, Scalar qy, Scalar qz) {
+    using std::sqrt;
+    const Scalar n = sqrt(qs * qs + qx * qx + qy * qy + qz * qz);
+    using std::abs;
+    if (!(abs(n - Scalar(1)) <= Scalar(unit_tolerance)))
+      throw InvalidInput("must be a unit quaternion, scalar-first (w, x, y, z); its norm is " +
+                         std::to_string(static_cast<double>(n)) + ", more than 1e-6 from 1");
+    return S3(qs / n, qx / n, qy / n, qz / n);
+  }
+
+  /// The inner product in R^4 (q and -q are the same rotation: the sign of
+  /// dot tells which of the two is nearer another quaternion).
+  Scalar dot(const S3& other) const { return q_.coeffs().dot(other.q_.coeffs()); }
+
+  /// q / |q|: for methods that project onto S^3 after a step (RK4 with
+  /// normalization, semi-implicit Euler); the LGVI never calls it.
+  S3 normalized() const { return S3(q_.normalized()); }
+
+  /// Whether every coefficient is finite.
+  bool all_finite() const { return q_.coeffs().allFinite(); }
+
+  /// The sum of the coefficients (a cheap non-finite test over a state).
+  Scalar coefficient_sum() const { return q_.coeffs().sum(); }
 
   /// The exponential map of the paper, exp(xi) = (cos|xi|, sin|xi| xi/|xi|).
   /// For |xi| below eps^(1/6), sin|xi|/|xi| is its Taylor series

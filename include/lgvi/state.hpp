@@ -19,7 +19,7 @@ struct RigidBodyState {
   Vector3<double> w = Vector3<double>::Zero();
 
   bool all_finite() const {
-    return x.allFinite() && q.quaternion().coeffs().allFinite() && p.allFinite() && w.allFinite();
+    return x.allFinite() && q.all_finite() && p.allFinite() && w.allFinite();
   }
 };
 

@@ -75,7 +75,7 @@ void for_each_body(const System& sys, const Parallelism& par, F&& f) {
 /// (inf - inf is NaN), so the common case costs one branch per body.
 inline void require_finite(const System& sys, const SystemState& s, const SystemEvaluation& e) {
   for (std::size_t a = 0; a < s.size(); ++a) {
-    const double sum = s.x[a].sum() + s.q[a].quaternion().coeffs().sum() + s.p[a].sum() + s.w[a].sum() + e.energy +
+    const double sum = s.x[a].sum() + s.q[a].coefficient_sum() + s.p[a].sum() + s.w[a].sum() + e.energy +
                        e.force[a].sum() + e.torque[a].sum();
     if (std::isfinite(sum)) continue;
     if (!s.body(a).all_finite())

@@ -6,7 +6,6 @@ import numbers
 
 import numpy as np
 
-QUATERNION_TOLERANCE = 1e-6
 
 
 def _describe(value):
@@ -41,12 +40,14 @@ def matrix3(value, name):
 
 
 def quaternion(value, name):
-    """A scalar-first (w, x, y, z) quaternion within 1e-6 of unit norm (returned as given)."""
+    """A scalar-first (w, x, y, z) quaternion within 1e-6 of unit norm (returned as given).
+
+    The check is the library's (S3::from_quaternion_checked, through lgvi._core), the
+    same as for scenario files.
+    """
     q = array(value, name, (4,))
-    norm = float(np.sqrt(np.sum(q * q)))
-    if not abs(norm - 1.0) <= QUATERNION_TOLERANCE:
-        raise ValueError(f"{name}: must be a unit quaternion, scalar-first (w, x, y, z); its norm is {norm:.17g}, "
-                         f"more than 1e-6 from 1")
+    from . import _core
+    _core.check_quaternion(q, name)
     return q
 
 

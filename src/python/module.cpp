@@ -114,11 +114,12 @@ Vector3<double> vec3(py::handle obj, const std::string& name, bool any_value = f
 S3d unit_quaternion(py::handle obj, const std::string& name, bool normalize = true) {
   const Numbers a = numbers(obj, name, 4);
   const double* d = a.data();
-  const double n = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] + d[3] * d[3]);
-  if (!(std::abs(n - 1.0) <= 1e-6))
-    throw py::value_error(name + ": must be a unit quaternion, scalar-first (w, x, y, z); its norm is " +
-                          std::to_string(n) + ", more than 1e-6 from 1");
-  return normalize ? S3d(d[0] / n, d[1] / n, d[2] / n, d[3] / n) : S3d(d[0], d[1], d[2], d[3]);
+  try {
+    const S3d checked = S3d::from_quaternion_checked(d[0], d[1], d[2], d[3]);
+    return normalize ? checked : S3d(d[0], d[1], d[2], d[3]);
+  } catch (const InvalidInput& e) {
+    throw py::value_error(name + ": " + e.what());
+  }
 }
 
 /// The trajectory rows as a (rows, columns) float64 array owning the vector
@@ -635,6 +636,11 @@ PYBIND11_MODULE(_core, m) {
           "The scenario's potential at (x, q), q scalar-first (w, x, y, z) within 1e-6 of unit norm, used as given: "
           "(energy, force (3,), body torque (3,)).");
 
+  m.def(
+      "check_quaternion", [](py::handle q, const std::string& name) { unit_quaternion(q, name, false); },
+      py::arg("q"), py::arg("name"),
+      "Raises ValueError (naming `name`) unless q is a scalar-first (w, x, y, z) quaternion within 1e-6 of unit "
+      "norm: the library's S3::from_quaternion_checked, the check of scenario files.");
   m.def("parse_scenario", &parse_scenario, py::arg("text"), py::arg("name"),
         "Parses and validates scenario TOML text exactly as the CLI does; ValueError with the CLI's message "
         "(\"NAME: key 'K': ...\") otherwise.");

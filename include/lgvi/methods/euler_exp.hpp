@@ -46,9 +46,7 @@ class EulerExpIntegrator<I> : public detail::ExplicitStepperBase<I> {
       const Vector3<double> pi0 = 0.5 * s.w[a];
       const Vector3<double> pi1 = pi0 + h * (pi0.cross(jinv * pi0) + this->eval_.torque[a]);
       const Vector3<double> omega1 = jinv * pi1;
-      Eigen::Quaterniond q = (s.q[a] * S3d::exp((0.5 * h) * omega1)).quaternion();
-      q.normalize();
-      s.q[a] = S3d(q);
+      s.q[a] = (s.q[a] * S3d::exp((0.5 * h) * omega1)).normalized();
       s.w[a] = 2.0 * pi1;
     });
     this->evaluate_at(s);

@@ -18,15 +18,12 @@
 namespace lgvi::detail {
 
 /// The principal moments (J_11, J_22, J_33) of a body whose frame is
-/// principal; throws InvalidInput otherwise (message names `method`).
+/// principal (RigidBody::has_principal_axes); throws InvalidInput otherwise
+/// (message names `method`).
 inline Vector3<double> require_principal_axes(const RigidBody& body, const std::string& method) {
-  const Matrix3<double>& j = body.inertia();
-  const double scale = j.diagonal().cwiseAbs().maxCoeff();
-  const double off = std::max({std::abs(j(0, 1)), std::abs(j(0, 2)), std::abs(j(1, 2)), std::abs(j(1, 0)),
-                               std::abs(j(2, 0)), std::abs(j(2, 1))});
-  if (off > 8 * std::numeric_limits<double>::epsilon() * scale)
+  if (!body.has_principal_axes())
     throw InvalidInput(method + ": body.inertia must be diagonal in body axes (diagonalize the body first)");
-  return j.diagonal();
+  return body.inertia().diagonal();
 }
 
 /// The base of the explicit methods on N bodies: the evaluation at the

@@ -163,7 +163,7 @@ class RattleQuaternionIntegrator<I> : public detail::ImplicitStepperBase<I, Rota
       const Vector4<double> f = rattle::product(Vector4<double>(q0(0), -q0(1), -q0(2), -q0(3)), q1);
       if (!(f(0) > 0.0))
         throw StepFailure("RATTLE quaternion: the rotation in one step reached pi (Re(q0^* q1) <= 0)",
-                          "take a smaller step, so that the rotation |Omega| h per step stays well below pi");
+                          detail::smaller_step_hint_pi);
       predictor.push(S3d(f(0), f(1), f(2), f(3)));
       lambda_[a] = (4.0 / h) * nu;
       this->drift(s, a, h);
@@ -214,14 +214,14 @@ class RattleQuaternionIntegrator<I> : public detail::ImplicitStepperBase<I, Rota
       if (report.iterations >= opt.max_iterations)
         throw StepFailure("RATTLE quaternion: Newton iteration for (q1, lambda) did not converge in " +
                               std::to_string(opt.max_iterations) + " iterations",
-                          "take a smaller step, so that the rotation |Omega| h per step stays well below 1 rad");
+                          detail::smaller_step_hint);
       const rattle::Vector5 delta = rattle::jacobian(J, q0, q1).partialPivLu().solve(r);
       q1 -= delta.head<4>();
       nu -= delta(4);
       ++report.iterations;
       if (!(q1.allFinite() && std::isfinite(nu)))
         throw StepFailure("RATTLE quaternion: the Newton iteration diverged",
-                          "take a smaller step, so that the rotation |Omega| h per step stays well below 1 rad");
+                          detail::smaller_step_hint);
       // The system is quadratic: after a Newton update the residual is
       // exactly (F(dq)^T J F(q0) dq, |dq|^2), bounded by (|J| |dq|^2, |dq|^2).
       const double d2 = delta.head<4>().squaredNorm();

@@ -200,7 +200,7 @@ class So3LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I
   /// inner product), by Shepperd's method, normalized.
   static S3d lift(const Matrix3<double>& r, const S3d& previous) {
     Eigen::Quaterniond q(r);
-    const double d = q.coeffs().dot(previous.quaternion().coeffs());
+    const double d = S3d(q).dot(previous);
     const double n = q.norm();
     q.coeffs() *= (d < 0.0 ? -1.0 : 1.0) / n;
     return S3d(q);
@@ -232,13 +232,13 @@ class So3LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I
       if (report.iterations >= opt.max_iterations)
         throw StepFailure("SO(3) LGVI: Newton iteration for F_k did not converge in " +
                               std::to_string(opt.max_iterations) + " iterations",
-                          "take a smaller step, so that the rotation |Omega| h per step stays well below 1 rad");
+                          detail::smaller_step_hint);
       const Vector3<double> delta = detail::solve_3x3(equation.cayley_jacobian(u, b), r);
       u -= delta;
       ++report.iterations;
       if (!u.allFinite())
         throw StepFailure("SO(3) LGVI: the rotation in one step reached pi (the Cayley chart's boundary)",
-                          "take a smaller step, so that the rotation |Omega| h per step stays well below pi");
+                          detail::smaller_step_hint_pi);
       // The residual after a Newton step of this quadratic is
       // delta x J delta - |delta|^2 b: stop when its bound is below tolerance.
       const double d2 = delta.squaredNorm();
