@@ -2,6 +2,7 @@
 
 #include "output.hpp"
 #include "simulation.hpp"
+#include "summary.hpp"
 
 #include <lgvi/error.hpp>
 

@@ -1,5 +1,7 @@
-// numpy's .npz trajectory, written without numpy or zlib: a ZIP archive of
-// uncompressed (stored) .npy entries, streamed row by row.
+// numpy's .npz trajectory, written without numpy: a ZIP archive of
+// uncompressed (stored) .npy entries, streamed row by row. The .npy layer is
+// formats/npy.hpp, the ZIP layer (and zlib's CRC-32) formats/zip_stream.hpp;
+// this file is the sink that streams the rows and patches the headers.
 //
 // File layout (offsets in bytes):
 //
@@ -40,6 +42,8 @@
 // .npy header saying N = 0. Resume checks these against the file (reading
 // its data once) before truncating it back.
 #include "formats/formats.hpp"
+#include "formats/npy.hpp"
+#include "formats/zip_stream.hpp"
 
 #include <algorithm>
 #include <array>
@@ -56,303 +60,15 @@
 namespace lgvi::app {
 
 namespace {
-
-// ---- CRC-32 (ZIP's: reflected polynomial 0xEDB88320), slicing by 8 ----------
-
-constexpr std::uint32_t crc_polynomial = 0xEDB88320u;
-
-constexpr std::array<std::array<std::uint32_t, 256>, 8> make_crc_tables() {
-  std::array<std::array<std::uint32_t, 256>, 8> t{};
-  for (std::uint32_t i = 0; i < 256; ++i) {
-    std::uint32_t c = i;
-    for (int k = 0; k < 8; ++k) c = (c & 1u) ? (c >> 1) ^ crc_polynomial : c >> 1;
-    t[0][i] = c;
-  }
-  for (std::size_t k = 1; k < 8; ++k)
-    for (std::size_t i = 0; i < 256; ++i) t[k][i] = (t[k - 1][i] >> 8) ^ t[0][t[k - 1][i] & 0xFFu];
-  return t;
-}
-constexpr auto crc_tables = make_crc_tables();
-
-std::uint32_t load_le32(const unsigned char* p) {
-  return std::uint32_t(p[0]) | std::uint32_t(p[1]) << 8 | std::uint32_t(p[2]) << 16 | std::uint32_t(p[3]) << 24;
-}
-
-/// The CRC-32 of (the bytes behind `crc`) followed by p[0, n).
-std::uint32_t crc32_update(std::uint32_t crc, const unsigned char* p, std::size_t n) {
-  const auto& t = crc_tables;
-  crc = ~crc;
-  for (; n >= 8; p += 8, n -= 8) {
-    const std::uint32_t a = load_le32(p) ^ crc, b = load_le32(p + 4);
-    crc = t[7][a & 0xFFu] ^ t[6][(a >> 8) & 0xFFu] ^ t[5][(a >> 16) & 0xFFu] ^ t[4][a >> 24] ^ t[3][b & 0xFFu] ^
-          t[2][(b >> 8) & 0xFFu] ^ t[1][(b >> 16) & 0xFFu] ^ t[0][b >> 24];
-  }
-  for (; n > 0; ++p, --n) crc = t[0][(crc ^ *p) & 0xFFu] ^ (crc >> 8);
-  return ~crc;
-}
-
-std::uint32_t crc32_of(const std::string& s) {
-  return crc32_update(0, reinterpret_cast<const unsigned char*>(s.data()), s.size());
-}
-
-// crc32_combine as in zlib: the CRC of A followed by B from crc(A), crc(B) and
-// the length of B, by multiplying crc(A) by x^(8 len) modulo the polynomial.
-// It lets close() put the final .npy header (with N) in front of data whose
-// CRC was computed as the rows arrived, without reading the data again.
-std::uint32_t multmodp(std::uint32_t a, std::uint32_t b) {
-  std::uint32_t m = 1u << 31, p = 0;
-  for (;;) {
-    if (a & m) {
-      p ^= b;
-      if ((a & (m - 1)) == 0) break;
-    }
-    m >>= 1;
-    b = (b & 1u) ? (b >> 1) ^ crc_polynomial : b >> 1;
-  }
-  return p;
-}
-
-constexpr std::array<std::uint32_t, 32> make_x2n_table() {
-  std::array<std::uint32_t, 32> t{};
-  std::uint32_t p = 1u << 30;  // x^1
-  t[0] = p;
-  for (std::size_t n = 1; n < 32; ++n) {
-    // p = multmodp(p, p), spelled out so that it is constexpr
-    std::uint32_t a = p, b = p, m = 1u << 31, r = 0;
-    for (;;) {
-      if (a & m) {
-        r ^= b;
-        if ((a & (m - 1)) == 0) break;
-      }
-      m >>= 1;
-      b = (b & 1u) ? (b >> 1) ^ crc_polynomial : b >> 1;
-    }
-    t[n] = p = r;
-  }
-  return t;
-}
-constexpr auto x2n_table = make_x2n_table();
-
-std::uint32_t crc32_combine(std::uint32_t crc_a, std::uint32_t crc_b, std::uint64_t length_b) {
-  std::uint32_t p = 1u << 31;  // x^0
-  for (unsigned k = 3; length_b != 0; length_b >>= 1, ++k)
-    if (length_b & 1u) p = multmodp(x2n_table[k & 31u], p);
-  return multmodp(p, crc_a) ^ crc_b;
-}
-
-// ---- little-endian byte strings ---------------------------------------------
-
-void put16(std::string& s, std::uint32_t v) {
-  s.push_back(static_cast<char>(v & 0xFFu));
-  s.push_back(static_cast<char>((v >> 8) & 0xFFu));
-}
-void put32(std::string& s, std::uint32_t v) {
-  put16(s, v & 0xFFFFu);
-  put16(s, v >> 16);
-}
-void put64(std::string& s, std::uint64_t v) {
-  put32(s, static_cast<std::uint32_t>(v & 0xFFFFFFFFu));
-  put32(s, static_cast<std::uint32_t>(v >> 32));
-}
-
-constexpr std::uint32_t u32_max = 0xFFFFFFFFu;
-constexpr std::uint32_t dos_time = 0;                        // 00:00:00
-constexpr std::uint32_t dos_date = (0u << 9) | (1u << 5) | 1u;  // 1980-01-01
-
-// ---- .npy -------------------------------------------------------------------
-
-/// A version 1.0 .npy header for `dict`, padded with spaces so that the
-/// whole header is `total` bytes (a multiple of 64) or, with total = 0, the
-/// smallest multiple of 64 that holds it.
-std::string npy_header(const std::string& dict, std::size_t total = 0) {
-  const std::size_t needed = 10 + dict.size() + 1;
-  if (total == 0) total = (needed + 63) / 64 * 64;
-  if (needed > total || total - 10 > 0xFFFFu) throw std::logic_error("npy header does not fit");
-  std::string h = "\x93NUMPY";
-  h.push_back('\x01');
-  h.push_back('\x00');
-  put16(h, static_cast<std::uint32_t>(total - 10));
-  h += dict;
-  h.append(total - needed, ' ');
-  h.push_back('\n');
-  return h;
-}
-
-constexpr std::size_t trajectory_header_bytes = 128;
-
-/// The .npy header of the trajectory after `rows` rows: shape (rows, columns),
-/// or (rows / bodies, bodies, columns) for the long layout.
-std::string trajectory_npy_header(std::int64_t rows, const TrajectoryLayout& layout) {
-  const std::string shape = layout.bodies > 0 ? std::to_string(rows / layout.bodies) + ", " +
-                                                    std::to_string(layout.bodies) + ", " + std::to_string(layout.columns)
-                                              : std::to_string(rows) + ", " + std::to_string(layout.columns);
-  return npy_header("{'descr': '<f8', 'fortran_order': False, 'shape': (" + shape + "), }", trajectory_header_bytes);
-}
-
-/// UTF-8 to code points; a malformed sequence becomes U+FFFD.
-std::vector<std::uint32_t> code_points(const std::string& s) {
-  std::vector<std::uint32_t> out;
-  out.reserve(s.size());
-  const auto* p = reinterpret_cast<const unsigned char*>(s.data());
-  const std::size_t n = s.size();
-  for (std::size_t i = 0; i < n;) {
-    const unsigned c = p[i];
-    int len = 0;
-    std::uint32_t cp = 0, min = 0;
-    if (c < 0x80) { len = 1; cp = c; }
-    else if ((c & 0xE0) == 0xC0) { len = 2; cp = c & 0x1F; min = 0x80; }
-    else if ((c & 0xF0) == 0xE0) { len = 3; cp = c & 0x0F; min = 0x800; }
-    else if ((c & 0xF8) == 0xF0) { len = 4; cp = c & 0x07; min = 0x10000; }
-    bool ok = len > 0 && i + static_cast<std::size_t>(len) <= n;
-    for (int k = 1; ok && k < len; ++k) {
-      if ((p[i + static_cast<std::size_t>(k)] & 0xC0) != 0x80) ok = false;
-      else cp = (cp << 6) | (p[i + static_cast<std::size_t>(k)] & 0x3Fu);
-    }
-    if (ok && (cp < min || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF))) ok = false;
-    if (ok) {
-      out.push_back(cp);
-      i += static_cast<std::size_t>(len);
-    } else {
-      out.push_back(0xFFFD);
-      ++i;
-    }
-  }
-  return out;
-}
-
-/// A .npy of unicode strings ('<U{width}', UTF-32LE, NUL-padded): 0-d when
-/// `scalar`, else shape (strings.size(),).
-std::string npy_unicode(const std::vector<std::string>& strings, bool scalar) {
-  std::vector<std::vector<std::uint32_t>> cps;
-  std::size_t width = 1;  // numpy has no '<U0' array of one empty string: np.array('') is '<U1'
-  for (const auto& s : strings) {
-    cps.push_back(code_points(s));
-    width = std::max(width, cps.back().size());
-  }
-  // Appended piece by piece: "literal" + std::string&& trips GCC 12's -Wrestrict (GCC bug 105651).
-  std::string dict = "{'descr': '<U";
-  dict += std::to_string(width);
-  dict += "', 'fortran_order': False, 'shape': ";
-  if (scalar) {
-    dict += "()";
-  } else {
-    dict += '(';
-    dict += std::to_string(strings.size());
-    dict += ",)";
-  }
-  dict += ", }";
-  std::string out = npy_header(dict);
-  for (const auto& s : cps) {
-    for (std::uint32_t cp : s) put32(out, cp);
-    out.append(4 * (width - s.size()), '\0');
-  }
-  return out;
-}
-
-// ---- ZIP --------------------------------------------------------------------
+using namespace zip;
+using npy::npy_unicode;
+using npy::trajectory_header_bytes;
+using npy::trajectory_npy_header;
 
 const std::string trajectory_entry = "trajectory.npy";
 constexpr std::int64_t local_header_bytes = 30 + 14 + 20;  // fixed part, name, ZIP64 extra
 constexpr std::int64_t data_offset = local_header_bytes + static_cast<std::int64_t>(trajectory_header_bytes);
 static_assert(data_offset % 64 == 0);
-
-struct Entry {
-  std::string name;
-  std::uint32_t crc = 0;
-  std::uint64_t size = 0;    // stored: compressed size = uncompressed size
-  std::uint64_t offset = 0;  // of the local header
-  bool zip64_sizes = false;  // sizes in a ZIP64 extra field (trajectory.npy: always)
-};
-
-std::string local_header(const Entry& e) {
-  std::string h;
-  put32(h, 0x04034b50u);
-  put16(h, e.zip64_sizes ? 45 : 20);  // version needed to extract (4.5: ZIP64)
-  put16(h, 0);                        // flags
-  put16(h, 0);                        // method: stored
-  put16(h, dos_time);
-  put16(h, dos_date);
-  put32(h, e.crc);
-  put32(h, e.zip64_sizes ? u32_max : static_cast<std::uint32_t>(e.size));
-  put32(h, e.zip64_sizes ? u32_max : static_cast<std::uint32_t>(e.size));
-  put16(h, static_cast<std::uint32_t>(e.name.size()));
-  put16(h, e.zip64_sizes ? 20 : 0);
-  h += e.name;
-  if (e.zip64_sizes) {
-    put16(h, 0x0001);  // ZIP64 extended information
-    put16(h, 16);
-    put64(h, e.size);  // uncompressed
-    put64(h, e.size);  // compressed
-  }
-  return h;
-}
-
-std::string central_header(const Entry& e) {
-  const bool zip64_offset = e.offset >= u32_max;
-  const bool zip64 = e.zip64_sizes || zip64_offset;
-  std::string extra;
-  if (zip64) {
-    std::string fields;
-    if (e.zip64_sizes) {
-      put64(fields, e.size);
-      put64(fields, e.size);
-    }
-    if (zip64_offset) put64(fields, e.offset);
-    put16(extra, 0x0001);
-    put16(extra, static_cast<std::uint32_t>(fields.size()));
-    extra += fields;
-  }
-  std::string h;
-  put32(h, 0x02014b50u);
-  put16(h, 45);                       // version made by: 4.5, MS-DOS attributes
-  put16(h, zip64 ? 45 : 20);          // version needed to extract
-  put16(h, 0);                        // flags
-  put16(h, 0);                        // method: stored
-  put16(h, dos_time);
-  put16(h, dos_date);
-  put32(h, e.crc);
-  put32(h, e.zip64_sizes ? u32_max : static_cast<std::uint32_t>(e.size));
-  put32(h, e.zip64_sizes ? u32_max : static_cast<std::uint32_t>(e.size));
-  put16(h, static_cast<std::uint32_t>(e.name.size()));
-  put16(h, static_cast<std::uint32_t>(extra.size()));
-  put16(h, 0);  // comment length
-  put16(h, 0);  // disk number
-  put16(h, 0);  // internal attributes
-  put32(h, 0);  // external attributes
-  put32(h, zip64_offset ? u32_max : static_cast<std::uint32_t>(e.offset));
-  h += e.name;
-  h += extra;
-  return h;
-}
-
-/// ZIP64 end of central directory record and locator, then the classic end record.
-std::string end_records(std::uint64_t entries, std::uint64_t cd_offset, std::uint64_t cd_size) {
-  const std::uint64_t zip64_end_offset = cd_offset + cd_size;
-  std::string h;
-  put32(h, 0x06064b50u);
-  put64(h, 44);  // size of the rest of the record
-  put16(h, 45);  // version made by
-  put16(h, 45);  // version needed
-  put32(h, 0);   // this disk
-  put32(h, 0);   // disk of the central directory
-  put64(h, entries);
-  put64(h, entries);
-  put64(h, cd_size);
-  put64(h, cd_offset);
-  put32(h, 0x07064b50u);  // locator
-  put32(h, 0);            // disk of the ZIP64 end record
-  put64(h, zip64_end_offset);
-  put32(h, 1);  // disks
-  put32(h, 0x06054b50u);
-  put16(h, 0);
-  put16(h, 0);
-  put16(h, static_cast<std::uint32_t>(std::min<std::uint64_t>(entries, 0xFFFFu)));
-  put16(h, static_cast<std::uint32_t>(std::min<std::uint64_t>(entries, 0xFFFFu)));
-  put32(h, static_cast<std::uint32_t>(std::min<std::uint64_t>(cd_size, u32_max)));
-  put32(h, static_cast<std::uint32_t>(std::min<std::uint64_t>(cd_offset, u32_max)));
-  put16(h, 0);  // comment length
-  return h;
-}
 
 // ---- the sink ---------------------------------------------------------------
 

@@ -17,6 +17,7 @@
 #include "method_dispatch.hpp"
 #include "scenario.hpp"
 #include "simulation.hpp"
+#include "summary.hpp"
 
 #include <lgvi/error.hpp>
 #include <lgvi/lgvi.hpp>

@@ -1,0 +1,55 @@
+// The checkpoint of a run: everything needed to continue it bit-identically
+// (the step index, the state of every body, the stepper's internals, the
+// diagnostics so far and where the trajectory file ended), and its binary
+// file format.
+#pragma once
+
+#include "trajectory_sink.hpp"
+
+#include <lgvi/s3.hpp>
+#include <lgvi/system.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace lgvi::app {
+
+/// Diagnostics over every step, written or not.
+struct RunStatistics {
+  double energy0 = 0.0;
+  Vector3<double> momentum0 = Vector3<double>::Zero();  ///< total angular momentum about the origin
+  double max_energy_error = 0.0, max_quat_error = 0.0, max_momentum_error = 0.0;
+  Vector3<double> linear_momentum0 = Vector3<double>::Zero();  ///< total linear momentum P0
+  double linear_momentum_scale = 0.0;                           ///< sum_a |p_a0|
+  double max_linear_momentum_error = 0.0;                       ///< max |P - P0| / sum_a |p_a0|
+  std::int64_t iterations_total = 0, steps_solved = 0;
+  std::int64_t potential_evaluations = 0;  ///< the cost measure of method comparisons
+  std::int64_t iterations_max = 0;
+  std::int64_t last_k = 0;  ///< the last step reached (and observed)
+  double last_t = 0.0;
+  bool observed = false;          ///< the initial state was evaluated
+  double wall_seconds_before = 0.0;  ///< integration time of earlier legs of a resumed run
+};
+
+/// Everything needed to continue a run bit-identically: the step index, the
+/// state, the integrator's internals (e.g. the solver's warm start), the
+/// statistics, and where the trajectory file ended.
+struct Checkpoint {
+  std::int64_t k = 0;
+  SystemState state;
+  std::vector<double> stepper_internal;
+  RunStatistics stats;
+  SinkPosition sink;
+  std::int64_t checkpoint_every = 0;
+  std::string scenario_name;  ///< the original file's stem (the copy in the run folder is scenario.toml)
+};
+
+/// Writes `path` atomically (temporary file + rename). Binary, native
+/// byte order, with a magic header and version.
+void write_checkpoint(const std::string& path, const Checkpoint& c);
+/// Reads a checkpoint; throws InvalidInput naming the file if it is missing,
+/// truncated or not a checkpoint.
+Checkpoint read_checkpoint(const std::string& path);
+
+}  // namespace lgvi::app

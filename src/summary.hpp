@@ -1,0 +1,16 @@
+// The summary of a run (the CLI's summary.json, also stored in npz and HDF5
+// trajectories and returned by the Python package): what was run, whether it
+// completed, and the diagnostics' maxima over every step.
+#pragma once
+
+#include "scenario.hpp"
+#include "simulation.hpp"
+
+#include <string>
+
+namespace lgvi::app {
+
+/// The summary of a run as JSON text (the CLI's summary.json).
+std::string summary_json(const Scenario& scenario, const SimulationResult& result);
+
+}  // namespace lgvi::app
