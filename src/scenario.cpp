@@ -637,8 +637,10 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   }
   TrajectoryFormat format = TrajectoryFormat::Csv;
   if (const toml::table* out = root.get_as<toml::table>("output"); out && out->contains("format")) {
-    const std::string f = r.string(*out, "output", "format", {"csv", "npz", "hdf5"});
-    format = f == "csv" ? TrajectoryFormat::Csv : f == "npz" ? TrajectoryFormat::Npz : TrajectoryFormat::Hdf5;
+    const std::string f =
+        r.string(*out, "output", "format", {format_names[0].second, format_names[1].second, format_names[2].second});
+    for (const auto& [kind, name] : format_names)
+      if (f == name) format = kind;
   }
   const std::string stem = std::filesystem::path(name).stem().string();
   Scenario sc;

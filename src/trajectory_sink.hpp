@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 
 namespace lgvi::app {
 
@@ -64,6 +65,10 @@ class TrajectorySink {
 };
 
 enum class TrajectoryFormat { Csv, Npz, Hdf5 };
+
+/// Every format with its scenario name (`[output] format`), in display order.
+inline constexpr std::pair<TrajectoryFormat, const char*> format_names[] = {
+    {TrajectoryFormat::Csv, "csv"}, {TrajectoryFormat::Npz, "npz"}, {TrajectoryFormat::Hdf5, "hdf5"}};
 
 /// The file name of the trajectory in a run folder for each format.
 const char* trajectory_file_name(TrajectoryFormat f);

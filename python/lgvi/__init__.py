@@ -17,8 +17,6 @@ for Body, Scenario, simulate, Stepper), so `python3 -m lgvi.plot` also works fro
 (python/), which has no compiled module.
 """
 
-import importlib
-
 # name -> submodule that defines it
 _EXPORTS = {
     "Body": "_api", "Scenario": "_api", "simulate": "_api", "Stepper": "_api", "IntegrationError": "_api",
@@ -26,7 +24,7 @@ _EXPORTS = {
     "PythonPotential": "potential",
     "Result": "_result", "COLUMNS": "_result", "SystemResult": "_result", "BODIES_COLUMNS": "_result",
     "load": "_io",
-    "load_run": "plot",
+    "load_run": "_io",
 }
 _SUBMODULES = ("plot", "potential")
 
@@ -35,6 +33,7 @@ __all__ = ["Body", "Scenario", "simulate", "Result", "SystemResult", "Stepper", 
 
 
 def _import(submodule):
+    import importlib  # here, not at module level: dir(lgvi) lists only the public names
     try:
         return importlib.import_module("." + submodule, __name__)
     except ImportError as e:

@@ -16,13 +16,13 @@ from ._result import BODIES_COLUMNS, Result, SystemResult
 
 __version__ = _core.__version__
 
-#: Integrator methods: the Hamiltonian side (default) and the Lagrangian (position-position) side.
-METHODS = ("lgvi", "lgvi-lagrangian", "so3-lgvi", "rattle-quaternion", "rk4-normalized", "euler-exp",
-           "no-squish", "splitting-dlm", "exact")
+#: Integrator methods (the scenario reader's table): the quaternion LGVI's Hamiltonian side
+#: ("lgvi", default) and Lagrangian side, and the methods compared with it.
+METHODS = _core.METHODS
 #: Solvers of the implicit rotation equation (all find the same root).
-SOLVERS = ("newton", "newton-exp", "broyden")
+SOLVERS = _core.SOLVERS
 #: Trajectory formats of the CLI ([output] format).
-FORMATS = ("csv", "npz", "hdf5")
+FORMATS = _core.FORMATS
 
 IntegrationError = _core.IntegrationError
 
@@ -257,8 +257,10 @@ class Scenario:
     ``velocity`` v0 = p0 / m (3,) (default p0 = 0); ``w`` w0 = 2 J Omega0
     (the paper's variable) or ``omega`` Omega0, the body angular velocity
     (3,) (default 0); ``step`` h > 0 and ``duration`` >= 0 (required; the
-    run takes ceil(duration / step) steps); ``method`` "lgvi" (Hamiltonian,
-    default) or "lgvi-lagrangian"; ``solver`` "newton" (default),
+    run takes ceil(duration / step) steps); ``method`` one of lgvi.METHODS
+    ("lgvi", the Hamiltonian side, is the default; "lgvi-lagrangian",
+    "so3-lgvi", "rattle-quaternion", "rk4-normalized", "euler-exp",
+    "no-squish", "splitting-dlm", "exact"); ``solver`` "newton" (default),
     "newton-exp" or "broyden"; ``tolerance``, ``max_iterations``,
     ``predictor_order`` (solver options; None = the default); ``every`` (a
     trajectory row every this many steps, plus the first and last; default
@@ -359,7 +361,7 @@ class Scenario:
 
     @property
     def potential(self):
-        """The built-in potential as a dict: {"kind": "none"}, {"kind": "central", "mu": ..} or {"kind": "uniform", "g": [..]}."""
+        """The built-in potential as a dict: {"kind": "none"}, {"kind": "central", "mu": ..}, {"kind": "uniform", "g": [..]} or {"kind": "heavy-top", "g": [..], "pivot_to_com": [..]}."""
         kind = self._core.potential_kind
         if kind == "central":
             return {"kind": kind, "mu": self._core.mu}
@@ -414,7 +416,7 @@ class Scenario:
 
     @property
     def method(self):
-        """"lgvi" (Hamiltonian side) or "lgvi-lagrangian"."""
+        """The method's name, one of lgvi.METHODS ("lgvi" is the Hamiltonian side, the default)."""
         return self._core.method
 
     @property

@@ -161,6 +161,17 @@ def _summary(folder, summary_text):
         raise ValueError(f"{folder}: summary is not valid JSON ({e})") from None
 
 
+def load_run(run_dir):
+    """Load a run directory.
+
+    Returns ``(columns, summary)``: a dict mapping each trajectory header
+    name to a 1-D float array, and the parsed summary.json. Reads
+    trajectory.csv, or else trajectory.npz or trajectory.h5. Raises OSError
+    for missing files and ValueError for a malformed or empty trajectory.
+    """
+    return load_columns(run_dir)
+
+
 def load_columns(path):
     """(columns dict, summary dict) of a run folder (any format) for lgvi.plot.
 

@@ -7,18 +7,7 @@ import os
 
 import numpy as np
 
-#: The trajectory's columns, in the order of the CLI's trajectory.csv header.
-COLUMNS = ("t", "x", "y", "z", "qw", "qx", "qy", "qz", "px", "py", "pz", "wx", "wy", "wz", "energy", "energy_error",
-           "quat_norm_error", "Lx", "Ly", "Lz", "momentum_error")
-HEADER = ",".join(COLUMNS)
-
-#: The columns of a many-body ([[bodies]]) trajectory, the long format: per
-#: written step and body the body's index and state and its |q| - 1, then
-#: the system's energy, energy error, total linear momentum P and its error
-#: |P - P0| / sum |p_a0|, total angular momentum L and its error |L - L0|.
-BODIES_COLUMNS = ("t", "body", "x", "y", "z", "qw", "qx", "qy", "qz", "px", "py", "pz", "wx", "wy", "wz",
-                  "quat_norm_error", "energy", "energy_error", "Px", "Py", "Pz", "linear_momentum_error",
-                  "Lx", "Ly", "Lz", "momentum_error")
+from ._columns import BODIES_COLUMNS, COLUMNS, HEADER, body_of  # noqa: F401 (re-exported)
 
 
 class Result:
@@ -110,7 +99,7 @@ class Result:
     @property
     def omega(self):
         """Body angular velocity Omega = J^-1 w / 2, shape (N, 3) (needs the body's inertia in the summary)."""
-        inertia = _body(self.summary).get("inertia")
+        inertia = body_of(self.summary).get("inertia")
         if inertia is None:
             raise ValueError("omega: the summary has no body inertia (setup.body.inertia)")
         return 0.5 * np.linalg.solve(np.asarray(inertia, dtype=float), self.w.T).T
@@ -155,16 +144,6 @@ class Result:
         """Draw the paper's five figures (PNG) into out_dir with lgvi.plot; returns the paths."""
         from . import plot
         return plot.draw_figures(self, out_dir)
-
-
-def _body(summary):
-    """The body of a summary: setup.body (the CLI's layout) or body."""
-    if not isinstance(summary, dict):
-        return {}
-    body = summary.get("body")
-    if body is None:
-        body = (summary.get("setup") or {}).get("body")
-    return body or {}
 
 
 class SystemResult:

@@ -15,6 +15,10 @@ import sys
 
 import numpy as np
 
+from ._columns import body_of
+from ._io import _trajectory_in, load, load_run  # noqa: F401 (load_run: lgvi.plot.load_run, as before)
+from ._result import SystemResult
+
 REQUIRED_COLUMNS = ("t", "x", "y", "qw", "qx", "qy", "qz", "energy_error",
                     "quat_norm_error", "Lx", "Ly", "Lz", "momentum_error")
 DPI = 120
@@ -28,18 +32,6 @@ def _pyplot():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt
-
-
-def load_run(run_dir):
-    """Load a run directory.
-
-    Returns ``(columns, summary)``: a dict mapping each trajectory header
-    name to a 1-D float array, and the parsed summary.json. Reads
-    trajectory.csv, or else trajectory.npz or trajectory.h5. Raises OSError
-    for missing files and ValueError for a malformed or empty trajectory.
-    """
-    from ._io import load_columns
-    return load_columns(run_dir)
 
 
 def rotation_matrix(q):
@@ -113,7 +105,7 @@ def _body_motion(plt, c, summary, out_dir, written):
         idx = np.linspace(0, min(i_end, len(t) - 1), N_INSTANTS, endpoint=False)
         title = f"Body motion, one orbit (period T = {period:.6g})"
     idx = np.unique(np.round(idx).astype(int))
-    balls = _body(summary).get("balls") or []
+    balls = body_of(summary).get("balls") or []
     rho = np.array([b["position"] for b in balls], dtype=float).reshape(-1, 3)
     radii = np.array([b.get("radius", 0.0) for b in balls], dtype=float)
     quats = np.column_stack([c["qw"], c["qx"], c["qy"], c["qz"]])
@@ -163,12 +155,6 @@ def _max_abs(values):
     return float(np.max(np.abs(values)))
 
 
-def _body(summary):
-    """The body of a summary: the CLI's setup.body, or a top-level body."""
-    from ._result import _body as body
-    return body(summary)
-
-
 def _columns_and_summary(source):
     """(columns, summary, default out_dir) of a run folder/trajectory file or an in-memory result."""
     if isinstance(source, (str, bytes, os.PathLike)):
@@ -176,7 +162,6 @@ def _columns_and_summary(source):
         if os.path.isdir(path):
             columns, summary = load_run(path)
             return columns, summary, path
-        from ._io import load
         result = load(path)
         return result.columns, result.summary, os.path.dirname(path) or "."
     columns = getattr(source, "columns", None)
@@ -189,20 +174,17 @@ def _columns_and_summary(source):
 
 def _system_result(source):
     """The SystemResult of a many-body run folder/file or object, else None."""
-    from ._result import SystemResult
     if isinstance(source, SystemResult):
         return source
     if isinstance(source, (str, bytes, os.PathLike)):
         path = os.fsdecode(source)
         file = path
         if os.path.isdir(path):
-            from ._io import _trajectory_in
             file = _trajectory_in(path)
         if file.endswith(".csv"):
             with open(file, encoding="utf-8") as f:
                 if not f.readline().startswith("t,body,"):
                     return None
-        from ._io import load
         result = load(path)
         return result if isinstance(result, SystemResult) else None
     return None

@@ -540,6 +540,14 @@ PYBIND11_MODULE(_core, m) {
   m.attr("__version__") = LGVI_VERSION;
   m.attr("TRAJECTORY_HEADER") = trajectory_header;
   m.attr("BODIES_TRAJECTORY_HEADER") = lgvi::app::bodies_trajectory_header;
+  // The names the scenario reader accepts, from the tables it uses.
+  py::list methods, solvers, formats;
+  for (const auto& [method, name] : method_names) methods.append(name);
+  for (SolverKind k : {SolverKind::Newton, SolverKind::NewtonExp, SolverKind::Broyden}) solvers.append(to_string(k));
+  for (const auto& [format, name] : format_names) formats.append(name);
+  m.attr("METHODS") = py::tuple(methods);
+  m.attr("SOLVERS") = py::tuple(solvers);
+  m.attr("FORMATS") = py::tuple(formats);
 
   // lgvi::IntegrationFailure -> IntegrationError(RuntimeError) with .step, .time and .result (None here).
   static py::exception<IntegrationFailure> integration_error(m, "IntegrationError", PyExc_RuntimeError);
