@@ -115,12 +115,7 @@ struct Recorder {
     stats.observed = true;
     if (i.k % scenario.output_every != 0 && i.k != scenario.integrator.steps) return;
     if (!scenario.bodies_format) {
-      const auto& q = s.q[0].quaternion();
-      const Vector3<double>&x = s.x[0], &p = s.p[0], &w = s.w[0];
-      const double row[trajectory_columns] = {i.t,    x.x(), x.y(), x.z(), q.w(),   q.x(),   q.y(),
-                                              q.z(),  p.x(), p.y(), p.z(), w.x(),   w.y(),   w.z(),
-                                              energy, de,    dq,    L.x(), L.y(),   L.z(),   dl};
-      sink.row(row);
+      sink.row(SingleBodyRow(i.t, s.body(0), energy, de, dq, L, dl).values);
       return;
     }
     for (std::size_t a = 0; a < n; ++a) {

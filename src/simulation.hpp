@@ -96,6 +96,19 @@ struct SimulationResult {
   double wall_seconds = 0.0;  ///< integration loop with diagnostics and row output, all legs
 };
 
+/// The diagnostics of one step of one body, as a row of the single-body
+/// layout (trajectory_header): t, x, q (scalar first), p, w, energy, its
+/// error, |q| - 1, L and |L - L0|. The one row builder of the run loop and of
+/// the Python Stepper.
+struct SingleBodyRow {
+  double values[trajectory_columns];
+  SingleBodyRow(double t, const RigidBodyState& s, double energy, double energy_error, double quat_norm_error,
+                const Vector3<double>& L, double momentum_error)
+      : values{t,      s.x.x(),      s.x.y(),         s.x.z(), s.q.w(), s.q.vec().x(), s.q.vec().y(),
+               s.q.vec().z(), s.p.x(), s.p.y(),         s.p.z(), s.w.x(), s.w.y(),       s.w.z(),
+               energy, energy_error, quat_norm_error, L.x(),   L.y(),   L.z(),         momentum_error} {}
+};
+
 /// The trajectory layout of a scenario: the single-body columns for a [body]
 /// scenario, the long (per body) format for a [[bodies]] one.
 TrajectoryLayout scenario_layout(const Scenario& s);

@@ -57,6 +57,13 @@ namespace detail {
 template <SystemPotential I, class Predictor>
 class ImplicitStepperBase : public StepperBase<I> {
  public:
+  /// Evaluates the potential at s and forgets the predictors' history: the
+  /// first step seeds each from its first-order estimate.
+  void initialize(const SystemState& s, double t) {
+    StepperBase<I>::initialize(s, t);
+    for (Predictor& p : predictors_) p = Predictor(opt_.predictor_order);
+  }
+
   /// Per body, the predictor's history (Predictor::serialized_size numbers)
   /// after `extra` numbers of the method's own (see serialize_extra).
   std::vector<double> internal_state() const {
@@ -137,12 +144,9 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
     for (const RigidBody& b : this->system_.bodies()) solvers_.emplace_back(b.inertia(), solver);
   }
 
-  /// Evaluates the potential at s; the first step's initial guess is then
+  /// initialize(state, t): the base's; the first step's initial guess is then
   /// the first-order estimate xi0 ~ J^{-1} b.
-  void initialize(const SystemState& s, double t) {
-    Base::initialize(s, t);
-    for (RotationPredictor& p : this->predictors_) p = RotationPredictor(this->opt_.predictor_order);
-  }
+  using Base::initialize;
 
   /// One step of the paper's system "eqhamilton" (forms above). Each solve
   /// starts from its RotationPredictor's extrapolation of the last steps' f.

@@ -10,7 +10,24 @@ import numpy as np
 from ._columns import BODIES_COLUMNS, COLUMNS, HEADER, body_of  # noqa: F401 (re-exported)
 
 
-class Result:
+class _RunSummary:
+    """What Result and SystemResult share: the summary's verdict and the number of written steps."""
+
+    @property
+    def completed(self):
+        """Whether every planned step was taken (summary["completed"])."""
+        return bool(self.summary.get("completed", True))
+
+    @property
+    def error(self):
+        """Why the run stopped early; "" if it completed."""
+        return self.summary.get("error", "")
+
+    def __len__(self):
+        return self.data.shape[0]
+
+
+class Result(_RunSummary):
     """A trajectory: one row per written step (every `every` steps, plus the first and the last).
 
     Arrays (views into ``data``, the (N, 21) float64 table with the columns of
@@ -104,19 +121,6 @@ class Result:
             raise ValueError("omega: the summary has no body inertia (setup.body.inertia)")
         return 0.5 * np.linalg.solve(np.asarray(inertia, dtype=float), self.w.T).T
 
-    # Summary ---------------------------------------------------------------
-    @property
-    def completed(self):
-        """Whether every planned step was taken (summary["completed"])."""
-        return bool(self.summary.get("completed", True))
-
-    @property
-    def error(self):
-        """Why the run stopped early; "" if it completed."""
-        return self.summary.get("error", "")
-
-    def __len__(self):
-        return self.data.shape[0]
 
     def __repr__(self):
         name = self.summary.get("scenario", "?")
@@ -146,7 +150,7 @@ class Result:
         return plot.draw_figures(self, out_dir)
 
 
-class SystemResult:
+class SystemResult(_RunSummary):
     """The trajectory of a many-body ([[bodies]]) scenario, from lgvi.simulate() or lgvi.load().
 
     ``data`` is the (steps, N, 26) float64 array with the columns BODIES_COLUMNS
@@ -204,18 +208,6 @@ class SystemResult:
     L = property(lambda self: self.data[:, 0, 22:25], doc="Total angular momentum about the origin, (steps, 3).")
     momentum_error = property(lambda self: self.data[:, 0, 25], doc="|L(t) - L(0)|, shape (steps,).")
 
-    @property
-    def completed(self):
-        """Whether the run reached its end (from the summary)."""
-        return bool(self.summary.get("completed", True))
-
-    @property
-    def error(self):
-        """Why the run stopped early ('' if completed)."""
-        return self.summary.get("error", "")
-
-    def __len__(self):
-        return self.data.shape[0]
 
     def __repr__(self):
         return (f"<lgvi.SystemResult {self.bodies} bodies, {len(self)} steps written, "

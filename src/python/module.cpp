@@ -393,16 +393,11 @@ class PyStepper {
 
   /// The trajectory row simulate() would write at this step.
   py::array_t<double> row() const {
-    const RigidBodyState& s = state_;
     const double e = energy();
-    const Vector3<double> L = angular_momentum(s);
-    const auto& q = s.q.quaternion();
-    const double v[trajectory_columns] = {t(),   s.x.x(), s.x.y(), s.x.z(), q.w(),      q.x(),   q.y(),
-                                          q.z(), s.p.x(), s.p.y(), s.p.z(), s.w.x(),    s.w.y(), s.w.z(),
-                                          e,     e - energy0_, s.q.norm_error(), L.x(), L.y(), L.z(),
-                                          (L - momentum0_).norm()};
+    const Vector3<double> L = angular_momentum(state_);
+    const SingleBodyRow row(t(), state_, e, e - energy0_, state_.q.norm_error(), L, (L - momentum0_).norm());
     py::array_t<double> a(trajectory_columns);
-    std::copy(v, v + trajectory_columns, a.mutable_data());
+    std::copy(std::begin(row.values), std::end(row.values), a.mutable_data());
     return a;
   }
 

@@ -139,10 +139,7 @@ class RattleQuaternionIntegrator<I> : public detail::ImplicitStepperBase<I, Rota
     lambda_.assign(n, 0.0);
   }
 
-  void initialize(const SystemState& s, double t) {
-    Base::initialize(s, t);
-    for (RotationPredictor& p : this->predictors_) p = RotationPredictor(this->opt_.predictor_order);
-  }
+  using Base::initialize;
 
   void step(SystemState& s, double /*t*/, double h) {
     const System& sys = this->system_;

@@ -151,10 +151,7 @@ class So3LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I
   /// the first-order estimate u ~ J^{-1} b.
   void initialize(const SystemState& s, double t) {
     Base::initialize(s, t);
-    for (std::size_t a = 0; a < s.size(); ++a) {
-      R_[a] = s.q[a].matrix();
-      this->predictors_[a] = detail::CayleyPredictor(this->opt_.predictor_order);
-    }
+    for (std::size_t a = 0; a < s.size(); ++a) R_[a] = s.q[a].matrix();
   }
 
   void step(SystemState& s, double /*t*/, double h) {
