@@ -9,8 +9,9 @@ GUBAS_DIR is a checkout of GUBAS with its C++ part built as GUBAS's
 compileCommand.txt says (g++ hou_cpp.cpp -o hou_cpp_final -larmadillo; Debian:
 libarmadillo-dev, and python3-scipy for its Python driver). Nothing of GUBAS is
 part of lgvi: this script copies GUBAS's files into OUT_DIR/gubas, writes there
-GUBAS's own example configuration changed to the case (both bodies ellipsoids,
-expansion and inertia-integral orders 2, one day, output every 30 s step), and
+GUBAS's own example configuration changed to the case (expansion and
+inertia-integral orders 2, one day, output every 30 s step; the primary stays
+the example's polyhedron, the secondary its ellipsoid), and
 runs GUBAS's driver. It runs lgvi on the scenario, and compares, over the day:
 
 * the relative position r = R_p^T (x_s - x_p) in the primary's frame (GUBAS's
@@ -40,7 +41,6 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SCENARIO = ROOT / "scenarios" / "didymos-order2.toml"
 CHANGES = [  # (GUBAS's example line, the line for this case)
-    ("Primary Shape Flag: 2", "Primary Shape Flag: 1"),
     ("Gravity Expansion Truncation Order: 4", "Gravity Expansion Truncation Order: 2"),
     ("Primary Inertia Integral Truncation Order: 4", "Primary Inertia Integral Truncation Order: 2"),
     ("Secondary Inertia Integral Truncation Order: 4", "Secondary Inertia Integral Truncation Order: 2"),
@@ -66,7 +66,7 @@ def angle(a, b):
 
 def run_gubas(gubas, work):
     work.mkdir(parents=True, exist_ok=True)
-    for f in list(gubas.glob("*.py")) + [gubas / "hou_cpp_final", gubas / "example" / "filler.csv"]:
+    for f in list(gubas.glob("*.py")) + [gubas / "hou_cpp_final"] + list((gubas / "example").glob("*.csv")):
         shutil.copy(f, work)
     cfg = (gubas / "example" / "hou_config.cfg").read_text()
     for old, new in CHANGES:

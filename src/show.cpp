@@ -73,8 +73,15 @@ void show_run(const std::string& dir, std::ostream& out) {
   row("angular momentum", fmt::format("L0 = {}, max |L - L0| = {:.3e} (relative {:.3e})",
                                       text(s.find("initial_angular_momentum")), number(s.find("max_momentum_error")),
                                       number(s.find("max_relative_momentum_error"))));
-  row("solver iterations", fmt::format("{:.6g} per step (max {})", number(s.find("solver_iterations_mean")),
-                                       text(s.find("solver_iterations_max"))));
+  const JsonValue* bodies = s.find("final_bodies");
+  const std::size_t n = bodies && bodies->is_array() ? std::get<std::shared_ptr<JsonArray>>(bodies->v)->size() : 1;
+  if (n > 1) {
+    row("bodies", fmt::format("{} (the final state of each is in summary.json, final_bodies)", n));
+    row("linear momentum", fmt::format("max |P - P0| / sum |p_a0| = {:.3e}", number(s.find("max_linear_momentum_error"))));
+  }
+  row("solver iterations", fmt::format("{:.6g} per {} (max {})", number(s.find("solver_iterations_mean")),
+                                       n > 1 ? "body and step" : "step", text(s.find("solver_iterations_max"))));
+  if (n > 1) return;  // final, below, is body 0's state
   row("final position", text(path(s, {"final", "position"})));
   row("final quaternion", text(path(s, {"final", "quaternion"})) + "  (scalar first)");
   row("final momentum", text(path(s, {"final", "momentum"})));

@@ -133,8 +133,10 @@ std::string summary_json(const Scenario& sc, const SimulationResult& r) {
       .number("max_momentum_error", st.max_momentum_error)
       .number("max_relative_momentum_error", l0 > 0 ? st.max_momentum_error / l0 : st.max_momentum_error)
       .number("max_linear_momentum_error", st.max_linear_momentum_error)
+      // Per solve: per step and body (the bodies' solves are summed in iterations_total).
       .number("solver_iterations_mean", st.steps_solved ? static_cast<double>(st.iterations_total) /
-                                                              static_cast<double>(st.steps_solved)
+                                                              static_cast<double>(st.steps_solved) /
+                                                              static_cast<double>(sc.bodies())
                                                         : 0.0)
       .integer("solver_iterations_max", st.iterations_max)
       .integer("potential_evaluations", st.potential_evaluations)

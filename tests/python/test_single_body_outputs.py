@@ -1,0 +1,48 @@
+"""Every single-body output is what it was before the many-body redesign: the
+files scripts/output_snapshot.py writes (every bundled scenario under every
+method, solver and trajectory format; wall-clock fields blanked) hash to the
+values in tests/reference/single_body_outputs.sha256, recorded with the lgvi
+binary of the commit before the redesign. The only difference allowed is what
+the many-body issue added to every summary: the keys max_linear_momentum_error
+and final_bodies, which are removed before hashing. Run by ctest with
+LGVI_BINARY set."""
+import hashlib
+import json
+import os
+import pathlib
+import re
+import subprocess
+import sys
+
+import pytest
+
+BINARY = os.environ.get("LGVI_BINARY")
+SOURCE = pathlib.Path(os.environ.get("LGVI_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
+pytestmark = pytest.mark.skipif(BINARY is None, reason="LGVI_BINARY not set (run through ctest)")
+
+
+def without_new_keys(text):
+    text = re.sub(r'\n  "max_linear_momentum_error": [^\n]*', "", text)
+    return re.sub(r'\n  "final_bodies": \[\n(    \{[^\n]*\n)*  \],', "", text)
+
+
+def test_single_body_outputs_are_byte_identical_to_those_before_the_redesign(tmp_path):
+    out = tmp_path / "snapshot"
+    subprocess.run([sys.executable, str(SOURCE / "scripts" / "output_snapshot.py"), BINARY, str(out)], check=True)
+    expected = {}
+    for line in (SOURCE / "tests" / "reference" / "single_body_outputs.sha256").read_text().splitlines():
+        digest, name = line.split("  ", 1)
+        expected[name] = digest
+    actual = {}
+    for path in sorted(p for p in out.rglob("*") if p.is_file()):
+        name = str(path.relative_to(out))
+        data = path.read_bytes()
+        if name.endswith(("summary.json", "summary.npy")):
+            data = without_new_keys(data.decode()).encode()
+        elif name.endswith("attrs.txt"):
+            attrs = {k: without_new_keys(v) for k, v in json.loads(data).items()}
+            data = json.dumps(attrs, indent=1, sort_keys=True).encode()
+        actual[name] = hashlib.sha256(data).hexdigest()
+    assert sorted(actual) == sorted(expected)
+    changed = [name for name in expected if actual[name] != expected[name]]
+    assert not changed, f"{len(changed)} outputs changed, e.g. {changed[:5]}"
