@@ -7,18 +7,26 @@
 
 namespace lgvi::app::zip {
 
-std::string local_header(const Entry& e) {
-  std::string h;
-  put32(h, 0x04034b50u);
-  put16(h, e.zip64_sizes ? 45 : 20);  // version needed to extract (4.5: ZIP64)
-  put16(h, 0);                        // flags
-  put16(h, 0);                        // method: stored
+namespace {
+/// The fields the local and the central header share, from "version needed
+/// to extract" to the file name's length.
+void common_fields(std::string& h, const Entry& e, bool zip64) {
+  put16(h, zip64 ? 45 : 20);  // version needed to extract (4.5: ZIP64)
+  put16(h, 0);                // flags
+  put16(h, 0);                // method: stored
   put16(h, dos_time);
   put16(h, dos_date);
   put32(h, e.crc);
   put32(h, e.zip64_sizes ? u32_max : static_cast<std::uint32_t>(e.size));
   put32(h, e.zip64_sizes ? u32_max : static_cast<std::uint32_t>(e.size));
   put16(h, static_cast<std::uint32_t>(e.name.size()));
+}
+}  // namespace
+
+std::string local_header(const Entry& e) {
+  std::string h;
+  put32(h, 0x04034b50u);
+  common_fields(h, e, e.zip64_sizes);
   put16(h, e.zip64_sizes ? 20 : 0);
   h += e.name;
   if (e.zip64_sizes) {
@@ -47,16 +55,8 @@ std::string central_header(const Entry& e) {
   }
   std::string h;
   put32(h, 0x02014b50u);
-  put16(h, 45);                       // version made by: 4.5, MS-DOS attributes
-  put16(h, zip64 ? 45 : 20);          // version needed to extract
-  put16(h, 0);                        // flags
-  put16(h, 0);                        // method: stored
-  put16(h, dos_time);
-  put16(h, dos_date);
-  put32(h, e.crc);
-  put32(h, e.zip64_sizes ? u32_max : static_cast<std::uint32_t>(e.size));
-  put32(h, e.zip64_sizes ? u32_max : static_cast<std::uint32_t>(e.size));
-  put16(h, static_cast<std::uint32_t>(e.name.size()));
+  put16(h, 45);  // version made by: 4.5, MS-DOS attributes
+  common_fields(h, e, zip64);
   put16(h, static_cast<std::uint32_t>(extra.size()));
   put16(h, 0);  // comment length
   put16(h, 0);  // disk number
