@@ -5,6 +5,7 @@
 #include "scenario.hpp"
 #include "simulation.hpp"
 
+#include <lgvi/composition.hpp>
 #include <lgvi/error.hpp>
 #include <lgvi/exact_free_body.hpp>
 #include <lgvi/lgvi.hpp>
@@ -16,6 +17,7 @@
 #include <lgvi/methods/splitting_dlm.hpp>
 
 #include <string>
+#include <utility>
 #include <type_traits>
 
 namespace lgvi::app {
@@ -30,15 +32,23 @@ decltype(auto) with_stepper(const Scenario& sc, const ScenarioSystemPotential& p
     S<ScenarioSystemPotential> stepper(sc.system, pot, i.solver, par);
     return f(stepper);
   };
+  // The symmetric one-step methods, composed when [integrator] asks for it
+  // (the reader refuses order/composition for the others).
+  auto make_composable = [&]<template <class> class S>() -> decltype(auto) {
+    S<ScenarioSystemPotential> stepper(sc.system, pot, i.solver, par);
+    if (i.composition.is_plain()) return f(stepper);
+    ComposedStepper<S<ScenarioSystemPotential>> composed(std::move(stepper), i.composition);
+    return f(composed);
+  };
   switch (i.method) {
-    case Method::Hamiltonian: return make.template operator()<LieGroupVariationalIntegrator>();
+    case Method::Hamiltonian: return make_composable.template operator()<LieGroupVariationalIntegrator>();
     case Method::Lagrangian: return make.template operator()<LagrangianLieGroupVariationalIntegrator>();
-    case Method::So3Lgvi: return make.template operator()<So3LieGroupVariationalIntegrator>();
-    case Method::RattleQuaternion: return make.template operator()<RattleQuaternionIntegrator>();
+    case Method::So3Lgvi: return make_composable.template operator()<So3LieGroupVariationalIntegrator>();
+    case Method::RattleQuaternion: return make_composable.template operator()<RattleQuaternionIntegrator>();
     case Method::Rk4Normalized: return make.template operator()<Rk4NormalizedIntegrator>();
     case Method::EulerExp: return make.template operator()<EulerExpIntegrator>();
-    case Method::NoSquish: return make.template operator()<NoSquishIntegrator>();
-    case Method::SplittingDlm: return make.template operator()<SplittingDlmIntegrator>();
+    case Method::NoSquish: return make_composable.template operator()<NoSquishIntegrator>();
+    case Method::SplittingDlm: return make_composable.template operator()<SplittingDlmIntegrator>();
     case Method::Exact:
       if (pot.is_free()) return make.template operator()<ExactFreeBodySystemStepper>();
       break;

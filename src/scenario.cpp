@@ -463,9 +463,42 @@ InteractionSpec read_interaction(const Reader& r, const toml::table& root) {
   return spec;
 }
 
+/// [integrator] order = 2 | 4 | 6 | 8 or composition = [gamma_1, ...]: a
+/// symmetric composition of a symmetric one-step method (composition.hpp).
+void read_composition(const Reader& r, const toml::table& t, IntegratorSpec& s) {
+  const bool has_order = t.contains("order"), has_table = t.contains("composition");
+  if (!has_order && !has_table) return;
+  if (has_order && has_table)
+    r.fail("integrator.composition", "give either order or composition, not both (composition is its own table)");
+  const std::string key = has_order ? "integrator.order" : "integrator.composition";
+  if (!is_composable(s.method))
+    r.fail(key, std::string("\"") + to_string(s.method) +
+                    "\" cannot be composed to higher order: composition needs a symmetric one-step method "
+                    "(lgvi, so3-lgvi, rattle-quaternion, no-squish, splitting-dlm)");
+  int order = 0;
+  std::vector<double> gamma;
+  if (has_order) {
+    const std::int64_t o = r.integer(t, "integrator", "order");
+    if (o != 2 && o != 4 && o != 6 && o != 8)
+      r.fail(key, "must be 2, 4, 6 or 8 (got " + std::to_string(o) +
+                      "); for another table give integrator.composition = [gamma_1, ..., gamma_s]");
+    order = static_cast<int>(o);
+  } else {
+    const toml::array* a = t.get("composition")->as_array();
+    if (!a) r.fail(key, "must be an array of numbers [gamma_1, ..., gamma_s]");
+    for (std::size_t i = 0; i < a->size(); ++i) gamma.push_back(r.number(*a->get(i), key + "[" + std::to_string(i) + "]"));
+  }
+  try {
+    s.composition = has_order ? CompositionTable::of_order(order) : CompositionTable::custom(std::move(gamma));
+  } catch (const InvalidInput& e) {
+    r.fail(key, e.what());
+  }
+}
+
 IntegratorSpec read_integrator(const Reader& r, const toml::table& root) {
   const toml::table& t = r.table(root, "", "integrator");
-  r.only_keys(t, "integrator", {"method", "solver", "step", "duration", "tolerance", "max_iterations", "predictor_order"});
+  r.only_keys(t, "integrator", {"method", "solver", "step", "duration", "tolerance", "max_iterations", "predictor_order",
+                                "order", "composition"});
   IntegratorSpec s;
   if (t.contains("method")) {
     const toml::node* n = t.get("method");
@@ -495,6 +528,7 @@ IntegratorSpec read_integrator(const Reader& r, const toml::table& root) {
     if (o < 0 || o > 3) r.fail("integrator.predictor_order", "must be an integer in [0, 3] (3, cubic, is the default)");
     s.solver.predictor_order = static_cast<int>(o);
   }
+  read_composition(r, t, s);
   s.step = r.number(t, "integrator", "step");
   if (!(s.step > 0.0)) r.fail("integrator.step", "must be > 0, got " + std::to_string(s.step));
   s.duration = r.number(t, "integrator", "duration");

@@ -3,6 +3,7 @@
 // types and invalid values with an InvalidInput naming the key.
 #pragma once
 
+#include <lgvi/composition.hpp>
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/rotation_solver.hpp>
 #include <lgvi/state.hpp>
@@ -43,6 +44,14 @@ inline constexpr std::pair<Method, const char*> method_names[] = {
 /// The method named `name`; throws InvalidInput listing the names otherwise.
 Method method_from_string(const std::string& name, const std::string& where);
 
+/// Symmetric one-step methods, which composition raises to higher order
+/// (composition.hpp). Not: rk4-normalized and euler-exp (not symmetric),
+/// lgvi-lagrangian (two-step), exact (already exact).
+constexpr bool is_composable(Method m) {
+  return m == Method::Hamiltonian || m == Method::So3Lgvi || m == Method::RattleQuaternion || m == Method::NoSquish ||
+         m == Method::SplittingDlm;
+}
+
 struct PotentialSpec {
   PotentialKind kind = PotentialKind::None;
   double mu = 0.0;                                   // central
@@ -64,6 +73,9 @@ struct InteractionSpec {
 struct IntegratorSpec {
   Method method = Method::Hamiltonian;
   SolverOptions solver;
+  /// [integrator] order / composition: the sub-steps of a composed step
+  /// (one stage, gamma = 1, by default: the method's own step).
+  CompositionTable composition;
   double step = 0.0;
   double duration = 0.0;
   std::int64_t steps = 0;  ///< ceil(duration / step), computed on reading

@@ -62,7 +62,9 @@ void show_run(const std::string& dir, std::ostream& out) {
   if (!completed) row("stopped because", text(s.find("error")));
   row("steps", fmt::format("{} of {}, t = {}", text(s.find("steps")), text(s.find("steps_planned")),
                            text(s.find("last_time"))));
-  row("method", fmt::format("{}, solver {}, step {}", text(path(s, {"setup", "integrator", "method"})),
+  const JsonValue* order = path(s, {"setup", "integrator", "order"});  // composed runs only
+  row("method", fmt::format("{}{}, solver {}, step {}", text(path(s, {"setup", "integrator", "method"})),
+                            order ? " composed to order " + text(order) : std::string(),
                             text(path(s, {"setup", "integrator", "solver"})),
                             text(path(s, {"setup", "integrator", "step"}))));
   row("wall time", fmt::format("{:.4g} s ({:.0f} ns/step)", number(s.find("wall_seconds")),
@@ -80,7 +82,8 @@ void show_run(const std::string& dir, std::ostream& out) {
     row("linear momentum", fmt::format("max |P - P0| / sum |p_a0| = {:.3e}", number(s.find("max_linear_momentum_error"))));
   }
   row("solver iterations", fmt::format("{:.6g} per {} (max {})", number(s.find("solver_iterations_mean")),
-                                       n > 1 ? "body and step" : "step", text(s.find("solver_iterations_max"))));
+                                       std::string(n > 1 ? "body and " : "") + (order ? "sub-step" : "step"),
+                                       text(s.find("solver_iterations_max"))));
   if (n > 1) return;  // final, below, is body 0's state
   row("final position", text(path(s, {"final", "position"})));
   row("final quaternion", text(path(s, {"final", "quaternion"})) + "  (scalar first)");

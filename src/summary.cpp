@@ -55,6 +55,8 @@ JsonObject setup_json(const Scenario& s) {
       .number("tolerance", s.integrator.solver.tolerance)
       .integer("max_iterations", s.integrator.solver.max_iterations)
       .integer("predictor_order", s.integrator.solver.predictor_order);
+  if (!s.integrator.composition.is_plain())
+    integ.integer("order", s.integrator.composition.order()).array("composition", s.integrator.composition.gamma());
   JsonObject o;
   if (!s.bodies_format) {
     JsonObject body;
@@ -133,10 +135,12 @@ std::string summary_json(const Scenario& sc, const SimulationResult& r) {
       .number("max_momentum_error", st.max_momentum_error)
       .number("max_relative_momentum_error", l0 > 0 ? st.max_momentum_error / l0 : st.max_momentum_error)
       .number("max_linear_momentum_error", st.max_linear_momentum_error)
-      // Per solve: per step and body (the bodies' solves are summed in iterations_total).
+      // Per solve: per step, body and sub-step of a composed step (the
+      // bodies' and sub-steps' solves are summed in iterations_total).
       .number("solver_iterations_mean", st.steps_solved ? static_cast<double>(st.iterations_total) /
                                                               static_cast<double>(st.steps_solved) /
-                                                              static_cast<double>(sc.bodies())
+                                                              static_cast<double>(sc.bodies()) /
+                                                              static_cast<double>(sc.integrator.composition.stages())
                                                         : 0.0)
       .integer("solver_iterations_max", st.iterations_max)
       .integer("potential_evaluations", st.potential_evaluations)

@@ -54,6 +54,12 @@ namespace detail {
 /// paper's scheme, which are the same in all of them,
 ///   p_half = p0 + (h/2) F0,  x1 = x0 + (h/m) p_half,  ...,  p1 = p_half + (h/2) F1;
 /// and the predictors' history as the checkpoint's internal state.
+///
+/// Stages (composition.hpp): a composed step calls step() with sub-steps
+/// gamma_1 h, ..., gamma_s h of different sizes and signs. Each stage i keeps
+/// its own predictors, extrapolating stage i's relative rotations of the
+/// previous steps (a smooth sequence with a fixed sub-step), so the predictor
+/// stays good whatever the neighbouring sub-steps are.
 template <SystemPotential I, class Predictor>
 class ImplicitStepperBase : public StepperBase<I> {
  public:
@@ -64,14 +70,29 @@ class ImplicitStepperBase : public StepperBase<I> {
     for (Predictor& p : predictors_) p = Predictor(opt_.predictor_order);
   }
 
-  /// Per body, the predictor's history (Predictor::serialized_size numbers)
-  /// after `extra` numbers of the method's own (see serialize_extra).
+  /// Keeps predictors for `stages` sub-steps per step (1 for a plain step);
+  /// forgets their history. Stage 0 is selected.
+  void set_stages(std::size_t stages) {
+    if (stages == 0) throw InvalidInput("a composition needs at least one stage");
+    predictors_.assign(stages * this->system_.size(), Predictor(opt_.predictor_order));
+    stage_ = 0;
+  }
+  std::size_t stages() const { return predictors_.size() / this->system_.size(); }
+  /// The stage whose predictors the next step() uses.
+  void select_stage(std::size_t i) { stage_ = i; }
+
+  /// Per body, the predictors' history (Predictor::serialized_size numbers
+  /// per stage) after `extra` numbers of the method's own (see
+  /// serialize_extra).
   std::vector<double> internal_state() const {
     std::vector<double> v;
-    for (std::size_t a = 0; a < this->system_.size(); ++a) {
+    const std::size_t n = this->system_.size();
+    for (std::size_t a = 0; a < n; ++a) {
       serialize_extra(a, v);
-      const std::vector<double> p = predictors_[a].serialize();
-      v.insert(v.end(), p.begin(), p.end());
+      for (std::size_t i = 0; i < stages(); ++i) {
+        const std::vector<double> p = predictors_[i * n + a].serialize();
+        v.insert(v.end(), p.begin(), p.end());
+      }
     }
     return v;
   }
@@ -97,15 +118,20 @@ class ImplicitStepperBase : public StepperBase<I> {
 
   /// Restores the state written by internal_state(), after initialize().
   void restore(const std::vector<double>& internal, const char* what) {
-    const std::size_t per_body = extra_size() + Predictor::serialized_size;
-    if (internal.size() != per_body * this->system_.size())
+    const std::size_t n = this->system_.size();
+    const std::size_t per_body = extra_size() + stages() * Predictor::serialized_size;
+    if (internal.size() != per_body * n)
       throw InvalidInput(std::string("checkpoint: ") + what + " data has the wrong size");
-    for (std::size_t a = 0; a < this->system_.size(); ++a) {
-      const double* d = internal.data() + a * per_body;
-      deserialize_extra(a, d);
-      predictors_[a].deserialize(std::vector<double>(d + extra_size(), d + per_body));
+    for (std::size_t a = 0; a < n; ++a) {
+      const double* d = internal.data() + a * per_body + extra_size();
+      deserialize_extra(a, internal.data() + a * per_body);
+      for (std::size_t i = 0; i < stages(); ++i, d += Predictor::serialized_size)
+        predictors_[i * n + a].deserialize(std::vector<double>(d, d + Predictor::serialized_size));
     }
   }
+
+  /// Body a's predictor for the selected stage.
+  Predictor& predictor(std::size_t a) { return predictors_[stage_ * this->system_.size() + a]; }
 
   /// p_half = p0 + (h/2) F0 and x1 = x0 + (h/m) p_half for body a.
   void drift(SystemState& s, std::size_t a, double h) {
@@ -122,7 +148,8 @@ class ImplicitStepperBase : public StepperBase<I> {
   }
 
   SolverOptions opt_;
-  std::vector<Predictor> predictors_;
+  std::vector<Predictor> predictors_;  ///< stage-major: stage i, body a at i N + a
+  std::size_t stage_ = 0;
   std::vector<SolveReport> reports_;
   std::vector<Vector3<double>> p_half_;
 };
@@ -155,7 +182,7 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
     detail::for_each_body(sys, this->par_, [&](std::size_t a) {
       // b = (h/4)(w0 + h M0), the right side of g(xi0) = b.
       w_half_[a] = s.w[a] + h * this->eval_.torque[a];
-      RotationPredictor& predictor = this->predictors_[a];
+      RotationPredictor& predictor = this->predictor(a);
       if (predictor.empty()) predictor.reset(S3d::exp(sys.body(a).inertia_inverse() * ((0.25 * h) * w_half_[a])));
       S3d f = predictor.predict();
       solvers_[a].solve((0.25 * h) * w_half_[a], f, this->reports_[a]);
@@ -258,9 +285,9 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
       s.p[a] = (body.mass() / h) * (x_next_[a] - x_prev_[a]) + (0.5 * h) * force;
       s.w[a] = (4.0 / h) * g_backward + h * torque;
       // DEL for configuration k + 2.
-      S3d f = this->predictors_[a].predict();
+      S3d f = this->predictor(a).predict();
       solvers_[a].solve(g_backward + (0.5 * h * h) * torque, f, this->reports_[a]);
-      this->predictors_[a].push(f);
+      this->predictor(a).push(f);
       const Vector3<double> x2 = 2.0 * x_next_[a] - x_prev_[a] + (h * h / body.mass()) * force;
       x_prev_[a] = x_next_[a];
       q_prev_[a] = q_next_[a];
@@ -300,7 +327,7 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
       const Vector3<double> b = (0.25 * h) * (s.w[a] + h * this->eval_.torque[a]);
       S3d f = S3d::exp(body.inertia_inverse() * b);
       solvers_[a].solve(b, f, this->reports_[a]);
-      this->predictors_[a].reset(f);
+      this->predictor(a).reset(f);
       x_next_[a] = s.x[a] + (h / body.mass()) * (s.p[a] + (0.5 * h) * this->eval_.force[a]);
       q_next_[a] = s.q[a] * f;
     });

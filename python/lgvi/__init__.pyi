@@ -68,7 +68,8 @@ class Scenario:
                  position: Vector3 = ..., quaternion: Quaternion = ..., momentum: Optional[Vector3] = ...,
                  velocity: Optional[Vector3] = ..., w: Optional[Vector3] = ..., omega: Optional[Vector3] = ...,
                  method: Method = ..., solver: Solver = ..., tolerance: Optional[float] = ...,
-                 max_iterations: Optional[int] = ..., predictor_order: Optional[int] = ..., every: int = ...,
+                 max_iterations: Optional[int] = ..., predictor_order: Optional[int] = ...,
+                 order: Optional[int] = ..., composition: Optional[Sequence[float]] = ..., every: int = ...,
                  output_format: OutputFormat = ..., name: str = ...) -> None: ...
     @classmethod
     def from_toml(cls, path: PathLike) -> Scenario:
@@ -82,7 +83,8 @@ class Scenario:
                 quaternion: Quaternion = ..., momentum: Vector3 = ..., velocity: Vector3 = ..., w: Vector3 = ...,
                 omega: Vector3 = ..., method: Method = ..., solver: Solver = ..., step: float = ...,
                 duration: float = ..., tolerance: Optional[float] = ..., max_iterations: Optional[int] = ...,
-                predictor_order: Optional[int] = ..., every: int = ..., output_format: OutputFormat = ...,
+                predictor_order: Optional[int] = ..., order: Optional[int] = ...,
+                composition: Optional[Sequence[float]] = ..., every: int = ..., output_format: OutputFormat = ...,
                 name: str = ...) -> Scenario:
         """A copy with the given arguments changed."""
         ...
@@ -126,6 +128,10 @@ class Scenario:
     def max_iterations(self) -> int: ...
     @property
     def predictor_order(self) -> int: ...
+    @property
+    def order(self) -> int: ...
+    @property
+    def composition(self) -> Tuple[float, ...]: ...
     @property
     def every(self) -> int: ...
     @property

@@ -182,7 +182,15 @@ class Body:
 # Scenarios
 
 _INITIAL_PAIRS = (("momentum", "velocity"), ("w", "omega"))
-_INTEGRATOR_KEYS = ("method", "solver", "step", "duration", "tolerance", "max_iterations", "predictor_order")
+_INTEGRATOR_KEYS = ("method", "solver", "step", "duration", "tolerance", "max_iterations", "predictor_order",
+                    "order", "composition")
+
+
+def _composition(value):
+    """[gamma_1, ..., gamma_s]: a sequence of finite numbers (the reader checks sum and symmetry)."""
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        raise ValueError(f"composition: must be a sequence of numbers [gamma_1, ..., gamma_s], got {value!r}")
+    return [_check.number(g, f"composition[{i}]") for i, g in enumerate(value)]
 
 
 def _apply(doc, changes):
@@ -227,6 +235,16 @@ def _apply(doc, changes):
                 integ.pop(key, None)
             else:
                 integ[key] = check(changes[key])
+    # order and composition exclude each other: setting one drops the other
+    # (the reader checks the values and the method).
+    for key, other, check in (("order", "composition", lambda v: _check.integer(v, "order", 2, 8)),
+                              ("composition", "order", _composition)):
+        if key in changes:
+            if changes[key] is None:
+                integ.pop(key, None)
+            else:
+                integ[key] = check(changes[key])
+                integ.pop(other, None)
     if "every" in changes or "output_format" in changes:
         out = doc.setdefault("output", {})
         if "every" in changes:
@@ -262,7 +280,10 @@ class Scenario:
     "so3-lgvi", "rattle-quaternion", "rk4-normalized", "euler-exp",
     "no-squish", "splitting-dlm", "exact"); ``solver`` "newton" (default),
     "newton-exp" or "broyden"; ``tolerance``, ``max_iterations``,
-    ``predictor_order`` (solver options; None = the default); ``every`` (a
+    ``predictor_order`` (solver options; None = the default); ``order`` 2,
+    4, 6 or 8 or ``composition`` [gamma_1, ..., gamma_s] (the method composed
+    to higher order; symmetric one-step methods only; None = order 2);
+    ``every`` (a
     trajectory row every this many steps, plus the first and last; default
     1); ``output_format`` for the CLI ("csv", "npz", "hdf5"); ``name``.
 
@@ -275,11 +296,15 @@ class Scenario:
     def __init__(self, *, body, step, duration, potential=None, position=(0.0, 0.0, 0.0),
                  quaternion=(1.0, 0.0, 0.0, 0.0), momentum=None, velocity=None, w=None, omega=None,
                  method="lgvi", solver="newton", tolerance=None, max_iterations=None, predictor_order=None,
-                 every=1, output_format="csv", name="scenario"):
+                 order=None, composition=None, every=1, output_format="csv", name="scenario"):
         changes = dict(body=body, potential=potential, position=position, quaternion=quaternion,
                        momentum=momentum, velocity=velocity, w=w, omega=omega, method=method, solver=solver,
                        step=step, duration=duration, tolerance=tolerance, max_iterations=max_iterations,
                        predictor_order=predictor_order, every=every)
+        if order is not None:
+            changes["order"] = order
+        if composition is not None:
+            changes["composition"] = composition
         if output_format != "csv":
             changes["output_format"] = output_format
         if momentum is None and velocity is None:
@@ -330,7 +355,7 @@ class Scenario:
         """
         unknown = set(changes) - {"body", "potential", "position", "quaternion", "momentum", "velocity", "w",
                                   "omega", "method", "solver", "step", "duration", "tolerance", "max_iterations",
-                                  "predictor_order", "every", "output_format", "name"}
+                                  "predictor_order", "order", "composition", "every", "output_format", "name"}
         if unknown:
             raise ValueError(f"{', '.join(sorted(unknown))}: not a scenario argument")
         name = _check_name(changes.pop("name", self.name))
@@ -438,6 +463,16 @@ class Scenario:
     def predictor_order(self):
         """Degree of the solver's initial-guess extrapolation, 0..3."""
         return self._core.predictor_order
+
+    @property
+    def order(self):
+        """The order of the composed method: 2 (the method's own step), 4, 6 or 8 (2 for a user's table)."""
+        return self._core.order
+
+    @property
+    def composition(self):
+        """The sub-step fractions gamma_1..gamma_s of a composed step ((1.0,) for the method's own step)."""
+        return tuple(self._core.composition)
 
     @property
     def every(self):

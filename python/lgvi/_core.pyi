@@ -46,6 +46,8 @@ class Scenario:
     tolerance: float
     max_iterations: int
     predictor_order: int
+    order: int
+    composition: List[float]
     every: int
     output_format: str
     def evaluate_potential(self, position: Any, quaternion: Any) -> Tuple[float, Array, Array]: ...

@@ -606,7 +606,7 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("steps", [](const Scenario& s) { return s.integrator.steps; },
                              "Number of steps, ceil(duration / step).")
       .def_property_readonly("method", [](const Scenario& s) { return std::string(to_string(s.integrator.method)); },
-                             "\"lgvi\" or \"lgvi-lagrangian\".")
+                             "The method's name (one of lgvi.METHODS).")
       .def_property_readonly("solver",
                              [](const Scenario& s) { return std::string(to_string(s.integrator.solver.kind)); },
                              "\"newton\", \"newton-exp\" or \"broyden\".")
@@ -616,6 +616,10 @@ PYBIND11_MODULE(_core, m) {
                              "Solver's iteration limit.")
       .def_property_readonly("predictor_order", [](const Scenario& s) { return s.integrator.solver.predictor_order; },
                              "Degree of the initial-guess extrapolation (0..3).")
+      .def_property_readonly("order", [](const Scenario& s) { return s.integrator.composition.order(); },
+                             "Order of the composed method (2: the method's own step).")
+      .def_property_readonly("composition", [](const Scenario& s) { return s.integrator.composition.gamma(); },
+                             "Sub-step fractions gamma_1..gamma_s of a composed step.")
       .def_readonly("every", &Scenario::output_every, "A row every this many steps (plus the first and last).")
       .def_property_readonly("output_format",
                              [](const Scenario& s) {

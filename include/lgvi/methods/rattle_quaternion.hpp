@@ -150,7 +150,7 @@ class RattleQuaternionIntegrator<I> : public detail::ImplicitStepperBase<I, Rota
       const Vector3<double> b = (0.25 * h) * (s.w[a] + h * this->eval_.torque[a]);
       // pi_0 + h F(q0)^T M0 = F(q0)^T (w0 + h M0), scaled by h/4.
       const Vector4<double> rhs = rattle::FT_times(q0, b);
-      RotationPredictor& predictor = this->predictors_[a];
+      RotationPredictor& predictor = this->predictor(a);
       if (predictor.empty()) predictor.reset(S3d::exp(body.inertia_inverse() * b));
       const S3d guess = predictor.predict();
       Vector4<double> q1 = rattle::product(q0, guess.scalar_first());

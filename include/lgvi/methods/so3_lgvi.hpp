@@ -158,7 +158,7 @@ class So3LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I
     const System& sys = this->system_;
     detail::for_each_body(sys, this->par_, [&](std::size_t a) {
       w_half_[a] = s.w[a] + h * this->eval_.torque[a];  // 2 (Pi_k + (h/2) M_k)
-      detail::CayleyPredictor& predictor = this->predictors_[a];
+      detail::CayleyPredictor& predictor = this->predictor(a);
       if (predictor.empty()) predictor.reset(sys.body(a).inertia_inverse() * ((0.25 * h) * w_half_[a]));
       Vector3<double> u = predictor.predict();
       solve(a, (0.25 * h) * w_half_[a], u);
