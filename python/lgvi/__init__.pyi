@@ -79,6 +79,16 @@ class Scenario:
     def from_string(cls, text: str, name: str = ...) -> Scenario:
         """Parse scenario TOML text exactly as `lgvi run` does."""
         ...
+    @classmethod
+    def from_arrays(cls, *, bodies: Union[Body, Sequence[Body]], positions: npt.ArrayLike, quaternions: npt.ArrayLike,
+                    step: float, duration: float, momenta: Optional[npt.ArrayLike] = ...,
+                    velocities: Optional[npt.ArrayLike] = ..., w: Optional[npt.ArrayLike] = ...,
+                    omegas: Optional[npt.ArrayLike] = ..., names: Optional[Sequence[str]] = ...,
+                    potential: PotentialSpec = ..., interaction: Optional[Dict[str, Any]] = ...,
+                    method: Method = ..., order: Optional[int] = ..., every: int = ..., threads: Optional[int] = ...,
+                    name: str = ...) -> Scenario:
+        """A scenario of N bodies from (N, 3) / (N, 4) arrays, validated by the reader of `lgvi run`."""
+        ...
     def replace(self, *, body: Body = ..., potential: PotentialSpec = ..., position: Vector3 = ...,
                 quaternion: Quaternion = ..., momentum: Vector3 = ..., velocity: Vector3 = ..., w: Vector3 = ...,
                 omega: Vector3 = ..., method: Method = ..., solver: Solver = ..., step: float = ...,

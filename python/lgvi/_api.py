@@ -346,6 +346,33 @@ class Scenario:
             raise ValueError(f"text: must be a str of TOML, got {type(text).__name__}")
         return cls._wrap(_parse(text, _check_name(name)))
 
+    @classmethod
+    def from_arrays(cls, *, bodies, positions, quaternions, step, duration, momenta=None, velocities=None,
+                    w=None, omegas=None, names=None, potential=None, interaction=None, method="lgvi", order=None,
+                    every=1, threads=None, name="scenario"):
+        """A scenario of N bodies from numpy arrays (a ``[[bodies]]`` scenario file, written and read).
+
+        ``bodies``: one lgvi.Body for every row, or a list of N of them;
+        ``positions`` (N, 3); ``quaternions`` (N, 4) scalar-first, each within
+        1e-6 of unit norm (then normalized); ``momenta`` or ``velocities``
+        (N, 3); ``w`` (N, 3, the paper's w = 2 J Omega) or ``omegas`` (N, 3,
+        body angular velocities); ``names`` (N unique names; default body0,
+        body1, ...); ``potential`` the external field on every body (as for
+        Scenario); ``interaction`` None or a dict ``{"kind": "gravity", "G":
+        1.0, "model": "balls" | "inertia"}`` or ``{"kind": "lennard-jones",
+        "epsilon": .., "sigma": .., "cutoff": .., "skin": ..}``; ``method``,
+        ``order``, ``step``, ``duration``, ``every`` as for Scenario;
+        ``threads`` for the per-body loops (default: all cores).
+
+        Validated by the reader of ``lgvi run`` (overlapping bodies, duplicate
+        names, ...): ValueError naming the argument or the scenario key
+        (``bodies[3]`` is row 3).
+        """
+        return _from_arrays(cls, bodies=bodies, positions=positions, quaternions=quaternions, step=step,
+                            duration=duration, momenta=momenta, velocities=velocities, w=w, omegas=omegas,
+                            names=names, potential=potential, interaction=interaction, method=method, order=order,
+                            every=every, threads=threads, name=name)
+
     def replace(self, **changes):
         """A copy with some arguments changed, e.g. ``scenario.replace(step=0.005, duration=10)``.
 
@@ -358,6 +385,9 @@ class Scenario:
                                   "predictor_order", "order", "composition", "every", "output_format", "name"}
         if unknown:
             raise ValueError(f"{', '.join(sorted(unknown))}: not a scenario argument")
+        if "bodies" in self.document:
+            raise ValueError("replace: changes single-body scenarios; build a scenario of many bodies anew with "
+                             "lgvi.Scenario.from_arrays(...) or edit its TOML (scenario.toml)")
         name = _check_name(changes.pop("name", self.name))
         doc = _apply(copy.deepcopy(self.document), changes)
         return Scenario._wrap(_parse(_toml_text(doc), name))
@@ -499,6 +529,122 @@ class Scenario:
     def __repr__(self):
         return (f"<lgvi.Scenario {self.name!r}: {self.potential['kind']} potential, {self.method}/{self.solver}, "
                 f"step {self.step!r}, {self.steps} steps>")
+
+
+# ---------------------------------------------------------------------------
+# Many bodies from arrays
+
+_INTERACTION_KEYS = {"none": set(), "gravity": {"G", "model"},
+                     "lennard-jones": {"epsilon", "sigma", "cutoff", "skin"}}
+
+
+def _interaction(interaction):
+    """The [interaction] table from None or a dict {"kind": "gravity", "G": ...}; ValueError naming the key."""
+    if interaction is None:
+        return None
+    if not isinstance(interaction, dict):
+        raise ValueError(f"interaction: must be a dict like {{'kind': 'gravity', 'G': 1.0}}, got {interaction!r}")
+    kind = _check.choice(interaction.get("kind"), "interaction.kind", tuple(_INTERACTION_KEYS))
+    extra = set(interaction) - {"kind"} - _INTERACTION_KEYS[kind]
+    if extra:
+        raise ValueError(f"interaction: unknown key(s) {', '.join(sorted(map(str, extra)))} for kind \"{kind}\"")
+    out = {"kind": kind}
+    for k, v in interaction.items():
+        if k == "model":
+            out[k] = _check.choice(v, "interaction.model", ("balls", "inertia"))
+        elif k != "kind":
+            out[k] = _check.number(v, f"interaction.{k}")
+    return out
+
+
+def _rows(value, name, n, width):
+    """An (n, width) float array from `value`; ValueError naming the argument."""
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: must be an array of shape ({n}, {width}) of numbers, got {value!r}") from None
+    if a.shape != (n, width):
+        raise ValueError(f"{name}: must have shape ({n}, {width}) (one row per body), got {a.shape}")
+    bad = np.argwhere(~np.isfinite(a))
+    if len(bad):
+        raise ValueError(f"{name}[{bad[0][0]}]: must be finite, got {a[tuple(bad[0])]!r}")
+    return a
+
+
+def _system_toml(bodies, rows, names, potential, interaction, integrator, every, threads):
+    """TOML text of a [[bodies]] scenario."""
+    lines = []
+    for a, body in enumerate(bodies):
+        lines.append("[[bodies]]")
+        if names is not None:
+            lines.append(f"name = {_toml_value(names[a])}")
+        for key, array in rows.items():
+            lines.append(f"{key} = {_toml_value(_floats(array[a]))}")
+        spec = body._spec
+        if "ball" in spec:
+            for ball in spec["ball"]:
+                lines.append("[[bodies.ball]]")
+                lines.extend(f"{k} = {_toml_value(v)}" for k, v in ball.items())
+        else:
+            lines.append(f"mass = {_toml_value(spec['mass'])}")
+            lines.append(f"inertia = {_toml_value(spec['inertia'])}")
+        lines.append("")
+    for table, t in (("potential", potential), ("interaction", interaction), ("integrator", integrator),
+                     ("output", {"every": every}), ("run", {"threads": threads} if threads else None)):
+        if t is None:
+            continue
+        lines.append(f"[{table}]")
+        lines.extend(f"{k} = {_toml_value(v)}" for k, v in t.items())
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _from_arrays(cls, *, bodies, positions, quaternions, step, duration, momenta=None, velocities=None, w=None,
+                 omegas=None, names=None, potential=None, interaction=None, method="lgvi", order=None,
+                 every=1, threads=None, name="scenario"):
+    if isinstance(bodies, dict):
+        bodies = Body(**bodies)
+    if isinstance(bodies, Body):
+        shape = np.shape(positions)
+        if len(shape) != 2 or shape[0] == 0:
+            raise ValueError(f"positions: must be an (N, 3) array, one row per body, got shape {shape}")
+        bodies = [bodies] * shape[0]
+    if isinstance(bodies, (str, bytes)) or not hasattr(bodies, "__len__") or len(bodies) == 0:
+        raise ValueError(f"bodies: must be an lgvi.Body (the same for every row) or a list of them, got {bodies!r}")
+    bodies = [Body(**b) if isinstance(b, dict) else b for b in bodies]
+    for a, b in enumerate(bodies):
+        if not isinstance(b, Body):
+            raise ValueError(f"bodies[{a}]: must be an lgvi.Body, got {b!r}")
+    n = len(bodies)
+    rows = {"position": _rows(positions, "positions", n, 3)}
+    q = _rows(quaternions, "quaternions", n, 4)
+    for a in range(n):
+        q[a] = _check.quaternion(q[a], f"quaternions[{a}]")
+    rows["quaternion"] = q
+    for key, (first, second), (k1, k2) in (("momenta", (momenta, velocities), ("momentum", "velocity")),
+                                           ("w", (w, omegas), ("w", "omega"))):
+        label = ("momenta", "velocities") if key == "momenta" else ("w", "omegas")
+        if first is not None and second is not None:
+            raise ValueError(f"{label[0]}, {label[1]}: give one of them, not both")
+        if first is None and second is None:
+            raise ValueError(f"{label[0]}, {label[1]}: give one of them (an (N, 3) array; zeros for rest)")
+        if first is not None:
+            rows[k1] = _rows(first, label[0], n, 3)
+        else:
+            rows[k2] = _rows(second, label[1], n, 3)
+    if names is not None:
+        names = [str(x) for x in names]
+        if len(names) != n:
+            raise ValueError(f"names: must have one name per body ({n}), got {len(names)}")
+    integ = {"method": _check.choice(method, "method", METHODS), "step": _check.positive(step, "step"),
+             "duration": _check.non_negative(duration, "duration")}
+    if order is not None:
+        integ["order"] = _check.integer(order, "order", 2, 8)
+    if threads is not None:
+        threads = _check.integer(threads, "threads", 1)
+    text = _system_toml(bodies, rows, names, _potential.spec(potential), _interaction(interaction), integ,
+                        _check.integer(every, "every", 1), threads)
+    return cls._wrap(_parse(text, _check_name(name)))
 
 
 def _check_name(name):
