@@ -16,7 +16,7 @@ if [[ "${LGVI_QUICK:-0}" != 1 ]]; then
   scripts/tidy.sh
   scripts/fuzz.sh "${LGVI_FUZZ_SECONDS:-60}"
   echo "lgvi: building and running the tests under ASan + UBSan (build-asan/)"
-  cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=None "-DCMAKE_CXX_FLAGS=-O1 -g1" -DLGVI_SANITIZE=ON -DLGVI_BUILD_BENCHMARKS=OFF \
+  cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=None "-DCMAKE_CXX_FLAGS=-O1 -g1" -DLGVI_SANITIZE=ON -DLGVI_BUILD_BENCHMARKS=OFF -DLGVI_MPI=OFF \
     -DLGVI_BUILD_PYTHON=OFF >/dev/null
   cmake --build build-asan -j"$jobs" >build-asan.log 2>&1 || { tail -40 build-asan.log; exit 1; }
   # The Python extension and the downstream build are outside what the

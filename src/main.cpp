@@ -3,6 +3,7 @@
 #include "scenario.hpp"
 #include "show.hpp"
 #include "compare.hpp"
+#include "ensemble.hpp"
 
 #include <sstream>
 
@@ -10,6 +11,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <filesystem>
 #include <iostream>
 
 namespace {
@@ -65,7 +67,31 @@ int run_cli(int argc, char** argv) {
       "Example:\n  lgvi compare scenarios/free-body-manchester-peck.toml --methods lgvi,so3-lgvi,rk4-normalized "
       "--out results/compare");
 
-  auto* show = app.add_subcommand("show", "Print the summary of a run folder as a table");
+  auto* ensemble = app.add_subcommand(
+      "ensemble", "Run many members of a scenario with varied numbers (sweeps, Monte Carlo) on threads or MPI ranks");
+  std::string ensemble_sweep;
+  lgvi::app::EnsembleOptions ensemble_options;
+  std::string ensemble_resume;
+  auto* sweep_opt = ensemble->add_option("SWEEP", ensemble_sweep, "Sweep file (TOML), see README 'Ensembles'");
+  auto* ensemble_resume_opt =
+      ensemble->add_option("--resume", ensemble_resume, "Run the members of this ensemble folder that have no row yet");
+  sweep_opt->excludes(ensemble_resume_opt);
+  ensemble->add_option("--out", ensemble_options.out_dir, "Output folder (default: a folder named after the sweep)")
+      ->excludes(ensemble_resume_opt);
+  ensemble->add_option("--threads", ensemble_options.threads, "Members run at once (default: all cores)")
+      ->check(CLI::Range(1, 1024));
+  ensemble->add_flag("-q,--quiet", ensemble_options.quiet, "Print nothing on success");
+  bool ensemble_no_figures = false;
+  ensemble->add_flag("--no-figures", ensemble_no_figures,
+                     "Do not draw error_distribution.png and error_vs_varied.png");
+  ensemble->footer(
+      "Examples:\n  lgvi ensemble sweep.toml --out results/sweep --threads 2\n"
+      "  mpirun -n 4 lgvi ensemble sweep.toml --out results/sweep\n"
+      "  lgvi ensemble --resume results/sweep     # after Ctrl-C, SIGTERM or a lost rank\n"
+      "members.csv does not depend on the threads or ranks. Exit status: 0 every member ran (failed members are\n"
+      "rows with completed = 0), 2 bad input (no member runs), 130/143 stopped by SIGINT/SIGTERM");
+
+  auto* show = app.add_subcommand("show", "Print the summary of a run folder (or an ensemble folder) as a table");
   std::string show_dir;
   show->add_option("DIR", show_dir, "Run folder (written by lgvi run)")->required();
   show->footer("Example:\n  lgvi show results/paper-orbit");
@@ -93,8 +119,24 @@ int run_cli(int argc, char** argv) {
       compare_options.figures = !compare_no_figures;
       return lgvi::app::compare_methods(scenario, compare_options);
     }
+    if (ensemble->parsed()) {
+#ifdef LGVI_HAVE_MPI
+      lgvi::app::set_mpi_runner(&lgvi::app::run_ensemble_mpi);
+#endif
+      if (!ensemble_resume.empty()) {
+        ensemble_options.resume = true;
+        ensemble_options.out_dir = ensemble_resume;
+      } else if (ensemble_sweep.empty()) {
+        throw CLI::RequiredError("SWEEP (or --resume DIR)");
+      }
+      ensemble_options.figures = !ensemble_no_figures;
+      return lgvi::app::run_ensemble(ensemble_sweep, ensemble_options);
+    }
     if (show->parsed()) {
-      lgvi::app::show_run(show_dir, std::cout);
+      if (std::filesystem::exists(std::filesystem::path(show_dir) / "members.csv"))
+        lgvi::app::show_ensemble(show_dir, std::cout);
+      else
+        lgvi::app::show_run(show_dir, std::cout);
       return lgvi::app::kSuccess;
     }
     options.threads = threads;

@@ -8,7 +8,8 @@ variational integrator), from Python.
     lgvi.plot.draw_figures(result, "figures")
 
 Public names: Body, Scenario, simulate, Result, SystemResult (many-body runs), Stepper,
-PythonPotential, IntegrationError, load, potential (none(), central(mu), uniform(g)), plot (the
+PythonPotential, IntegrationError, ensemble, EnsembleResult (sweeps and Monte Carlo on any
+executor), load, potential (none(), central(mu), uniform(g)), plot (the
 paper's figures), load_run, COLUMNS, BODIES_COLUMNS, METHODS, SOLVERS. Quaternions are scalar-first (w, x, y, z) numpy arrays everywhere. Invalid arguments raise
 ValueError naming the argument.
 
@@ -25,11 +26,13 @@ _EXPORTS = {
     "Result": "_result", "COLUMNS": "_result", "SystemResult": "_result", "BODIES_COLUMNS": "_result",
     "load": "_io",
     "load_run": "_io",
+    "ensemble": "_ensemble", "EnsembleResult": "_ensemble",
 }
 _SUBMODULES = ("plot", "potential")
 
 __all__ = ["Body", "Scenario", "simulate", "Result", "SystemResult", "Stepper", "PythonPotential", "IntegrationError",
-           "load", "potential", "plot", "load_run", "COLUMNS", "BODIES_COLUMNS", "METHODS", "SOLVERS", "FORMATS"]
+           "load", "potential", "plot", "load_run", "COLUMNS", "BODIES_COLUMNS", "METHODS", "SOLVERS", "FORMATS",
+           "ensemble", "EnsembleResult"]
 
 
 def _import(submodule):

@@ -289,3 +289,20 @@ def load(path: PathLike) -> Union[Result, SystemResult]:
     ...
 
 def load_run(run_dir: PathLike) -> Tuple[Dict[str, npt.NDArray[np.float64]], Dict[str, Any]]: ...
+
+
+class EnsembleResult:
+    """The members table of an ensemble: members.csv's text, header and columns."""
+    text: str
+    header: List[str]
+    columns: Dict[str, Any]
+    completed: npt.NDArray[np.bool_]
+    def __len__(self) -> int: ...
+    def __getitem__(self, name: str) -> Any: ...
+    def save(self, path: PathLike) -> None: ...
+
+def ensemble(scenario: Union[Scenario, PathLike], vary: Union[Dict[str, Any], Sequence[Dict[str, Any]]],
+             members: Optional[int] = ..., seed: Optional[int] = ..., executor: Any = ...,
+             trajectories: str = ...) -> EnsembleResult:
+    """Run an ensemble of a scenario with some of its numbers varied (the semantics of `lgvi ensemble`)."""
+    ...

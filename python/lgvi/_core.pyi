@@ -85,3 +85,13 @@ class Stepper:
     angular_momentum: Array
     solver_iterations: int
     python_potential: bool
+
+class EnsemblePlan:
+    header: str
+    members: int
+    scenario_name: str
+    def varied(self, i: int) -> List[float]: ...
+    def member_toml(self, i: int) -> str: ...
+
+def ensemble_plan(sweep_text: str, name: str, scenario_text: str) -> EnsemblePlan: ...
+def run_member(index: int, varied: List[float], scenario_toml: str, scenario_name: str) -> str: ...

@@ -250,6 +250,70 @@ def _draw_system(plt, r, out_dir, written):
     return written
 
 
+def _ensemble_table(source):
+    """An ensemble's members table (lgvi.EnsembleResult, or a folder/file members.csv); None otherwise."""
+    if hasattr(source, "header") and hasattr(source, "completed") and hasattr(source, "columns"):
+        return source
+    if isinstance(source, (str, bytes, os.PathLike)):
+        path = os.fsdecode(source)
+        csv_path = os.path.join(path, "members.csv") if os.path.isdir(path) else path
+        if os.path.basename(csv_path) == "members.csv" and os.path.exists(csv_path):
+            from ._ensemble import EnsembleResult
+            with open(csv_path, newline="") as f:
+                return EnsembleResult(f.read())
+    return None
+
+
+_ENSEMBLE_ERRORS = (("max_abs_energy_error", "max |E - E0|"), ("max_abs_quat_norm_error", "max ||q| - 1|"),
+                    ("max_momentum_error", "max |L - L0|"))
+
+
+def _draw_ensemble(plt, e, out_dir, written):
+    """error_distribution.png: each error's histogram over the completed members (log scale);
+    error_vs_varied.png: the energy error against each varied value."""
+    ok = e.completed
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
+    for ax, (name, label) in zip(axes, _ENSEMBLE_ERRORS):
+        v = np.asarray(e.columns[name])[ok]
+        v = v[np.isfinite(v)]
+        floor = np.finfo(float).tiny
+        logs = np.log10(np.maximum(v, floor)) if len(v) else v
+        ax.hist(logs, bins=min(40, max(5, len(v) // 4 or 5)), color="tab:blue", alpha=0.8)
+        ax.set_xlabel(f"log10 {label}")
+        ax.set_ylabel("members")
+        ax.set_title(f"{label}: median {np.median(v):.2e}" if len(v) else label)
+    fig.suptitle(f"{len(e)} members, {int((~ok).sum())} failed")
+    fig.tight_layout()
+    _save(fig, out_dir, "error_distribution.png", written)
+    varied = e.header[1:e.header.index("completed")]
+    if varied:
+        shown = varied[:6]
+        fig, axes = plt.subplots(1, len(shown), figsize=(3.6 * len(shown), 3.6), squeeze=False)
+        energy = np.asarray(e.columns["max_abs_energy_error"])
+        for ax, name in zip(axes[0], shown):
+            x = np.asarray(e.columns[name])
+            ax.semilogy(x[ok], np.maximum(energy[ok], np.finfo(float).tiny), ".", ms=4, label="completed")
+            if (~ok).any():
+                ax.plot(x[~ok], np.full((~ok).sum(), np.nanmax(energy[ok]) if ok.any() else 1.0), "x",
+                        color="tab:red", label="failed")
+                ax.legend(fontsize=7)
+            ax.set_xlabel(name)
+            ax.set_ylabel("max |E - E0|")
+        fig.tight_layout()
+        _save(fig, out_dir, "error_vs_varied.png", written)
+    return written
+
+
+def _out_dir_of(source, out_dir):
+    """out_dir, or the folder of a source given by path (required for an in-memory result)."""
+    if out_dir is not None:
+        return out_dir
+    if not isinstance(source, (str, bytes, os.PathLike)):
+        raise ValueError("out_dir: required when drawing an in-memory result")
+    path = os.fsdecode(source)
+    return path if os.path.isdir(path) else (os.path.dirname(path) or ".")
+
+
 def draw_figures(source, out_dir=None):
     """Draw the paper's five PNG figures of a run into out_dir.
 
@@ -263,15 +327,17 @@ def draw_figures(source, out_dir=None):
     lgvi.SystemResult, or a folder of a [[bodies]] scenario) gets its own
     figures: energy_error.png, quaternion_error.png, momentum_error.png (total
     angular and linear momentum), trajectory.png (the bodies' paths) and, for
-    two bodies, libration.png.
+    two bodies, libration.png. An ensemble (a folder with members.csv, or an
+    lgvi.EnsembleResult) gets error_distribution.png and error_vs_varied.png.
     """
+    ensemble = _ensemble_table(source)
+    if ensemble is not None:
+        out_dir = _out_dir_of(source, out_dir)
+        os.makedirs(out_dir, exist_ok=True)
+        return _draw_ensemble(_pyplot(), ensemble, out_dir, [])
     system = _system_result(source)
     if system is not None:
-        if out_dir is None:
-            if not isinstance(source, (str, bytes, os.PathLike)):
-                raise ValueError("out_dir: required when drawing an in-memory result")
-            path = os.fsdecode(source)
-            out_dir = path if os.path.isdir(path) else (os.path.dirname(path) or ".")
+        out_dir = _out_dir_of(source, out_dir)
         if len(system) == 0:
             raise ValueError("draw_figures: the trajectory has no rows")
         os.makedirs(out_dir, exist_ok=True)

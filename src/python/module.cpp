@@ -14,6 +14,7 @@
 // steps and stops the run at a step boundary with KeyboardInterrupt.
 
 #include "memory_sink.hpp"
+#include "ensemble.hpp"
 #include "method_dispatch.hpp"
 #include "scenario.hpp"
 #include "simulation.hpp"
@@ -724,4 +725,35 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("python_potential", &PyStepper::python_potential,
                              "Whether the potential is written in Python.")
       .def("row", &PyStepper::row, "The 21 trajectory columns at the current step, as simulate() writes them.");
+
+  // Ensembles (lgvi.ensemble): the plan of `lgvi ensemble` and one member's row.
+  py::class_<lgvi::app::EnsemblePlan>(m, "EnsemblePlan", "A sweep, read and checked: members and their varied values.")
+      .def_property_readonly("header", [](const lgvi::app::EnsemblePlan& p) { return p.header; },
+                             "members.csv's header line.")
+      .def_property_readonly("members", &lgvi::app::EnsemblePlan::members, "Number of members.")
+      .def_property_readonly("scenario_name", [](const lgvi::app::EnsemblePlan& p) { return p.scenario_name; },
+                             "The base scenario's name.")
+      .def("varied", [](const lgvi::app::EnsemblePlan& p, std::int64_t i) { return p.varied.at(static_cast<std::size_t>(i)); },
+           py::arg("i"), "Member i's varied values, in the header's order.")
+      .def("member_toml", &lgvi::app::EnsemblePlan::member_toml, py::arg("i"), "Member i's scenario (TOML text).");
+  m.def(
+      "ensemble_plan",
+      [](const std::string& sweep_text, const std::string& name, const std::string& scenario_text) {
+        try {
+          return lgvi::app::parse_ensemble_text(sweep_text, name, scenario_text);
+        } catch (const lgvi::InvalidInput& e) {
+          throw py::value_error(e.what());
+        }
+      },
+      py::arg("sweep_text"), py::arg("name"), py::arg("scenario_text"),
+      "Read a sweep (TOML text) over the given base scenario text; check every member. ValueError naming the key.");
+  m.def(
+      "run_member",
+      [](std::int64_t index, const std::vector<double>& varied, const std::string& scenario_toml,
+         const std::string& scenario_name) {
+        py::gil_scoped_release release;
+        return lgvi::app::run_member_scenario(index, varied, scenario_toml, scenario_name);
+      },
+      py::arg("index"), py::arg("varied"), py::arg("scenario_toml"), py::arg("scenario_name"),
+      "Run one member; its members.csv row (the CLI's bytes).");
 }

@@ -1,0 +1,134 @@
+"""Ensembles from Python: the sweep of `lgvi ensemble` on any concurrent.futures.Executor.
+
+The plan (members, draws, up-front checks) and each member's run are the CLI's compiled code
+(lgvi._core), so the rows are the bytes of the CLI's members.csv whatever executor runs them:
+a ProcessPoolExecutor, mpi4py.futures.MPIPoolExecutor, or a Dask cluster's
+``distributed.Client.get_executor()``.
+"""
+
+import csv
+import io
+import os
+
+import numpy as np
+
+from . import _check  # _core is imported where a member runs: plotting works from the source tree
+
+
+def _toml_value(v):
+    from ._api import _toml_value as value  # the scenario writer's spelling of numbers and strings
+    return value(v)
+
+
+def _sweep_text(scenario_name, vary, members, seed, trajectories):
+    lines = ["[ensemble]", f"scenario = {_toml_value(scenario_name + '.toml')}"]
+    if members is not None:
+        lines.append(f"members = {_check.integer(members, 'members', 1)}")
+    if seed is not None:
+        lines.append(f"seed = {_check.integer(seed, 'seed', 0)}")
+    if trajectories != "none":
+        raise ValueError("trajectories: lgvi.ensemble returns the members table only; keep every member's run "
+                         "folder with the CLI (lgvi ensemble, [ensemble] trajectories = \"all\")")
+    if isinstance(vary, dict):
+        vary = [vary]
+    if isinstance(vary, (str, bytes)) or not hasattr(vary, "__iter__"):
+        raise ValueError(f"vary: must be a list of dicts like {{'key': 'initial.omega', 'normal': {{'mean': [..], "
+                         f"'std': [..]}}}}, got {vary!r}")
+    for i, v in enumerate(vary):
+        if not isinstance(v, dict):
+            raise ValueError(f"vary[{i}]: must be a dict with key and one of normal, uniform, values, rotation")
+        lines.append("")
+        lines.append("[[vary]]")
+        for k, x in v.items():
+            if isinstance(x, dict):
+                inner = ", ".join(f"{kk} = {_toml_value(_plain(xx))}" for kk, xx in x.items())
+                lines.append(f"{k} = {{ {inner} }}")
+            else:
+                lines.append(f"{k} = {_toml_value(_plain(x))}")
+    return "\n".join(lines) + "\n"
+
+
+def _plain(x):
+    """numpy arrays and scalars as lists and floats (TOML values)."""
+    if isinstance(x, np.ndarray):
+        return _plain(x.tolist())
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    if isinstance(x, np.generic):
+        return x.item()
+    return x
+
+
+def _run_member(args):
+    """One member in a worker process: (index, varied, scenario TOML, scenario name) -> its row."""
+    from . import _core as core  # a fresh worker imports the compiled module here
+    return core.run_member(*args)
+
+
+class EnsembleResult:
+    """The members table of an ensemble (the CLI's members.csv).
+
+    ``text`` is members.csv's content, byte for byte the CLI's; ``header`` its column names;
+    ``columns`` maps each name to a numpy array (one entry per member, in member order), except
+    ``error``, a list of str ("" for members that completed). ``completed`` is a bool array.
+    """
+
+    def __init__(self, text):
+        self.text = text
+        reader = csv.reader(io.StringIO(text))
+        self.header = next(reader)
+        rows = list(reader)
+        self.columns = {}
+        for j, name in enumerate(self.header):
+            values = [r[j] for r in rows]
+            self.columns[name] = values if name == "error" else np.array([float(v) for v in values])
+        self.completed = self.columns["completed"].astype(bool) if rows else np.zeros(0, bool)
+
+    def __len__(self):
+        return len(self.completed)
+
+    def __getitem__(self, name):
+        return self.columns[name]
+
+    def save(self, path):
+        """Write members.csv."""
+        with open(os.fspath(path), "w", newline="") as f:
+            f.write(self.text)
+
+    def __repr__(self):
+        return f"<lgvi.EnsembleResult: {len(self)} members, {int((~self.completed).sum())} failed>"
+
+
+def ensemble(scenario, vary, members=None, seed=None, executor=None, trajectories="none"):
+    """Run an ensemble of a scenario with some of its numbers varied; returns an lgvi.EnsembleResult.
+
+    The semantics of ``lgvi ensemble`` (README 'Ensembles'): ``vary`` is a list of dicts, each
+    with ``key`` (a dotted scenario key: "initial.omega", "integrator.step",
+    "bodies.NAME.omega") and one of ``normal={"mean": .., "std": ..}``, ``uniform={"low": ..,
+    "high": ..}``, ``rotation="uniform"`` (random attitudes; with ``members`` and ``seed``), or
+    ``values=[...]`` (a grid; the ensemble is the product of the grids). Every member's scenario
+    is checked before any runs (ValueError naming the member and the key).
+
+    ``executor``: any concurrent.futures.Executor (``ProcessPoolExecutor``,
+    ``mpi4py.futures.MPIPoolExecutor``, ``distributed.Client(...).get_executor()``); None runs
+    the members one after the other here. The result is the same for every executor: the rows
+    are the CLI's members.csv bytes.
+    """
+    from ._api import _scenario
+    sc = _scenario(scenario)
+    plan = _plan(sc, vary, members, seed, trajectories)
+    work = [(i, plan.varied(i), plan.member_toml(i), plan.scenario_name) for i in range(plan.members)]
+    if executor is None:
+        rows = [_run_member(w) for w in work]
+    else:
+        rows = list(executor.map(_run_member, work))
+    return EnsembleResult(plan.header + "\n" + "".join(r + "\n" for r in rows))
+
+
+def _plan(sc, vary, members, seed, trajectories):
+    from . import _core
+    text = _sweep_text(sc.name, vary, members, seed, trajectories)
+    try:
+        return _core.ensemble_plan(text, "ensemble", sc.toml)
+    except ValueError as e:
+        raise ValueError(str(e)) from None

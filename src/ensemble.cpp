@@ -1,0 +1,844 @@
+// `lgvi ensemble` (ensemble.hpp): the sweep file, the members' scenarios and
+// draws, one member's run and row, the journal, and the threads runner.
+#include "ensemble.hpp"
+
+#include "output.hpp"
+#include "run.hpp"
+#include "simulation.hpp"
+#include "summary.hpp"
+#include "trajectory_sink.hpp"
+
+#include <lgvi/error.hpp>
+
+#include <fmt/format.h>
+#include <toml++/toml.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <numbers>
+#include <sstream>
+#include <thread>
+#include <unistd.h>
+
+namespace lgvi::app {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// ---------------------------------------------------------------------------
+// Counter-based random numbers: a draw is a function of (seed, member,
+// vary, component, stream) alone (SplitMix64's finalizer as the mixing
+// function; Steele, Lea & Flood 2014), so it does not depend on the order in
+// which members run or on where.
+
+std::uint64_t mix(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+/// Uniform in (0, 1): 53 random bits, offset by half an ulp so neither end occurs.
+double uniform01(std::uint64_t seed, std::int64_t member, std::size_t vary, std::size_t component, int stream) {
+  const std::uint64_t key = (static_cast<std::uint64_t>(vary) << 40) ^ (static_cast<std::uint64_t>(component) << 8) ^
+                            static_cast<std::uint64_t>(stream);
+  const std::uint64_t h = mix(seed ^ mix(static_cast<std::uint64_t>(member) ^ mix(key)));
+  return (static_cast<double>(h >> 11) + 0.5) * 0x1p-53;
+}
+
+/// Standard normal by Box-Muller from streams 0 and 1.
+double normal01(std::uint64_t seed, std::int64_t member, std::size_t vary, std::size_t component) {
+  const double u1 = uniform01(seed, member, vary, component, 0), u2 = uniform01(seed, member, vary, component, 1);
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
+}
+
+/// Appends ",v" to a CSV row (fmt::format_to: no temporary strings).
+void append_number(std::string& row, double v) { fmt::format_to(std::back_inserter(row), ",{:.17g}", v); }
+
+/// A CSV field: quoted (with quotes doubled) when it holds a comma, quote or line break.
+std::string csv_field(const std::string& s) {
+  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"') out += '"';
+    out += c == '\n' || c == '\r' ? ' ' : c;
+  }
+  return out + "\"";
+}
+
+// ---------------------------------------------------------------------------
+// The sweep file
+
+class SweepReader {
+ public:
+  explicit SweepReader(std::string file) : file_(std::move(file)) {}
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
+    throw InvalidInput(file_ + ": " + (key.empty() ? "" : "key '" + key + "': ") + what);
+  }
+  void only_keys(const toml::table& t, const std::string& prefix, std::initializer_list<std::string_view> allowed) const {
+    for (const auto& [k, v] : t) {
+      (void)v;
+      if (std::find(allowed.begin(), allowed.end(), k.str()) == allowed.end()) {
+        std::string list;
+        for (auto a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+        fail(prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str()), "unknown key; allowed: " + list);
+      }
+    }
+  }
+  double number(const toml::node& n, const std::string& key) const {
+    if (!n.is_number()) fail(key, "must be a number");
+    const double v = n.is_integer() ? static_cast<double>(n.as_integer()->get()) : n.as_floating_point()->get();
+    if (!std::isfinite(v)) fail(key, "must be finite");
+    return v;
+  }
+  /// A number or an array of numbers; `scalar` says which it was.
+  std::vector<double> numbers(const toml::node& n, const std::string& key, bool& scalar) const {
+    scalar = n.is_number();
+    if (scalar) return {number(n, key)};
+    const toml::array* a = n.as_array();
+    if (!a || a->empty()) fail(key, "must be a number or a non-empty array of numbers");
+    std::vector<double> v;
+    for (std::size_t i = 0; i < a->size(); ++i) v.push_back(number(*a->get(i), key + "[" + std::to_string(i) + "]"));
+    return v;
+  }
+  const std::string& file() const { return file_; }
+
+ private:
+  std::string file_;
+};
+
+std::vector<std::string> split_key(const std::string& key) {
+  std::vector<std::string> parts;
+  std::stringstream ss(key);
+  for (std::string p; std::getline(ss, p, '.');) parts.push_back(p);
+  return parts;
+}
+
+/// The table holding the key's last part, in a scenario's document: tables by
+/// name ("initial", "integrator", ...), a [[bodies]] entry by its name
+/// ("bodies.primary.omega"; unnamed entries are body0, body1, ...). nullptr
+/// if there is none; `leaf` gets the last part.
+toml::table* key_table(toml::table& root, const std::vector<std::string>& parts, std::string& leaf) {
+  if (parts.size() < 2) return nullptr;
+  toml::table* t = &root;
+  std::size_t i = 0;
+  if (parts[0] == "bodies") {
+    toml::array* bodies = root["bodies"].as_array();
+    if (!bodies || parts.size() < 3) return nullptr;
+    t = nullptr;
+    for (std::size_t a = 0; a < bodies->size(); ++a) {
+      toml::table* b = bodies->get(a)->as_table();
+      if (!b) continue;
+      const std::string name = (*b)["name"].value_or(std::string("body") + std::to_string(a));
+      if (name == parts[1]) t = b;
+    }
+    if (!t) return nullptr;
+    i = 2;
+  }
+  for (; i + 1 < parts.size(); ++i) {
+    t = (*t)[parts[i]].as_table();
+    if (!t) return nullptr;
+  }
+  leaf = parts.back();
+  return t;
+}
+
+VarySpec read_vary(const SweepReader& r, const toml::table& v, std::size_t index, bool& random) {
+  const std::string p = "vary[" + std::to_string(index) + "]";
+  r.only_keys(v, p, {"key", "normal", "uniform", "values", "rotation"});
+  VarySpec s;
+  const auto key = v["key"].value<std::string>();
+  if (!key || key->empty()) r.fail(p + ".key", "missing: the dotted scenario key to vary, e.g. \"initial.omega\"");
+  s.key = *key;
+  const int given = static_cast<int>(v.contains("normal")) + static_cast<int>(v.contains("uniform")) +
+                    static_cast<int>(v.contains("values")) + static_cast<int>(v.contains("rotation"));
+  if (given != 1)
+    r.fail(p, "give exactly one of normal = {mean, std}, uniform = {low, high}, values = [...] (a grid) or "
+              "rotation = \"uniform\" (random attitudes)");
+  auto pair = [&](const char* what, const char* first, const char* second) {
+    const toml::table* t = v[what].as_table();
+    const std::string q = p + "." + what;
+    if (!t) r.fail(q, std::string("must be a table {") + first + " = ..., " + second + " = ...}");
+    r.only_keys(*t, q, {first, second});
+    if (!t->contains(first) || !t->contains(second)) r.fail(q, std::string("needs ") + first + " and " + second);
+    bool s1 = false, s2 = false;
+    s.a = r.numbers(*t->get(first), q + "." + first, s1);
+    s.b = r.numbers(*t->get(second), q + "." + second, s2);
+    if (s1 != s2 || s.a.size() != s.b.size())
+      r.fail(q, std::string(first) + " and " + second + " must both be numbers or arrays of the same length");
+    s.scalar = s1;
+  };
+  if (v.contains("normal")) {
+    s.kind = VarySpec::Kind::Normal;
+    pair("normal", "mean", "std");
+    for (std::size_t c = 0; c < s.b.size(); ++c)
+      if (s.b[c] < 0.0) r.fail(p + ".normal.std", "must be >= 0");
+    random = true;
+  } else if (v.contains("uniform")) {
+    s.kind = VarySpec::Kind::Uniform;
+    pair("uniform", "low", "high");
+    for (std::size_t c = 0; c < s.a.size(); ++c)
+      if (!(s.a[c] <= s.b[c])) r.fail(p + ".uniform", "needs low <= high in every component");
+    random = true;
+  } else if (v.contains("rotation")) {
+    if (v["rotation"].value<std::string>() != "uniform")
+      r.fail(p + ".rotation", "must be \"uniform\" (attitudes drawn uniformly over SO(3))");
+    s.kind = VarySpec::Kind::RandomRotation;
+    random = true;
+  } else {
+    s.kind = VarySpec::Kind::Values;
+    const toml::array* a = v["values"].as_array();
+    if (!a || a->empty()) r.fail(p + ".values", "must be a non-empty array of values (numbers, or arrays of numbers)");
+    s.integer = true;
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const toml::node& n = *a->get(i);
+      if (const toml::array* inner = n.as_array()) {
+        for (std::size_t k = 0; k < inner->size(); ++k) s.integer = s.integer && inner->get(k)->is_integer();
+      } else {
+        s.integer = s.integer && n.is_integer();
+      }
+      bool scalar = false;
+      s.values.push_back(r.numbers(*a->get(i), p + ".values[" + std::to_string(i) + "]", scalar));
+      if (i == 0) s.scalar = scalar;
+      if (scalar != s.scalar || s.values[i].size() != s.values[0].size())
+        r.fail(p + ".values", "every value must have the shape of the first");
+    }
+  }
+  return s;
+}
+
+/// Member i's value of vary v (components in order).
+std::vector<double> draw(const VarySpec& s, std::uint64_t seed, std::int64_t member, std::size_t v,
+                         std::size_t grid_index) {
+  std::vector<double> out;
+  switch (s.kind) {
+    case VarySpec::Kind::Normal:
+      for (std::size_t c = 0; c < s.a.size(); ++c) out.push_back(s.a[c] + s.b[c] * normal01(seed, member, v, c));
+      break;
+    case VarySpec::Kind::Uniform:
+      for (std::size_t c = 0; c < s.a.size(); ++c)
+        out.push_back(s.a[c] + (s.b[c] - s.a[c]) * uniform01(seed, member, v, c, 0));
+      break;
+    case VarySpec::Kind::RandomRotation: {
+      // Shoemake (Graphics Gems III): uniform on S^3, hence on SO(3); scalar first.
+      const double u1 = uniform01(seed, member, v, 0, 0), u2 = uniform01(seed, member, v, 1, 0),
+                   u3 = uniform01(seed, member, v, 2, 0);
+      const double a = std::sqrt(1.0 - u1), b = std::sqrt(u1), t2 = 2.0 * std::numbers::pi * u2,
+                   t3 = 2.0 * std::numbers::pi * u3;
+      out = {b * std::cos(t3), a * std::sin(t2), a * std::cos(t2), b * std::sin(t3)};
+      break;
+    }
+    case VarySpec::Kind::Values: out = s.values[grid_index]; break;
+  }
+  return out;
+}
+
+/// Writes value into the document at the vary's key.
+void write_value(toml::table& root, const VarySpec& s, const std::vector<double>& value) {
+  std::string leaf;
+  toml::table* t = key_table(root, split_key(s.key), leaf);
+  if (!t) throw std::logic_error("key checked before: " + s.key);
+  // Integers stay integers (exact: a grid's integers are read as doubles
+  // below 2^53 and converted back).
+  if (s.scalar) {
+    if (s.integer) {
+      t->insert_or_assign(leaf, static_cast<std::int64_t>(value[0]));
+    } else {
+      t->insert_or_assign(leaf, value[0]);
+    }
+  } else {
+    toml::array a;
+    for (double x : value) {
+      if (s.integer) {
+        a.push_back(static_cast<std::int64_t>(x));
+      } else {
+        a.push_back(x);
+      }
+    }
+    t->insert_or_assign(leaf, std::move(a));
+  }
+}
+
+std::string read_text(const fs::path& path, const std::string& what) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InvalidInput(path.string() + ": cannot read the " + what);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// The final-state columns of a scenario's bodies.
+std::vector<std::string> state_columns(const Scenario& sc) {
+  static const char* names[] = {"x", "y", "z", "qw", "qx", "qy", "qz", "px", "py", "pz", "wx", "wy", "wz"};
+  std::vector<std::string> cols;
+  for (std::size_t a = 0; a < sc.bodies(); ++a)
+    for (const char* n : names) cols.push_back(sc.bodies_format ? sc.system.name(a) + "." + n : std::string(n));
+  return cols;
+}
+
+// ---------------------------------------------------------------------------
+// Stopping on SIGINT / SIGTERM at member boundaries
+
+volatile std::sig_atomic_t g_ensemble_stop = 0;
+extern "C" void on_ensemble_signal(int signo) { g_ensemble_stop = signo; }
+
+/// Rows go nowhere: a member's diagnostics come from the run's statistics.
+class DiscardSink final : public TrajectorySink {
+ public:
+  void row(const double*) override {}
+  SinkPosition sync() override { return {}; }
+  void close(const std::string&, const std::string&) override {}
+};
+
+}  // namespace
+
+std::size_t VarySpec::components() const {
+  if (kind == Kind::RandomRotation) return 4;
+  if (kind == Kind::Values) return values.front().size();
+  return a.size();
+}
+
+std::string EnsemblePlan::member_toml(std::int64_t i) const {
+  toml::table doc = toml::parse(scenario_text);
+  std::size_t column = 0;
+  for (const VarySpec& v : vary) {
+    const std::vector<double> value(varied[static_cast<std::size_t>(i)].begin() + static_cast<std::ptrdiff_t>(column),
+                                    varied[static_cast<std::size_t>(i)].begin() +
+                                        static_cast<std::ptrdiff_t>(column + v.components()));
+    write_value(doc, v, value);
+    column += v.components();
+  }
+  std::stringstream ss;
+  ss << toml::toml_formatter(doc);
+  return ss.str();
+}
+
+static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std::string& name, const std::string& base_dir,
+                                 const std::string* scenario_text) {
+  const SweepReader r(name);
+  toml::table root;
+  try {
+    root = toml::parse(sweep_text, name);
+  } catch (const toml::parse_error& e) {
+    r.fail("", std::string(e.description()) + " (line " + std::to_string(e.source().begin.line) + ")");
+  }
+  r.only_keys(root, "", {"ensemble", "vary"});
+  const toml::table* ens = root["ensemble"].as_table();
+  if (!ens) r.fail("ensemble", "missing table [ensemble] (scenario = \"base.toml\", members, seed)");
+  r.only_keys(*ens, "ensemble", {"scenario", "members", "seed", "trajectories"});
+  EnsemblePlan plan;
+  plan.name = name;
+  plan.sweep_text = sweep_text;
+  const auto scenario_path = (*ens)["scenario"].value<std::string>();
+  if (!scenario_path) r.fail("ensemble.scenario", "missing: the base scenario file, relative to this file");
+  const fs::path path = fs::path(base_dir) / *scenario_path;
+  plan.scenario_name = path.stem().string();
+  plan.scenario_text = scenario_text ? *scenario_text : read_text(path, "base scenario (ensemble.scenario)");
+  if (ens->contains("trajectories")) {
+    const auto t = (*ens)["trajectories"].value<std::string>();
+    if (t != "none" && t != "all") r.fail("ensemble.trajectories", "must be \"none\" (default) or \"all\"");
+    plan.keep_trajectories = *t == "all";
+  }
+  const toml::array* varies = root["vary"].as_array();
+  if (!varies || varies->empty()) r.fail("vary", "missing: at least one [[vary]] table (key and its values)");
+  bool random = false, grid = false;
+  for (std::size_t i = 0; i < varies->size(); ++i) {
+    const toml::table* v = varies->get(i)->as_table();
+    if (!v) r.fail("vary", "must be [[vary]] tables");
+    bool is_random = false;
+    plan.vary.push_back(read_vary(r, *v, i, is_random));
+    (is_random ? random : grid) = true;
+  }
+  if (random && grid)
+    r.fail("vary", "give either random draws (normal, uniform, rotation) with ensemble.members, or grids "
+                   "(values) whose product is the ensemble, not both");
+  // The keys exist in the base scenario (or their table does) with the drawn shape.
+  toml::table base;
+  try {
+    base = toml::parse(plan.scenario_text, plan.scenario_name);
+  } catch (const toml::parse_error& e) {
+    r.fail("ensemble.scenario", std::string("the base scenario does not parse: ") + std::string(e.description()));
+  }
+  for (std::size_t i = 0; i < plan.vary.size(); ++i) {
+    VarySpec& v = plan.vary[i];
+    const std::string p = "vary[" + std::to_string(i) + "].key";
+    std::string leaf;
+    toml::table* t = key_table(base, split_key(v.key), leaf);
+    if (!t)
+      r.fail(p, "\"" + v.key + "\" names no table of the base scenario (e.g. \"initial.omega\", \"integrator.step\", "
+                "\"bodies.NAME.omega\")");
+    if (v.kind == VarySpec::Kind::RandomRotation) v.scalar = false;
+    if (const toml::node* n = t->get(leaf)) {
+      bool scalar = false;
+      const std::vector<double> now = r.numbers(*n, p + " (its value in the base scenario)", scalar);
+      if (scalar != v.scalar || now.size() != v.components())
+        r.fail(p, "\"" + v.key + "\" holds " + (scalar ? "a number" : std::to_string(now.size()) + " numbers") +
+                      " in the base scenario; the values given have another shape");
+    }
+    const std::size_t c = v.components();
+    for (std::size_t k = 0; k < c; ++k)
+      plan.varied_columns.push_back(v.scalar ? v.key : v.key + "[" + std::to_string(k) + "]");
+  }
+  // Members: random draws, or the product of the grids (the last varies fastest).
+  std::int64_t members = 1;
+  if (random) {
+    if (!ens->contains("members")) r.fail("ensemble.members", "missing: how many members to draw");
+    const auto m = (*ens)["members"].value<std::int64_t>();
+    if (!m || *m < 1 || *m > 100000000) r.fail("ensemble.members", "must be an integer in [1, 1e8]");
+    members = *m;
+    if (!ens->contains("seed")) r.fail("ensemble.seed", "missing: the seed of the draws (an integer >= 0)");
+    const auto s = (*ens)["seed"].value<std::int64_t>();
+    if (!s || *s < 0) r.fail("ensemble.seed", "must be an integer >= 0");
+    plan.seed = static_cast<std::uint64_t>(*s);
+  } else {
+    if (ens->contains("members"))
+      r.fail("ensemble.members", "only with random draws; a grid ensemble has the product of its grids' sizes");
+    for (const VarySpec& v : plan.vary) members *= static_cast<std::int64_t>(v.values.size());
+    if (members > 100000000) r.fail("vary", "the grids' product exceeds 1e8 members");
+  }
+  for (std::int64_t m = 0; m < members; ++m) {
+    std::vector<double> row;
+    std::int64_t rest = m;
+    std::vector<std::size_t> grid_index(plan.vary.size(), 0);
+    for (std::size_t v = plan.vary.size(); v-- > 0;) {
+      if (plan.vary[v].kind != VarySpec::Kind::Values) continue;
+      const auto n = static_cast<std::int64_t>(plan.vary[v].values.size());
+      grid_index[v] = static_cast<std::size_t>(rest % n);
+      rest /= n;
+    }
+    for (std::size_t v = 0; v < plan.vary.size(); ++v) {
+      const std::vector<double> value = draw(plan.vary[v], plan.seed, m, v, grid_index[v]);
+      row.insert(row.end(), value.begin(), value.end());
+    }
+    plan.varied.push_back(std::move(row));
+  }
+  // Every member's scenario, read as `lgvi run` reads it, before any runs.
+  std::size_t bodies = 0;
+  std::vector<std::string> state_cols;
+  for (std::int64_t m = 0; m < members; ++m) {
+    Scenario sc;
+    try {
+      sc = parse_scenario(plan.member_toml(m), plan.scenario_name);
+    } catch (const InvalidInput& e) {
+      std::string values;
+      for (std::size_t c = 0; c < plan.varied_columns.size(); ++c)
+        fmt::format_to(std::back_inserter(values), "{}{} = {:.6g}", c ? ", " : "", plan.varied_columns[c],
+                       plan.varied[static_cast<std::size_t>(m)][c]);
+      throw InvalidInput(fmt::format("{}: member {} ({}): {}", name, m, values, e.what()));
+    }
+    if (m == 0) {
+      bodies = sc.bodies();
+      state_cols = state_columns(sc);
+    } else if (sc.bodies() != bodies) {
+      r.fail("vary", "member " + std::to_string(m) + " has " + std::to_string(sc.bodies()) +
+                         " bodies and member 0 " + std::to_string(bodies) + "; every member needs the same bodies");
+    }
+  }
+  std::string header = "index";
+  for (const std::string& c : plan.varied_columns) header += "," + c;
+  header += ",completed,error,steps,max_abs_energy_error,max_abs_quat_norm_error,max_momentum_error,"
+            "max_linear_momentum_error";
+  for (const std::string& c : state_cols) header += "," + c;
+  plan.header = header;
+  return plan;
+}
+
+EnsemblePlan parse_ensemble(const std::string& sweep_text, const std::string& name, const std::string& base_dir) {
+  return parse_ensemble_with(sweep_text, name, base_dir, nullptr);
+}
+
+EnsemblePlan parse_ensemble_text(const std::string& sweep_text, const std::string& name,
+                                 const std::string& scenario_text) {
+  return parse_ensemble_with(sweep_text, name, ".", &scenario_text);
+}
+
+EnsemblePlan read_ensemble(const std::string& path) {
+  const fs::path p(path);
+  if (!fs::exists(p)) throw InvalidInput(path + ": no such sweep file");
+  return parse_ensemble(read_text(p, "sweep file"), path, p.parent_path().string());
+}
+
+std::string run_member(const EnsemblePlan& plan, std::int64_t i, int threads, const std::string& trajectory_dir) {
+  return run_member_scenario(i, plan.varied[static_cast<std::size_t>(i)], plan.member_toml(i), plan.scenario_name,
+                             threads, trajectory_dir);
+}
+
+std::string run_member_scenario(std::int64_t i, const std::vector<double>& varied, const std::string& scenario_toml,
+                                const std::string& scenario_name, int threads, const std::string& trajectory_dir) {
+  Scenario sc = parse_scenario(scenario_toml, scenario_name);
+  sc.threads = threads;
+  SimulationOptions so;
+  so.stop_flag = &g_ensemble_stop;
+  SimulationResult r;
+  if (trajectory_dir.empty()) {
+    sc.output_every = sc.integrator.steps + 1;
+    DiscardSink sink;
+    r = simulate(sc, sink, so);
+  } else {
+    fs::create_directories(trajectory_dir);
+    write_file_atomically((fs::path(trajectory_dir) / "scenario.toml").string(), sc.source_text);
+    auto sink = open_trajectory(sc.output_format,
+                                (fs::path(trajectory_dir) / trajectory_file_name(sc.output_format)).string(),
+                                scenario_layout(sc));
+    r = simulate(sc, *sink, so);
+    const std::string summary = summary_json(sc, r);
+    sink->close(sc.source_text, summary);
+    write_file_atomically((fs::path(trajectory_dir) / "summary.json").string(), summary);
+  }
+  if (r.interrupted) return {};  // not a result: --resume runs it again
+  const RunStatistics& st = r.stats;
+  std::string row = std::to_string(i);
+  for (double v : varied) append_number(row, v);
+  fmt::format_to(std::back_inserter(row), ",{},{},{}", r.completed ? 1 : 0, csv_field(r.error), st.last_k);
+  const double nan = std::nan("");
+  for (double v : {st.observed ? st.max_energy_error : nan, st.observed ? st.max_quat_error : nan,
+                   st.observed ? st.max_momentum_error : nan, st.observed ? st.max_linear_momentum_error : nan})
+    append_number(row, v);
+  for (std::size_t a = 0; a < sc.bodies(); ++a) {
+    const RigidBodyState s = r.final_state.size() == sc.bodies() ? r.final_state.body(a) : sc.initial_state.body(a);
+    const Vector4<double> q = s.q.scalar_first();
+    for (double v : {s.x.x(), s.x.y(), s.x.z(), q(0), q(1), q(2), q(3), s.p.x(), s.p.y(), s.p.z(), s.w.x(), s.w.y(),
+                     s.w.z()})
+      append_number(row, st.observed ? v : nan);
+  }
+  return row;
+}
+
+namespace ensemble_detail {
+
+std::vector<std::string> read_journal(const std::string& dir, std::int64_t members) {
+  std::vector<std::string> rows(static_cast<std::size_t>(members));
+  std::ifstream in(fs::path(dir) / "journal.csv", std::ios::binary);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::size_t start = 0;
+  while (start < text.size()) {
+    const std::size_t end = text.find('\n', start);
+    if (end == std::string::npos) break;  // a torn last line (the process died mid-write): run it again
+    const std::string line = text.substr(start, end - start);
+    start = end + 1;
+    char* stop = nullptr;
+    const long long index = std::strtoll(line.c_str(), &stop, 10);
+    if (stop == line.c_str() || *stop != ',' || index < 0 || index >= members) continue;
+    rows[static_cast<std::size_t>(index)] = line;
+  }
+  return rows;
+}
+
+void append_journal(const std::string& dir, const std::string& row) {
+  const std::string path = (fs::path(dir) / "journal.csv").string();
+  std::FILE* f = std::fopen(path.c_str(), "ab");
+  if (!f) throw std::runtime_error(path + ": cannot append");
+  const std::string line = row + "\n";
+  const bool ok = std::fwrite(line.data(), 1, line.size(), f) == line.size();
+  if (std::fclose(f) != 0 || !ok) throw std::runtime_error(path + ": write failed");
+}
+
+void write_members_csv(const std::string& dir, const EnsemblePlan& plan, const std::vector<std::string>& rows) {
+  std::string text = plan.header + "\n";
+  for (const std::string& r : rows)
+    if (!r.empty()) text += r + "\n";
+  write_file_atomically((fs::path(dir) / "members.csv").string(), text);
+}
+
+bool row_failed(const std::string& row, const EnsemblePlan& plan) {
+  // The field after the index and the varied values is `completed`.
+  std::size_t at = 0;
+  for (std::size_t c = 0; c < plan.varied_columns.size() + 1; ++c) at = row.find(',', at) + 1;
+  return row.compare(at, 2, "0,") == 0;
+}
+
+std::string trajectory_dir(const std::string& dir, const EnsemblePlan& plan, std::int64_t i) {
+  return plan.keep_trajectories ? (fs::path(dir) / "members" / fmt::format("{:06d}", i)).string() : std::string();
+}
+
+int stop_signal() { return g_ensemble_stop; }
+
+struct Signals::Saved {
+  struct sigaction old_int {}, old_term {};
+};
+
+Signals::Signals() : saved_(new Saved) {
+  g_ensemble_stop = 0;
+  struct sigaction sa {};
+  sa.sa_handler = on_ensemble_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, &saved_->old_int);
+  sigaction(SIGTERM, &sa, &saved_->old_term);
+}
+
+Signals::~Signals() {
+  sigaction(SIGINT, &saved_->old_int, nullptr);
+  sigaction(SIGTERM, &saved_->old_term, nullptr);
+  delete saved_;
+}
+
+EnsemblePlan plan_of_folder(const std::string& dir) {
+  const fs::path d(dir);
+  if (!fs::exists(d / "sweep.toml"))
+    throw InvalidInput(dir + ": not an ensemble folder (no sweep.toml); give the folder written by lgvi ensemble");
+  const std::string base = read_text(d / "scenario.toml", "base scenario copy");
+  return parse_ensemble_with(read_text(d / "sweep.toml", "sweep copy"), (d / "sweep.toml").string(), dir, &base);
+}
+
+Prepared prepare(const std::string& sweep_path, const EnsembleOptions& opt) {
+  Prepared p;
+  p.dir = opt.out_dir;
+  if (opt.resume) {
+    p.plan = plan_of_folder(p.dir);
+  } else {
+    p.plan = read_ensemble(sweep_path);
+    if (p.dir.empty()) p.dir = fs::path(sweep_path).stem().string();
+    if (fs::exists(fs::path(p.dir) / "journal.csv") || fs::exists(fs::path(p.dir) / "members.csv"))
+      throw InvalidInput("--out: '" + p.dir + "' already holds an ensemble; continue it with lgvi ensemble --resume " +
+                         p.dir + ", or choose another folder");
+    try {
+      fs::create_directories(p.dir);
+      write_file_atomically((fs::path(p.dir) / "sweep.toml").string(), p.plan.sweep_text);
+      write_file_atomically((fs::path(p.dir) / "scenario.toml").string(), p.plan.scenario_text);
+      std::ofstream(fs::path(p.dir) / "journal.csv", std::ios::binary | std::ios::trunc);
+    } catch (const std::exception& e) {
+      throw InvalidInput("--out: '" + p.dir + "' cannot be written: " + e.what());
+    }
+  }
+  p.rows = read_journal(p.dir, p.plan.members());
+  return p;
+}
+
+int finish(const Prepared& p, std::int64_t done, std::int64_t failed, const EnsembleOptions& opt) {
+  write_members_csv(p.dir, p.plan, p.rows);
+  if (g_ensemble_stop != 0) {
+    std::cerr << fmt::format("lgvi: ensemble stopped by {} with {} of {} members done; continue with: lgvi ensemble "
+                             "--resume {}\n",
+                             g_ensemble_stop == SIGTERM ? "SIGTERM" : "SIGINT", done, p.plan.members(), p.dir);
+    return g_ensemble_stop == SIGTERM ? 143 : 130;
+  }
+  if (!opt.quiet)
+    std::cout << fmt::format("{}: {} members, {} failed; results in {}\n", p.plan.name, p.plan.members(), failed,
+                             (fs::path(p.dir) / "members.csv").string());
+  if (opt.figures) {
+    try {
+      draw_figures(p.dir);
+    } catch (const std::exception& e) {
+      std::cerr << "lgvi: error: the ensemble completed and members.csv is written, but " << e.what() << "\n";
+      return 1;
+    }
+  }
+  return 0;
+}
+
+}  // namespace ensemble_detail
+
+bool launched_as_mpi_rank() {
+  for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE", "MPI_LOCALNRANKS"}) {
+    const char* s = std::getenv(v);
+    if (s && std::atoi(s) > 1) return true;
+  }
+  return false;
+}
+
+namespace {
+
+/// Members done / total, failures, rate and time left, on one terminal line.
+class EnsembleProgress {
+ public:
+  EnsembleProgress(bool enabled, std::int64_t total, std::int64_t done)
+      : enabled_(enabled && isatty(2) != 0), total_(total), start_done_(done), start_(clock::now()) {}
+  void operator()(std::int64_t done, std::int64_t failed) {
+    if (!enabled_) return;
+    const double s = std::chrono::duration<double>(clock::now() - start_).count();
+    const double rate = s > 0 ? static_cast<double>(done - start_done_) / s : 0.0;
+    const double left = rate > 0 ? static_cast<double>(total_ - done) / rate : 0.0;
+    std::fprintf(stderr, "\rlgvi ensemble: %lld/%lld members, %lld failed, %.3g members/s, ~%.0f s left   ",
+                 static_cast<long long>(done), static_cast<long long>(total_), static_cast<long long>(failed), rate,
+                 left);
+    shown_ = true;
+  }
+  ~EnsembleProgress() {
+    if (shown_) std::fprintf(stderr, "\n");
+  }
+  EnsembleProgress(const EnsembleProgress&) = delete;
+  EnsembleProgress& operator=(const EnsembleProgress&) = delete;
+
+ private:
+  using clock = std::chrono::steady_clock;
+  bool enabled_;
+  std::int64_t total_, start_done_;
+  clock::time_point start_;
+  bool shown_ = false;
+};
+
+}  // namespace
+
+namespace {
+
+/// The fields of one CSV line (RFC 4180 quoting, as csv_field writes it).
+std::vector<std::string> csv_fields(const std::string& line) {
+  std::vector<std::string> out(1);
+  bool quoted = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+        out.back() += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        out.back() += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      out.emplace_back();
+    } else {
+      out.back() += c;
+    }
+  }
+  return out;
+}
+
+/// The q-quantile of sorted values (linear interpolation).
+double quantile(const std::vector<double>& sorted, double q) {
+  if (sorted.empty()) return std::nan("");
+  const double at = q * static_cast<double>(sorted.size() - 1);
+  const auto lo = static_cast<std::size_t>(std::floor(at));
+  const std::size_t hi = std::min(lo + 1, sorted.size() - 1);
+  return sorted[lo] + (at - static_cast<double>(lo)) * (sorted[hi] - sorted[lo]);
+}
+
+}  // namespace
+
+void show_ensemble(const std::string& dir, std::ostream& out) {
+  const fs::path file = fs::path(dir) / "members.csv";
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw InvalidInput(file.string() + ": no members here; is '" + dir + "' a folder of lgvi ensemble?");
+  std::string line;
+  std::getline(in, line);
+  const std::vector<std::string> header = csv_fields(line);
+  auto column = [&](const std::string& name) {
+    const auto it = std::find(header.begin(), header.end(), name);
+    if (it == header.end()) throw InvalidInput(file.string() + ": no column " + name + "; not written by lgvi ensemble");
+    return static_cast<std::size_t>(it - header.begin());
+  };
+  const std::size_t completed = column("completed"), error = column("error");
+  const std::vector<std::string> errors{"max_abs_energy_error", "max_abs_quat_norm_error", "max_momentum_error"};
+  std::vector<std::vector<double>> values(errors.size());
+  std::int64_t rows = 0, failed = 0;
+  std::map<std::string, std::int64_t> messages;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    const std::vector<std::string> f = csv_fields(line);
+    if (f.size() != header.size()) continue;
+    ++rows;
+    if (f[completed] != "1") {
+      ++failed;
+      ++messages[f[error]];
+      continue;
+    }
+    for (std::size_t e = 0; e < errors.size(); ++e) values[e].push_back(std::strtod(f[column(errors[e])].c_str(), nullptr));
+  }
+  // The planned size from the folder's sweep copy; members.csv alone: what it holds.
+  std::int64_t planned = 0;
+  try {
+    planned = ensemble_detail::plan_of_folder(dir).members();
+  } catch (const std::exception&) {
+    planned = rows;
+  }
+  auto row = [&](const std::string& name, const std::string& value) { out << fmt::format("{:<26} {}\n", name, value); };
+  row("ensemble", fmt::format("{} ({} of {} members{})", dir, rows, planned, rows < planned ? ", NOT complete" : ""));
+  row("failed", fmt::format("{}", failed));
+  for (const auto& [message, count] : messages) row("  " + std::to_string(count) + " x", message);
+  row("quantiles (completed)", "min / median / 90% / max");
+  for (std::size_t e = 0; e < errors.size(); ++e) {
+    std::sort(values[e].begin(), values[e].end());
+    row("  " + errors[e], fmt::format("{:.3e} / {:.3e} / {:.3e} / {:.3e}", quantile(values[e], 0.0),
+                                      quantile(values[e], 0.5), quantile(values[e], 0.9), quantile(values[e], 1.0)));
+  }
+}
+
+namespace {
+MpiRunner g_mpi_runner = nullptr;
+}  // namespace
+
+void set_mpi_runner(MpiRunner runner) { g_mpi_runner = runner; }
+
+int run_ensemble(const std::string& sweep_path, const EnsembleOptions& opt) {
+  using namespace ensemble_detail;
+  if (launched_as_mpi_rank()) {
+    if (!g_mpi_runner)
+      throw InvalidInput(
+          "lgvi ensemble was started as one of several MPI ranks, but this lgvi was built without MPI: it would run "
+          "the whole ensemble once per rank. Build it with Open MPI (apt-get install libopenmpi-dev; cmake finds "
+          "it), or run without mpirun: lgvi ensemble SWEEP --threads N");
+    return g_mpi_runner(sweep_path, opt);
+  }
+  Prepared p = prepare(sweep_path, opt);
+  std::vector<std::int64_t> pending;
+  std::int64_t done = 0, failed = 0;
+  for (std::int64_t i = 0; i < p.plan.members(); ++i) {
+    const std::string& row = p.rows[static_cast<std::size_t>(i)];
+    if (row.empty()) {
+      pending.push_back(i);
+    } else {
+      ++done;
+      failed += row_failed(row, p.plan) ? 1 : 0;
+    }
+  }
+  const int cores = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  const int threads =
+      std::max(1, std::min<int>(opt.threads > 0 ? opt.threads : cores, static_cast<int>(std::max<std::size_t>(pending.size(), 1))));
+  EnsembleProgress progress(!opt.quiet, p.plan.members(), done);
+  std::mutex mutex;
+  std::size_t next = 0;
+  std::exception_ptr error;
+  {
+    Signals signals;
+    auto worker = [&] {
+      for (;;) {
+        std::int64_t i = 0;
+        {
+          std::lock_guard<std::mutex> lock(mutex);
+          if (next >= pending.size() || g_ensemble_stop != 0 || error) return;
+          i = pending[next++];
+        }
+        try {
+          const std::string row = run_member(p.plan, i, 1, trajectory_dir(p.dir, p.plan, i));
+          if (row.empty()) return;  // stopped within the member
+          std::lock_guard<std::mutex> lock(mutex);
+          append_journal(p.dir, row);
+          p.rows[static_cast<std::size_t>(i)] = row;
+          ++done;
+          failed += row_failed(row, p.plan) ? 1 : 0;
+          progress(done, failed);
+        } catch (...) {
+          std::lock_guard<std::mutex> lock(mutex);
+          if (!error) error = std::current_exception();
+          return;
+        }
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
+    worker();
+    for (std::thread& t : pool) t.join();
+  }
+  if (error) {
+    write_members_csv(p.dir, p.plan, p.rows);
+    std::rethrow_exception(error);
+  }
+  return finish(p, done, failed, opt);
+}
+
+}  // namespace lgvi::app

@@ -1,0 +1,159 @@
+// `lgvi ensemble`: many runs of one scenario with some of its numbers varied
+// (parameter sweeps and Monte Carlo), on the threads of one process or the
+// ranks of an MPI job, with results that do not depend on either.
+//
+// A sweep file names a base scenario and [[vary]] entries: a dotted key of
+// the scenario ("initial.omega", "integrator.step", "bodies.primary.omega")
+// and either random draws (normal, uniform, a uniformly random rotation) or
+// a grid of values. Member i's scenario is the base with the drawn or grid
+// values written in; every member's scenario is read by the reader of
+// `lgvi run` before any member starts. Random draws come from (seed, member
+// index, vary index, component) through a counter-based generator, so a
+// member's numbers do not depend on which thread or rank runs it, or when.
+//
+// Results: one CSV row per member (members.csv, in member order): the index,
+// the varied values, completed, error, steps and the run's error maxima, and
+// the final state of every body. Rows are appended to a journal as members
+// finish (in any order); members.csv is written sorted from it, at the end
+// and when stopped, and `--resume` runs only the members without a row.
+#pragma once
+
+#include "scenario.hpp"
+
+#include <cstdint>
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace lgvi::app {
+
+/// One [[vary]] entry.
+struct VarySpec {
+  enum class Kind { Normal, Uniform, Values, RandomRotation };
+  std::string key;  ///< dotted key of the scenario
+  Kind kind = Kind::Values;
+  std::vector<double> a, b;                 ///< normal: mean, std; uniform: low, high (one per component)
+  std::vector<std::vector<double>> values;  ///< a grid: each value's components
+  bool scalar = false;                      ///< a number rather than an array
+  bool integer = false;                     ///< a grid of TOML integers: written as integers (e.g. an order)
+  std::size_t components() const;
+};
+
+/// A sweep file, read and checked, with every member's varied values.
+struct EnsemblePlan {
+  std::string name;           ///< the sweep file's stem
+  std::string sweep_text;     ///< the sweep file, as read (kept in the output folder for --resume)
+  std::string scenario_text;  ///< the base scenario's text
+  std::string scenario_name;  ///< the base scenario's stem
+  std::uint64_t seed = 0;
+  bool keep_trajectories = false;
+  std::vector<VarySpec> vary;
+  std::vector<std::string> varied_columns;  ///< header names of the varied values (key or key[i])
+  std::vector<std::vector<double>> varied;  ///< per member, the varied values in column order
+  std::string header;                       ///< members.csv's header line (no newline)
+
+  std::int64_t members() const { return static_cast<std::int64_t>(varied.size()); }
+  /// Member i's scenario as TOML text (the base with the varied values written in).
+  std::string member_toml(std::int64_t i) const;
+};
+
+/// Reads the sweep file at `path` (its scenario relative to it); checks every
+/// member's scenario with the reader of `lgvi run`. Throws InvalidInput with
+/// one line naming the key (and the member's index for a member's scenario).
+EnsemblePlan read_ensemble(const std::string& path);
+
+/// The same from the sweep's text; `base_dir` resolves its scenario path.
+EnsemblePlan parse_ensemble(const std::string& sweep_text, const std::string& name, const std::string& base_dir);
+
+/// The same with the base scenario's text given (the sweep's `scenario`
+/// key then only names it): the Python package's entry.
+EnsemblePlan parse_ensemble_text(const std::string& sweep_text, const std::string& name,
+                                 const std::string& scenario_text);
+
+/// Runs member i of the plan (its scenario with per-body threads `threads`)
+/// and returns its members.csv row (no newline). A failed run is a row with
+/// completed = 0 and its message; with `trajectory_dir` non-empty the
+/// member's trajectory, summary and scenario copy go there.
+std::string run_member(const EnsemblePlan& plan, std::int64_t i, int threads = 1,
+                       const std::string& trajectory_dir = {});
+
+/// The same from the member's index, varied values and scenario text alone
+/// (what a worker process of the Python package receives).
+std::string run_member_scenario(std::int64_t index, const std::vector<double>& varied, const std::string& scenario_toml,
+                                const std::string& scenario_name, int threads = 1,
+                                const std::string& trajectory_dir = {});
+
+struct EnsembleOptions {
+  std::string out_dir;
+  int threads = 0;  ///< members run at once in this process (0: all cores)
+  bool resume = false;
+  bool quiet = false;
+  bool figures = true;  ///< draw the figures (lgvi.plot) when the ensemble is complete
+};
+
+/// `lgvi ensemble SWEEP --out DIR` / `lgvi ensemble --resume DIR`: runs the
+/// members on threads, or on the ranks of an MPI job when started by mpirun
+/// (rank 0 hands out members and writes). Returns the exit status.
+int run_ensemble(const std::string& sweep_path, const EnsembleOptions& options);
+
+/// `lgvi show DIR` of an ensemble folder: counts, failures, quantiles.
+void show_ensemble(const std::string& dir, std::ostream& out);
+
+// The parts the MPI runner (ensemble_mpi.cpp) shares with the threads.
+namespace ensemble_detail {
+
+/// A plan with its output folder and the rows already done.
+struct Prepared {
+  EnsemblePlan plan;
+  std::string dir;
+  std::vector<std::string> rows;  ///< per member, its row or "" (not run yet)
+};
+
+/// Reads the sweep (or, resuming, the folder's copies of it and its base
+/// scenario), checks every member, creates the folder (refusing one that
+/// already holds an ensemble) and reads its journal.
+Prepared prepare(const std::string& sweep_path, const EnsembleOptions& options);
+/// The plan from an ensemble folder's copies (ranks other than 0).
+EnsemblePlan plan_of_folder(const std::string& dir);
+/// Appends a row to the journal and flushes it (what rank 0 has is on disk).
+void append_journal(const std::string& dir, const std::string& row);
+/// members.csv: the header and every row present, in member order.
+void write_members_csv(const std::string& dir, const EnsemblePlan& plan, const std::vector<std::string>& rows);
+/// Whether a row records a failed run (completed = 0).
+bool row_failed(const std::string& row, const EnsemblePlan& plan);
+/// Where member i's run folder goes ("" unless trajectories = "all").
+std::string trajectory_dir(const std::string& dir, const EnsemblePlan& plan, std::int64_t i);
+/// The stop request of SIGINT/SIGTERM (0: none), checked between members and steps.
+int stop_signal();
+/// Installs the SIGINT/SIGTERM handlers for its lifetime.
+class Signals {
+ public:
+  Signals();
+  ~Signals();
+  Signals(const Signals&) = delete;
+  Signals& operator=(const Signals&) = delete;
+
+ private:
+  struct Saved;
+  Saved* saved_;
+};
+/// The final report and exit status (130/143 when stopped by a signal).
+int finish(const Prepared& p, std::int64_t done, std::int64_t failed, const EnsembleOptions& options);
+
+}  // namespace ensemble_detail
+
+/// Whether this process was started by mpirun/srun as one of several ranks.
+bool launched_as_mpi_rank();
+
+/// The MPI runner (ensemble_mpi.cpp, part of the command-line tool when
+/// built with MPI): rank 0 prepares the folder, hands out members to
+/// whichever rank asks and writes; every rank runs members.
+int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& options);
+
+/// run_ensemble() hands a run started as several MPI ranks to this runner;
+/// main() sets it in a build with MPI. Without one, such a run is refused
+/// (one line, status 2) instead of running the ensemble once per rank.
+using MpiRunner = int (*)(const std::string& sweep_path, const EnsembleOptions& options);
+void set_mpi_runner(MpiRunner runner);
+
+}  // namespace lgvi::app

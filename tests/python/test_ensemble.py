@@ -1,0 +1,291 @@
+"""`lgvi ensemble` and lgvi.ensemble: members.csv identical for 1 thread, 2 threads and
+`mpirun -n 2`; the draws (reproducible, with the stated distributions) and grids; a failing
+member recorded while the others complete; errors up front naming the member and the key;
+SIGTERM and a killed MPI rank, then --resume, byte-identical to an uninterrupted ensemble;
+the Python function on a process pool, mpi4py and Dask, equal to the CLI's bytes.
+
+Run by ctest with LGVI_BINARY set. mpirun as root needs OMPI_ALLOW_RUN_AS_ROOT (set here).
+"""
+import os
+import pathlib
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+BINARY = os.environ.get("LGVI_BINARY")
+SOURCE = pathlib.Path(os.environ.get("LGVI_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
+pytestmark = pytest.mark.skipif(BINARY is None, reason="LGVI_BINARY not set (run through ctest)")
+MPIRUN = shutil.which("mpirun")
+needs_mpi = pytest.mark.skipif(MPIRUN is None, reason="mpirun (openmpi-bin) not installed")
+MPI_ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OMPI_MCA_rmaps_base_oversubscribe="1")
+
+
+def base_scenario(tmp_path, duration=20.0, contact=False):
+    text = (SOURCE / "scenarios" / "paper-orbit.toml").read_text()
+    text = text.replace("duration = 1000.0", f"duration = {duration}")
+    assert f"duration = {duration}" in text
+    if contact:  # a ball touching the source stops the run: a failed member
+        text = text.replace("mu = 1.0\n", "mu = 1.0\nstop_at_contact = true\n")
+        assert "stop_at_contact = true" in text
+    (tmp_path / "paper-orbit.toml").write_text(text)
+
+
+SWEEP = """[ensemble]
+scenario = "paper-orbit.toml"
+members = {members}
+seed = 7
+
+[[vary]]
+key = "initial.w"
+normal = {{ mean = [1.0, 2.0, 3.0], std = [0.05, 0.05, 0.05] }}
+
+[[vary]]
+key = "initial.quaternion"
+rotation = "uniform"
+"""
+
+
+def sweep(tmp_path, members=24, duration=20.0, text=None, contact=False):
+    base_scenario(tmp_path, duration, contact)
+    path = tmp_path / "sweep.toml"
+    path.write_text(text if text is not None else SWEEP.format(members=members))
+    return path
+
+
+def ensemble(*args, env=None, mpi=0):
+    cmd = ([MPIRUN, "-n", str(mpi), "--oversubscribe"] if mpi else []) + [BINARY, "ensemble", *map(str, args), "-q", "--no-figures"]
+    return subprocess.run(cmd, capture_output=True, text=True, env=env or MPI_ENV, timeout=300)
+
+
+def test_members_csv_is_identical_for_one_thread_two_threads_and_two_ranks(tmp_path):
+    path = sweep(tmp_path)
+    outs = {}
+    for name, extra, mpi in (("t1", ["--threads", "1"], 0), ("t2", ["--threads", "2"], 0)) + (
+            (("mpi2", [], 2),) if MPIRUN else ()):
+        proc = ensemble(path, "--out", tmp_path / name, *extra, mpi=mpi)
+        assert proc.returncode == 0, proc.stderr
+        outs[name] = (tmp_path / name / "members.csv").read_bytes()
+    assert len(outs["t1"].splitlines()) == 25
+    for name, data in outs.items():
+        assert data == outs["t1"], name
+    # The Python function, run here and on a process pool: the same bytes.
+    import concurrent.futures
+    import lgvi
+    sc = lgvi.Scenario.from_toml(tmp_path / "paper-orbit.toml")
+    vary = [{"key": "initial.w", "normal": {"mean": [1.0, 2.0, 3.0], "std": [0.05, 0.05, 0.05]}},
+            {"key": "initial.quaternion", "rotation": "uniform"}]
+    assert lgvi.ensemble(sc, vary, members=24, seed=7).text.encode() == outs["t1"]
+    with concurrent.futures.ProcessPoolExecutor(2) as pool:
+        assert lgvi.ensemble(sc, vary, members=24, seed=7, executor=pool).text.encode() == outs["t1"]
+
+
+def test_draws_have_the_stated_distributions(tmp_path):
+    # 4000 members of a zero-length run (the draws alone). Normal(1, 0.1):
+    # the sample mean within 4 sigma / sqrt(n) = 0.0063 of 1, the sample std
+    # within 4 sigma / sqrt(2n) = 0.0045 of 0.1. Uniform(-2, 3): inside, mean
+    # within 4 * 5 / sqrt(12 n) of 0.5. Uniform rotations: unit, and each
+    # component's mean square 1/4: q_i^2 ~ Beta(1/2, 3/2) on S^3, variance
+    # 1/16, so within 4 sqrt(1/16 / n) = 0.0158.
+    text = """[ensemble]
+scenario = "paper-orbit.toml"
+members = 4000
+seed = 3
+[[vary]]
+key = "integrator.tolerance"
+uniform = { low = 1e-15, high = 1e-14 }
+[[vary]]
+key = "initial.w"
+normal = { mean = [1.0, 2.0, 3.0], std = [0.1, 0.1, 0.1] }
+[[vary]]
+key = "initial.position"
+uniform = { low = [6.0, -2.0, 0.0], high = [8.0, 3.0, 0.0] }
+[[vary]]
+key = "initial.quaternion"
+rotation = "uniform"
+"""
+    path = sweep(tmp_path, duration=0.0, text=text)
+    proc = ensemble(path, "--out", tmp_path / "out", "--threads", "2")
+    assert proc.returncode == 0, proc.stderr
+    data = np.genfromtxt(tmp_path / "out" / "members.csv", delimiter=",", names=True)
+    w0 = data["initialw0"]
+    assert abs(w0.mean() - 1.0) < 0.0063 and abs(w0.std() - 0.1) < 0.0045
+    y = data["initialposition1"]
+    assert y.min() > -2.0 and y.max() < 3.0 and abs(y.mean() - 0.5) < 4 * 5 / np.sqrt(12 * 4000)
+    q = np.stack([data[f"initialquaternion{i}"] for i in range(4)], axis=1)
+    assert np.max(np.abs(np.linalg.norm(q, axis=1) - 1)) < 1e-15 * 8
+    assert np.all(np.abs((q ** 2).mean(axis=0) - 0.25) < 0.0158)
+    # Reproducible: the same seed gives the same file; another seed another.
+    again = ensemble(path, "--out", tmp_path / "again", "--threads", "1")
+    assert again.returncode == 0
+    assert (tmp_path / "again" / "members.csv").read_bytes() == (tmp_path / "out" / "members.csv").read_bytes()
+
+
+def test_grid_is_the_product_last_key_fastest_and_a_failing_member_is_recorded(tmp_path):
+    # momentum (0, 0, 0) drops the body onto the field's source (free fall
+    # from r = 8 takes pi/2 sqrt(r^3 / 2 mu) = 25 < 60): with stop_at_contact
+    # that member fails, recorded with its message; the others complete.
+    # (Contact is checked at the steps: much coarser steps can jump past it.)
+    text = """[ensemble]
+scenario = "paper-orbit.toml"
+[[vary]]
+key = "initial.momentum"
+values = [[0.0, 1.0, 0.0], [0.0, 0.0, 0.0]]
+[[vary]]
+key = "integrator.step"
+values = [0.01, 0.02, 0.005]
+"""
+    path = sweep(tmp_path, duration=60.0, text=text, contact=True)
+    proc = ensemble(path, "--out", tmp_path / "out")
+    assert proc.returncode == 0, proc.stderr
+    lines = (tmp_path / "out" / "members.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    assert header[:6] == ["index", "initial.momentum[0]", "initial.momentum[1]", "initial.momentum[2]",
+                          "integrator.step", "completed"]
+    rows = [line.split(",") for line in lines[1:]]
+    assert [r[0] for r in rows] == [str(i) for i in range(6)]
+    assert [float(r[4]) for r in rows] == [0.01, 0.02, 0.005] * 2
+    assert [r[2] for r in rows] == ["1", "1", "1", "0", "0", "0"]
+    assert [r[5] for r in rows[:3]] == ["1"] * 3
+    assert [r[5] for r in rows[3:]] == ["0"] * 3
+    assert all(r[6] != "" for r in rows[3:])  # the failure's message
+    show = subprocess.run([BINARY, "show", tmp_path / "out"], capture_output=True, text=True)
+    assert show.returncode == 0 and "failed                     3" in show.stdout
+
+
+@pytest.mark.parametrize("text, expected", [
+    (SWEEP.format(members=4).replace('rotation = "uniform"', 'normal = { mean = [1.0, 0.0, 0.0, 0.0], '
+                                     'std = [0.1, 0.1, 0.1, 0.1] }'),
+     ["member 0", "initial.quaternion"]),
+    (SWEEP.format(members=4).replace('key = "initial.w"', 'key = "initial.wx"'),
+     ["member 0", "initial.wx", "unknown key"]),
+    (SWEEP.format(members=4).replace('key = "initial.w"', 'key = "nothing.w"'), ["vary[0].key", "no table"]),
+    (SWEEP.format(members=4).replace("seed = 7\n", ""), ["ensemble.seed", "missing"]),
+    (SWEEP.format(members=4).replace("seed = 7", "seed = 7\ncolour = 1"), ["ensemble.colour", "unknown key"]),
+    (SWEEP.format(members=4) + '[[vary]]\nkey = "integrator.step"\nvalues = [0.01]\n', ["vary", "not both"]),
+    (SWEEP.format(members=4).replace("std = [0.05, 0.05, 0.05]", "std = [0.05, 0.05]"), ["vary[0].normal", "same length"]),
+    (SWEEP.format(members=4).replace('key = "initial.w"\nnormal = { mean = [1.0, 2.0, 3.0], std = [0.05, 0.05, 0.05] }',
+                                     'key = "integrator.step"\nnormal = { mean = 0.0, std = 0.01 }'),
+     ["member 1", "integrator.step", "> 0"]),
+])
+def test_bad_sweeps_fail_up_front_in_one_line(tmp_path, text, expected):
+    path = sweep(tmp_path, text=text)
+    proc = ensemble(path, "--out", tmp_path / "out")
+    assert proc.returncode == 2
+    message = proc.stderr.strip()
+    assert "\n" not in message and message.startswith("lgvi: error:"), message
+    for e in expected:
+        assert e in message, message
+    assert not (tmp_path / "out" / "members.csv").exists()
+
+
+def test_an_existing_ensemble_folder_is_not_overwritten(tmp_path):
+    path = sweep(tmp_path, members=2)
+    assert ensemble(path, "--out", tmp_path / "out").returncode == 0
+    proc = ensemble(path, "--out", tmp_path / "out")
+    assert proc.returncode == 2 and "--resume" in proc.stderr
+
+
+def wait_for_rows(journal, rows, timeout=60):
+    start = time.time()
+    while time.time() - start < timeout:
+        if journal.exists() and journal.read_text().count("\n") >= rows:
+            return
+        time.sleep(0.02)
+    raise AssertionError("the ensemble wrote no rows")
+
+
+def test_sigterm_then_resume_gives_the_uninterrupted_bytes(tmp_path):
+    # 60 members of 20000 steps (~5 ms each).
+    path = sweep(tmp_path, members=60, duration=200.0)
+    whole = ensemble(path, "--out", tmp_path / "whole", "--threads", "2")
+    assert whole.returncode == 0, whole.stderr
+    proc = subprocess.Popen([BINARY, "ensemble", path, "--out", tmp_path / "cut", "--threads", "2", "-q"],
+                            stderr=subprocess.PIPE, text=True)
+    wait_for_rows(tmp_path / "cut" / "journal.csv", 5)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    partial = (tmp_path / "cut" / "members.csv").read_text().splitlines()
+    assert 5 <= len(partial) - 1 < 60 and "--resume" in err
+    indices = [int(line.split(",")[0]) for line in partial[1:]]
+    assert indices == sorted(indices)  # a valid partial table, in member order
+    resumed = ensemble("--resume", tmp_path / "cut")
+    assert resumed.returncode == 0, resumed.stderr
+    assert (tmp_path / "cut" / "members.csv").read_bytes() == (tmp_path / "whole" / "members.csv").read_bytes()
+
+
+@needs_mpi
+def test_a_killed_rank_loses_no_finished_member_and_resume_completes(tmp_path):
+    path = sweep(tmp_path, members=60, duration=200.0)
+    whole = ensemble(path, "--out", tmp_path / "whole", "--threads", "1")
+    assert whole.returncode == 0, whole.stderr
+    proc = subprocess.Popen([MPIRUN, "-n", "2", "--oversubscribe", BINARY, "ensemble", path, "--out", tmp_path / "cut",
+                             "-q"], stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=MPI_ENV)
+    journal = tmp_path / "cut" / "journal.csv"
+    wait_for_rows(journal, 5)
+    # Rank 1: the lgvi process whose environment says OMPI_COMM_WORLD_RANK=1.
+    victim = None
+    for pid in os.listdir("/proc"):
+        if not pid.isdigit():
+            continue
+        try:
+            env = pathlib.Path(f"/proc/{pid}/environ").read_bytes().split(b"\0")
+            exe = os.readlink(f"/proc/{pid}/exe")
+        except OSError:
+            continue
+        if exe.endswith("/lgvi") and b"OMPI_COMM_WORLD_RANK=1" in env and str(tmp_path).encode() in \
+                pathlib.Path(f"/proc/{pid}/cmdline").read_bytes():
+            victim = int(pid)
+    assert victim is not None
+    before = journal.read_text().count("\n")
+    os.kill(victim, signal.SIGKILL)
+    proc.communicate(timeout=60)
+    assert proc.returncode != 0
+    rows = journal.read_text().count("\n")
+    assert rows >= before  # nothing rank 0 had received is lost
+    resumed = ensemble("--resume", tmp_path / "cut")
+    assert resumed.returncode == 0, resumed.stderr
+    assert (tmp_path / "cut" / "members.csv").read_bytes() == (tmp_path / "whole" / "members.csv").read_bytes()
+
+
+def test_dask_executor_gives_the_cli_bytes(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    import lgvi
+    path = sweep(tmp_path, members=8)
+    assert ensemble(path, "--out", tmp_path / "cli").returncode == 0
+    sc = lgvi.Scenario.from_toml(tmp_path / "paper-orbit.toml")
+    vary = [{"key": "initial.w", "normal": {"mean": [1.0, 2.0, 3.0], "std": [0.05, 0.05, 0.05]}},
+            {"key": "initial.quaternion", "rotation": "uniform"}]
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with distributed.Client(cluster) as client:
+            result = lgvi.ensemble(sc, vary, members=8, seed=7, executor=client.get_executor())
+    assert result.text.encode() == (tmp_path / "cli" / "members.csv").read_bytes()
+
+
+@needs_mpi
+def test_mpi4py_executor_gives_the_cli_bytes(tmp_path):
+    pytest.importorskip("mpi4py")
+    path = sweep(tmp_path, members=8)
+    assert ensemble(path, "--out", tmp_path / "cli").returncode == 0
+    script = tmp_path / "run_mpi4py.py"
+    script.write_text(f"""
+import lgvi
+from mpi4py.futures import MPIPoolExecutor
+sc = lgvi.Scenario.from_toml({str(tmp_path / 'paper-orbit.toml')!r})
+vary = [{{"key": "initial.w", "normal": {{"mean": [1.0, 2.0, 3.0], "std": [0.05, 0.05, 0.05]}}}},
+        {{"key": "initial.quaternion", "rotation": "uniform"}}]
+with MPIPoolExecutor() as pool:
+    result = lgvi.ensemble(sc, vary, members=8, seed=7, executor=pool)
+open({str(tmp_path / 'mpi4py.csv')!r}, "w").write(result.text)
+""")
+    env = dict(MPI_ENV, PYTHONPATH=os.pathsep.join(sys.path))
+    proc = subprocess.run([MPIRUN, "-n", "2", "--oversubscribe", sys.executable, "-m", "mpi4py.futures", script],
+                          capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "mpi4py.csv").read_bytes() == (tmp_path / "cli" / "members.csv").read_bytes()
