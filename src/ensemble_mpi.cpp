@@ -6,13 +6,13 @@
 // thread), runs members. The rows do not depend on K: each member's numbers
 // come from (seed, index) and each run is deterministic.
 //
-// Messages: a worker sends REQUEST carrying its last row (empty the first
-// time); rank 0 answers WORK with a member index or STOP. So each member
-// costs two messages, and rank 0's work per member is one receive, one send
-// and one append: at ~10 us per member, rank 0 keeps up with thousands of
-// ranks as long as a member takes more than K x 10 us (a member of 1e4
-// steps takes ~3 ms: ~300 ranks per coordinator; beyond, members should be
-// made longer or handed out in blocks).
+// Messages: a worker keeps two REQUESTs outstanding, each carrying its last
+// row (empty at first); rank 0 answers each with WORK (a member index) or
+// STOP. So each member costs two messages, and rank 0's work per member is
+// one receive, one send and one append (~10 us): one coordinator keeps up
+// with K ranks while a member takes more than K x 10 us (a member of 1e4
+// paper-orbit steps takes 2.2 ms: ~200 ranks; beyond, members should be made
+// longer or handed out in blocks).
 #include "ensemble.hpp"
 
 #include <lgvi/error.hpp>
@@ -24,6 +24,7 @@
 #include <atomic>
 #include <chrono>
 #include <csignal>
+#include <deque>
 #include <iostream>
 #include <mutex>
 #include <thread>
@@ -33,7 +34,7 @@ namespace lgvi::app {
 
 namespace {
 
-enum Tag : int { kRequest = 1, kWork = 2, kStop = 3, kAbort = 4 };
+enum Tag : int { kRequest = 1, kWork = 2, kStop = 3, kAbort = 4, kResult = 5, kDone = 6 };
 
 /// One message of text to rank 0 (a row, or a failure's message).
 void send_text(const std::string& text, int tag) {
@@ -48,29 +49,61 @@ std::string receive_text(const MPI_Status& status) {
   return text;
 }
 
-/// Ranks 1..K-1: ask for a member, run it, send its row with the next request.
+/// Ranks 1..K-1. Two requests stay outstanding, so the next member's index
+/// is already here when a member ends (no round trip between members, and
+/// no wait in a blocking receive, which Open MPI spins). A request carries
+/// the last member's row; each is answered WORK (an index) or STOP. After a
+/// STOP, rows go back as RESULT; DONE ends the rank.
 int worker_loop(const EnsemblePlan& plan, const std::string& dir) {
-  std::string last;
+  std::deque<std::int64_t> queue;
+  int outstanding = 0;
+  bool stopped = false;
+  auto request = [&](const std::string& row) {
+    send_text(row, kRequest);
+    ++outstanding;
+  };
+  request("");
+  request("");
   for (;;) {
-    send_text(last, kRequest);
-    std::int64_t index = -1;
-    MPI_Status status;
-    MPI_Recv(&index, 1, MPI_INT64_T, 0, MPI_ANY_TAG, MPI_COMM_WORLD, &status);
-    if (status.MPI_TAG == kStop) return 0;
+    while (outstanding > 0) {
+      int ready = 1;
+      MPI_Status status;
+      if (!queue.empty()) MPI_Iprobe(0, MPI_ANY_TAG, MPI_COMM_WORLD, &ready, &status);
+      if (!ready) break;
+      std::int64_t index = -1;
+      MPI_Recv(&index, 1, MPI_INT64_T, 0, MPI_ANY_TAG, MPI_COMM_WORLD, &status);
+      --outstanding;
+      if (status.MPI_TAG == kWork) {
+        queue.push_back(index);
+      } else {
+        stopped = true;
+      }
+    }
+    if (queue.empty()) {
+      if (outstanding == 0) break;
+      continue;
+    }
+    const std::int64_t index = queue.front();
+    queue.pop_front();
+    std::string row;
     try {
-      last = run_member(plan, index, 1, ensemble_detail::trajectory_dir(dir, plan, index));
+      row = run_member(plan, index, 1, ensemble_detail::trajectory_dir(dir, plan, index));
     } catch (const std::exception& e) {
       send_text(e.what(), kAbort);
       return 1;
     }
-    if (last.empty()) {  // stopped by a signal within the member
-      send_text("", kRequest);
-      MPI_Recv(&index, 1, MPI_INT64_T, 0, MPI_ANY_TAG, MPI_COMM_WORLD, &status);
-      return 0;
+    if (row.empty()) {  // stopped by a signal within the member: not a result
+      stopped = true;
+      queue.clear();
+    } else if (!stopped) {
+      request(row);
+    } else {
+      send_text(row, kResult);
     }
   }
+  send_text("", kDone);
+  return 0;
 }
-
 }  // namespace
 
 int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) {
@@ -168,24 +201,27 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
     MPI_Status status;
     MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &status);
     if (!flag) {
-      // Open MPI's blocking receive spins a core; rank 0 shares its cores with a member run.
-      std::this_thread::sleep_for(std::chrono::microseconds(200));
+      // Open MPI's blocking receive spins a core, which rank 0 shares with its member runs.
+      // Workers keep a request in reserve, so a reply 0.5 ms late costs them nothing.
+      std::this_thread::sleep_for(std::chrono::microseconds(500));
       continue;
     }
     const std::string text = receive_text(status);
-    if (status.MPI_TAG == kAbort) {
-      std::lock_guard<std::mutex> lock(mutex);
-      if (abort_message.empty()) abort_message = "rank " + std::to_string(status.MPI_SOURCE) + ": " + text;
-      --active;
-      continue;
-    }
-    if (!text.empty()) record(text);
-    std::int64_t i = -1;
-    if (take(i)) {
-      MPI_Send(&i, 1, MPI_INT64_T, status.MPI_SOURCE, kWork, MPI_COMM_WORLD);
-    } else {
-      MPI_Send(&i, 1, MPI_INT64_T, status.MPI_SOURCE, kStop, MPI_COMM_WORLD);
-      --active;
+    switch (status.MPI_TAG) {
+      case kAbort: {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (abort_message.empty()) abort_message = "rank " + std::to_string(status.MPI_SOURCE) + ": " + text;
+        --active;
+        break;
+      }
+      case kDone: --active; break;
+      case kResult: record(text); break;
+      default: {  // kRequest, with the last row
+        if (!text.empty()) record(text);
+        std::int64_t i = -1;
+        const bool work = take(i);
+        MPI_Send(&i, 1, MPI_INT64_T, status.MPI_SOURCE, work ? kWork : kStop, MPI_COMM_WORLD);
+      }
     }
   }
   local.join();
