@@ -21,10 +21,24 @@
 
 namespace lgvi::app {
 
+/// A method as `--methods` names it: "lgvi", or "lgvi:4" for the method
+/// composed to order 4 (composition.hpp; symmetric one-step methods only).
+struct MethodChoice {
+  Method method = Method::Hamiltonian;
+  int order = 2;
+  std::string name() const;
+  bool operator<(const MethodChoice& o) const { return method != o.method ? method < o.method : order < o.order; }
+  bool operator==(const MethodChoice& o) const { return method == o.method && order == o.order; }
+};
+
+/// "NAME" or "NAME:ORDER"; throws InvalidInput naming `--methods`.
+MethodChoice method_choice_from_string(const std::string& text);
+
 struct CompareOptions {
-  std::vector<Method> methods;
+  std::vector<MethodChoice> methods;
   std::string out_dir;
-  int ladder = 5;                     ///< steps h, h/2, ..., h/2^(ladder-1)
+  int ladder = 5;                     ///< steps h0, h0/2, ..., h0/2^(ladder-1)
+  double ladder_from = 0.0;           ///< h0 (0: the scenario's step h); the long runs keep h
   double error_time = 0.0;            ///< T of the work-precision runs (0: min(duration, 1e4 h))
   std::int64_t long_steps = 1000000;  ///< length of the long runs, in steps of h
   bool figures = true;

@@ -54,9 +54,14 @@ int run_cli(int argc, char** argv) {
   lgvi::app::CompareOptions compare_options;
   bool compare_no_figures = false;
   compare->add_option("SCENARIO", compare_scenario, "Scenario file (TOML)")->required();
-  compare->add_option("--methods", compare_methods_list, "Comma-separated methods (see README 'Methods')");
+  compare->add_option("--methods", compare_methods_list,
+                      "Comma-separated methods (see README 'Methods'); NAME:ORDER composes a symmetric one-step "
+                      "method to order 4, 6 or 8 (e.g. lgvi:4)");
   compare->add_option("--out", compare_options.out_dir, "Output folder (default: SCENARIO-compare)");
   compare->add_option("--ladder", compare_options.ladder, "Number of step sizes h, h/2, ... (default 5)");
+  compare->add_option("--ladder-from", compare_options.ladder_from,
+                      "Largest step of the ladder (default: the scenario's step; higher orders pay off at larger "
+                      "steps). The long runs keep the scenario's step");
   compare->add_option("--error-time", compare_options.error_time,
                       "Time of the work-precision runs (default: min(duration, 1e4 h))");
   compare->add_option("--long-steps", compare_options.long_steps,
@@ -115,7 +120,7 @@ int run_cli(int argc, char** argv) {
       const lgvi::app::Scenario scenario = lgvi::app::read_scenario(compare_scenario);
       std::stringstream list(compare_methods_list);
       for (std::string name; std::getline(list, name, ',');)
-        compare_options.methods.push_back(lgvi::app::method_from_string(name, "--methods"));
+        compare_options.methods.push_back(lgvi::app::method_choice_from_string(name));
       compare_options.figures = !compare_no_figures;
       return lgvi::app::compare_methods(scenario, compare_options);
     }

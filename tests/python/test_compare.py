@@ -63,3 +63,23 @@ def test_unknown_method_is_a_clear_error(tmp_path):
     proc = subprocess.run([BINARY, "compare", str(SOURCE / "scenarios" / "paper-orbit.toml"), "--methods",
                            "exact", "--out", str(tmp_path)], capture_output=True, text=True)
     assert proc.returncode == 2 and "free body" in proc.stderr
+
+
+def test_composed_orders_in_compare(tmp_path):
+    # NAME:ORDER composes a symmetric method: observed orders 4 and 6 on the
+    # free body against the exact flow (h = 0.2 ... 0.05 to t = 8: asymptotic,
+    # errors 1e-6 ... 1e-11, tests/test_composition.cpp), 5 and 9 evaluations per step.
+    proc = subprocess.run([BINARY, "compare", str(SOURCE / "scenarios" / "free-body-manchester-peck.toml"),
+                           "--methods", "lgvi:4,no-squish:6", "--out", str(tmp_path / "c"), "--ladder", "3",
+                           "--ladder-from", "0.2", "--error-time", "8", "--long-steps", "1000", "-q",
+                           "--no-figures"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    with open(tmp_path / "c" / "comparison.csv", newline="") as f:
+        rows = {r["method"]: r for r in csv.DictReader(f)}
+    assert abs(float(rows["lgvi:4"]["observed_order"]) - 4) < 0.2
+    assert abs(float(rows["no-squish:6"]["observed_order"]) - 6) < 0.2
+    assert float(rows["lgvi:4"]["long_h"]) == pytest.approx(5 * 0.1)  # equal cost: 5 evaluations per step
+    for bad, message in (("rk4-normalized:4", "cannot be composed"), ("lgvi:3", "2, 4, 6 or 8")):
+        proc = subprocess.run([BINARY, "compare", str(SOURCE / "scenarios" / "paper-orbit.toml"), "--methods", bad,
+                               "--out", str(tmp_path / "bad")], capture_output=True, text=True)
+        assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and message in proc.stderr, proc.stderr
