@@ -85,8 +85,9 @@ def main():
     out.mkdir(parents=True, exist_ok=True)
     sources = sorted((ROOT / "scenarios").glob("*.toml")) + sorted((ROOT / "tests/cli/good").glob("*.toml"))
     # Single-body scenarios: the outputs that existed before the many-body
-    # redesign (tests/reference/single_body_outputs.sha256).
-    sources = [s for s in sources if "[[bodies]]" not in s.read_text()]
+    # redesign (tests/reference/single_body_outputs.sha256); forced scenarios
+    # ([[forcing]], added later) have no such outputs.
+    sources = [s for s in sources if "[[bodies]]" not in s.read_text() and "[[forcing]]" not in s.read_text()]
     work = out / "_work"
     work.mkdir(exist_ok=True)
     for path in sources:

@@ -30,6 +30,7 @@ struct RunStatistics {
   double last_t = 0.0;
   bool observed = false;          ///< the initial state was evaluated
   double wall_seconds_before = 0.0;  ///< integration time of earlier legs of a resumed run
+  double work = 0.0;  ///< [[forcing]]: the work done up to last_k (not checkpointed: the stepper keeps it)
 };
 
 /// Everything needed to continue a run bit-identically: the step index, the

@@ -28,14 +28,26 @@ namespace lgvi::app {
 template <class F>
 decltype(auto) with_stepper(const Scenario& sc, const ScenarioSystemPotential& pot, const Parallelism& par, F&& f) {
   const IntegratorSpec& i = sc.integrator;
+  // [[forcing]] goes to the methods that discretize it (the reader refuses
+  // it for the others; this says so again for other callers).
+  auto add_forcing = [&](auto& stepper) {
+    if (sc.forcing.empty()) return;
+    if constexpr (requires { stepper.set_forcing(sc.forcing); })
+      stepper.set_forcing(sc.forcing);
+    else
+      throw InvalidInput("forcing: integrator.method \"" + std::string(to_string(i.method)) +
+                         "\" does not take [[forcing]] (lgvi and so3-lgvi do)");
+  };
   auto make = [&]<template <class> class S>() -> decltype(auto) {
     S<ScenarioSystemPotential> stepper(sc.system, pot, i.solver, par);
+    add_forcing(stepper);
     return f(stepper);
   };
   // The symmetric one-step methods, composed when [integrator] asks for it
   // (the reader refuses order/composition for the others).
   auto make_composable = [&]<template <class> class S>() -> decltype(auto) {
     S<ScenarioSystemPotential> stepper(sc.system, pot, i.solver, par);
+    add_forcing(stepper);
     if (i.composition.is_plain()) return f(stepper);
     ComposedStepper<S<ScenarioSystemPotential>> composed(std::move(stepper), i.composition);
     return f(composed);

@@ -220,7 +220,7 @@ PotentialSpec read_potential(const Reader& r, const toml::table& root) {
   if (kind == "none") {
     r.only_keys(t, "potential", {"kind"});
   } else if (kind == "central") {
-    r.only_keys(t, "potential", {"kind", "mu", "stop_at_contact"});
+    r.only_keys(t, "potential", {"kind", "mu", "stop_at_contact", "j2", "reference_radius", "pole"});
     p.kind = PotentialKind::Central;
     if (const toml::node* n = t.get("stop_at_contact")) {
       if (!n->is_boolean()) r.fail("potential.stop_at_contact", "must be true or false");
@@ -228,6 +228,24 @@ PotentialSpec read_potential(const Reader& r, const toml::table& root) {
     }
     p.mu = r.number(t, "potential", "mu");
     if (!(p.mu > 0.0)) r.fail("potential.mu", "must be > 0 (attracting centre of strength mu)");
+    // An oblate source: j2 with its reference radius, about the pole (default z).
+    if (t.contains("j2")) {
+      p.j2 = r.number(t, "potential", "j2");
+      if (!t.contains("reference_radius"))
+        r.fail("potential.reference_radius", "missing: j2 needs the radius it refers to (the body's equatorial radius)");
+      p.reference_radius = r.number(t, "potential", "reference_radius");
+      if (!(p.reference_radius > 0.0)) r.fail("potential.reference_radius", "must be > 0");
+      if (t.contains("pole")) {
+        const Vector3<double> k = r.vector<3>(t, "potential", "pole");
+        if (!(k.norm() > 0.0)) r.fail("potential.pole", "must be a non-zero vector (the axis of symmetry)");
+        if (std::abs(k.norm() - 1.0) > S3d::unit_tolerance)
+          r.fail("potential.pole", "must be a unit vector (|pole| = " + std::to_string(k.norm()) + ")");
+        p.pole = k.normalized();
+      }
+    } else {
+      for (const char* key : {"reference_radius", "pole"})
+        if (t.contains(key)) r.fail(std::string("potential.") + key, "belongs to an oblate source: give j2 too");
+    }
   } else if (kind == "uniform") {
     r.only_keys(t, "potential", {"kind", "g"});
     p.kind = PotentialKind::Uniform;
@@ -463,6 +481,151 @@ InteractionSpec read_interaction(const Reader& r, const toml::table& root) {
   return spec;
 }
 
+/// A forcing table's rows (t, a, b, c) from a CSV file: numbers separated
+/// by commas, an optional header line, '#' comments.
+void read_profile_csv(const Reader& r, const std::string& key, const std::filesystem::path& file,
+                      std::vector<double>& t, std::vector<Vector3<double>>& v) {
+  std::ifstream in(file);
+  if (!in) r.fail(key, "cannot open the table \"" + printable(file.string()) + "\" (paths are relative to the scenario file)");
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    double row[4];
+    const char* c = line.c_str();
+    int n = 0;
+    for (; n < 4; ++n) {
+      char* end = nullptr;
+      row[n] = std::strtod(c, &end);
+      if (end == c) break;
+      c = end;
+      while (*c == ' ' || *c == '\t') ++c;
+      if (n < 3 && *c == ',') ++c;
+    }
+    if (n == 0 && t.empty()) continue;  // the header line
+    if (n != 4 || *c != '\0')
+      r.fail(key, printable(file.string()) + ":" + std::to_string(number) +
+                      ": expected 4 numbers t, x, y, z separated by commas");
+    t.push_back(row[0]);
+    v.emplace_back(row[1], row[2], row[3]);
+  }
+}
+
+/// [[forcing]] tables (forcing.hpp): kind = "torque" | "force" | "damping" |
+/// "attitude-control", on `body = "name"` or every body. A torque or force is
+/// `value = [a, b, c]` or `table` = a CSV file (t, a, b, c; relative to the
+/// scenario file) or inline rows [[t, a, b, c], ...]; file tables are inlined
+/// into *inlined (the run's copy of the scenario is then self-contained).
+ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system, double duration,
+                        const std::filesystem::path& folder, bool& inlined) {
+  ForcingSet set;
+  toml::node* node = root.get("forcing");
+  if (!node) return set;
+  toml::array* arr = node->as_array();
+  if (!arr || arr->empty() || !arr->is_array_of_tables()) r.fail("forcing", "must be one or more [[forcing]] tables");
+  for (std::size_t i = 0; i < arr->size(); ++i) {
+    toml::table& t = *arr->get(i)->as_table();
+    const std::string prefix = "forcing[" + std::to_string(i) + "]";
+    const std::string kind = r.string(t, prefix, "kind", {"torque", "force", "damping", "attitude-control"});
+    std::size_t body = ForcingSet::all_bodies;
+    if (const toml::node* b = t.get("body")) {
+      if (!b->is_string()) r.fail(prefix + ".body", "must be a body's name (a string)");
+      const std::string name = b->value<std::string>().value();
+      const auto& names = system.names();
+      const auto it = std::find(names.begin(), names.end(), name);
+      if (it == names.end())
+        r.fail(prefix + ".body", "no body is named \"" + printable(name) + "\"" +
+                                     (names.size() <= 8 ? "; the bodies are " + [&] {
+                                       std::string l;
+                                       for (const std::string& n : names) l += (l.empty() ? "\"" : ", \"") + n + "\"";
+                                       return l;
+                                     }()
+                                                        : std::string()));
+      body = static_cast<std::size_t>(it - names.begin());
+    }
+    auto non_negative = [&](const char* key) {
+      if (!t.contains(key)) return 0.0;
+      const double v = r.number(t, prefix, key);
+      if (!(v >= 0.0)) r.fail(prefix + "." + key, "must be >= 0");
+      return v;
+    };
+    if (kind == "torque" || kind == "force") {
+      r.only_keys(t, prefix, {"kind", "body", "frame", "value", "table"});
+      const bool torque = kind == "torque";
+      ForcingFrame frame = torque ? ForcingFrame::Body : ForcingFrame::Inertial;
+      if (t.contains("frame")) frame = r.string(t, prefix, "frame", {"body", "inertial"}) == "body" ? ForcingFrame::Body
+                                                                                                  : ForcingFrame::Inertial;
+      if (t.contains("value") == t.contains("table"))
+        r.fail(prefix, "give exactly one of value = [a, b, c] (constant) or table = \"file.csv\" (t, a, b, c)");
+      Profile profile;
+      if (t.contains("value")) {
+        profile = Profile::constant(r.vector<3>(t, prefix, "value"));
+      } else {
+        const std::string key = prefix + ".table";
+        std::vector<double> times;
+        std::vector<Vector3<double>> values;
+        const toml::node& table = *t.get("table");
+        if (table.is_string()) {
+          const std::filesystem::path file = folder / table.value<std::string>().value();
+          read_profile_csv(r, key, file, times, values);
+          toml::array rows;
+          for (std::size_t k = 0; k < times.size(); ++k)
+            rows.push_back(toml::array{times[k], values[k].x(), values[k].y(), values[k].z()});
+          t.insert_or_assign("table", std::move(rows));
+          inlined = true;
+        } else if (const toml::array* rows = table.as_array()) {
+          for (std::size_t k = 0; k < rows->size(); ++k) {
+            const Vector4<double> row = r.vector<4>(*rows->get(k), key + "[" + std::to_string(k) + "]");
+            times.push_back(row(0));
+            values.emplace_back(row(1), row(2), row(3));
+          }
+        } else {
+          r.fail(key, "must be a CSV file's name or rows [[t, a, b, c], ...]");
+        }
+        try {
+          profile = Profile::table(std::move(times), std::move(values));
+        } catch (const InvalidInput& e) {
+          r.fail(key, e.what());
+        }
+        if (profile.t_begin() > 0.0 || profile.t_end() < duration)
+          r.fail(key, "covers t in [" + std::to_string(profile.t_begin()) + ", " + std::to_string(profile.t_end()) +
+                          "]; the run needs [0, " + std::to_string(duration) + "]: extend the table");
+      }
+      if (torque) set.add(AppliedTorque{profile, frame}, body);
+      else set.add(AppliedForce{profile, frame}, body);
+    } else if (kind == "damping") {
+      r.only_keys(t, prefix, {"kind", "body", "c", "c_linear"});
+      Damping d{non_negative("c"), non_negative("c_linear")};
+      if (!(d.c > 0.0 || d.c_linear > 0.0))
+        r.fail(prefix, "give c > 0 (body torque -c Omega) and/or c_linear > 0 (force -c_linear v)");
+      set.add(d, body);
+    } else {
+      r.only_keys(t, prefix, {"kind", "body", "target", "k_p", "k_d", "max_torque", "period"});
+      AttitudeControl c;
+      const Vector4<double> q = r.vector<4>(t, prefix, "target");
+      try {
+        c.target = S3d::from_quaternion_checked(q(0), q(1), q(2), q(3));
+      } catch (const InvalidInput& e) {
+        r.fail(prefix + ".target", e.what());
+      }
+      c.k_p = non_negative("k_p");
+      c.k_d = non_negative("k_d");
+      if (!t.contains("k_p") || !t.contains("k_d"))
+        r.fail(prefix, "attitude-control needs the gains k_p and k_d (M = -k_p sgn(e_s) e_v - k_d Omega)");
+      if (t.contains("max_torque")) {
+        c.max_torque = r.number(t, prefix, "max_torque");
+        if (!(c.max_torque > 0.0)) r.fail(prefix + ".max_torque", "must be > 0 (leave it out for no limit)");
+      }
+      if (t.contains("period")) {
+        c.period = r.number(t, prefix, "period");
+        if (!(c.period > 0.0)) r.fail(prefix + ".period", "must be > 0 (leave it out for a continuous controller)");
+      }
+      set.add(c, body);
+    }
+  }
+  return set;
+}
+
 /// [integrator] order = 2 | 4 | 6 | 8 or composition = [gamma_1, ...]: a
 /// symmetric composition of a symmetric one-step method (composition.hpp).
 void read_composition(const Reader& r, const toml::table& t, IntegratorSpec& s) {
@@ -607,7 +770,8 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
        << printable(e.description());
     throw InvalidInput(os.str());
   }
-  r.only_keys(root, "", {"body", "bodies", "potential", "initial", "interaction", "integrator", "output", "run"});
+  r.only_keys(root, "", {"body", "bodies", "potential", "initial", "interaction", "integrator", "output", "run",
+                         "forcing"});
   const bool bodies_format = root.contains("bodies");
   if (bodies_format && (root.contains("body") || root.contains("initial")))
     r.fail("bodies", "give either [body] + [initial] (one body) or [[bodies]] tables, not both");
@@ -684,6 +848,13 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   } catch (const InvalidInput& e) {
     r.fail("", e.what());
   }
+  bool inlined = false;
+  sc.forcing = read_forcing(r, root, sc.system, static_cast<double>(integrator.steps) * integrator.step,
+                            std::filesystem::path(name).parent_path(), inlined);
+  if (!sc.forcing.empty() && integrator.method != Method::Hamiltonian && integrator.method != Method::So3Lgvi)
+    r.fail("forcing", std::string("integrator.method \"") + to_string(integrator.method) +
+                          "\" does not take [[forcing]]; the discrete Lagrange-d'Alembert forcing is built into "
+                          "\"lgvi\" and \"so3-lgvi\" (composed to any order or not)");
   sc.potential = potential;
   sc.interaction = interaction;
   sc.initial_state = std::move(initial);
@@ -693,6 +864,13 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   sc.output_every = every;
   sc.output_format = format;
   sc.source_text = text;
+  if (inlined) {
+    // File tables were read into the document: the run's copy of the
+    // scenario holds them inline (toml++ writes doubles to round-trip).
+    std::ostringstream os;
+    os << root;
+    sc.source_text = os.str() + "\n";
+  }
   return sc;
 }
 

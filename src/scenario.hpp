@@ -4,6 +4,7 @@
 #pragma once
 
 #include <lgvi/composition.hpp>
+#include <lgvi/forcing.hpp>
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/rotation_solver.hpp>
 #include <lgvi/state.hpp>
@@ -56,6 +57,8 @@ struct PotentialSpec {
   PotentialKind kind = PotentialKind::None;
   double mu = 0.0;                                   // central
   bool stop_at_contact = false;                      // central: stop when a ball touches the source
+  double j2 = 0.0, reference_radius = 0.0;           // central: oblate source (J2 = 0: a point)
+  Vector3<double> pole = Vector3<double>::UnitZ();   // central: the source's axis of symmetry
   Vector3<double> g = Vector3<double>::Zero();     // uniform, heavy-top
   Vector3<double> pivot_to_com = Vector3<double>::Zero();  // heavy-top: chi, body frame
 };
@@ -86,6 +89,7 @@ struct Scenario {
   System system;     ///< the bodies, in scenario order (one for a [body] scenario)
   PotentialSpec potential;  ///< the external field, acting on every body
   InteractionSpec interaction;
+  ForcingSet forcing;  ///< [[forcing]]: wrenches besides the potential (empty: none)
   SystemState initial_state;
   /// Written with [[bodies]] (trajectories in the long, per-body format) or
   /// with [body] + [initial] (one body, the single-body format).

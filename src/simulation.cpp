@@ -8,7 +8,9 @@
 #include <lgvi/potential.hpp>
 
 #include <chrono>
+#include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <variant>
 
 namespace lgvi::app {
@@ -18,7 +20,9 @@ namespace {
 ScenarioPotential body_potential(const Scenario& s, std::size_t a) {
   const RigidBody& body = s.system.body(a);
   switch (s.potential.kind) {
-    case PotentialKind::Central: return CentralGravity(body, s.potential.mu, s.potential.stop_at_contact);
+    case PotentialKind::Central:
+      return CentralGravity(body, s.potential.mu, s.potential.stop_at_contact, s.potential.j2,
+                            s.potential.reference_radius, s.potential.pole);
     case PotentialKind::Uniform: return UniformGravity(body, s.potential.g);
     case PotentialKind::HeavyTop: return HeavyTop(body, s.potential.g, s.potential.pivot_to_com);
     case PotentialKind::None: break;
@@ -68,8 +72,9 @@ ScenarioSystemPotential scenario_system_potential(const Scenario& s, const Calla
 }
 
 TrajectoryLayout scenario_layout(const Scenario& s) {
-  return s.bodies_format ? TrajectoryLayout::long_format(static_cast<std::int64_t>(s.bodies()))
-                         : TrajectoryLayout::single_body();
+  const bool forced = !s.forcing.empty();
+  return s.bodies_format ? TrajectoryLayout::long_format(static_cast<std::int64_t>(s.bodies()), forced)
+                         : TrajectoryLayout::single_body(forced);
 }
 
 namespace {
@@ -80,7 +85,6 @@ struct Recorder {
   const Scenario& scenario;
   TrajectorySink& sink;
   RunStatistics& stats;
-  std::vector<double> row_ = std::vector<double>(bodies_trajectory_columns);
 
   void operator()(const SystemStepInfo& i) {
     const SystemState& s = i.state;
@@ -99,7 +103,12 @@ struct Recorder {
       stats.iterations_max = std::max<std::int64_t>(stats.iterations_max, i.solve.worst_iterations);
       ++stats.steps_solved;
     }
-    const double de = energy - stats.energy0, dl = (L - stats.momentum0).norm();
+    // With a forcing, the energy error is E - E0 - W: the integrator's own
+    // error, with the work W done by the forcing taken out (forcing.hpp).
+    const bool forced = !scenario.forcing.empty();
+    const double de = forced ? energy - stats.energy0 - i.work : energy - stats.energy0;
+    const double dl = (L - stats.momentum0).norm();
+    stats.work = i.work;
     // |P - P0| relative to sum |p_a0|; absolute when every body starts at rest.
     const double dp_abs = (P - stats.linear_momentum0).norm();
     const double dp = stats.linear_momentum_scale > 0.0 ? dp_abs / stats.linear_momentum_scale : dp_abs;
@@ -115,16 +124,24 @@ struct Recorder {
     stats.observed = true;
     if (i.k % scenario.output_every != 0 && i.k != scenario.integrator.steps) return;
     if (!scenario.bodies_format) {
-      sink.row(SingleBodyRow(i.t, s.body(0), energy, de, dq, L, dl).values);
+      const SingleBodyRow row(i.t, s.body(0), energy, de, dq, L, dl);
+      if (!forced) {
+        sink.row(row.values);
+        return;
+      }
+      double values[trajectory_columns + 1];
+      std::copy(std::begin(row.values), std::end(row.values), values);
+      values[trajectory_columns] = i.work;
+      sink.row(values);
       return;
     }
     for (std::size_t a = 0; a < n; ++a) {
       const auto& q = s.q[a].quaternion();
       const Vector3<double>&x = s.x[a], &p = s.p[a], &w = s.w[a];
-      const double row[bodies_trajectory_columns] = {
+      const double row[bodies_trajectory_columns + 1] = {
           i.t,   static_cast<double>(a), x.x(), x.y(), x.z(), q.w(), q.x(),  q.y(),  q.z(),
           p.x(), p.y(), p.z(), w.x(), w.y(), w.z(), s.q[a].norm_error(), energy, de, P.x(), P.y(), P.z(), dp,
-          L.x(), L.y(), L.z(), dl};
+          L.x(), L.y(), L.z(), dl, i.work};  // the sink reads the layout's columns: work only when forced
       sink.row(row);
     }
   }

@@ -45,6 +45,10 @@ JsonObject setup_json(const Scenario& s) {
   pot.string("kind", to_string(s.potential.kind));
   if (s.potential.kind == PotentialKind::Central)
     pot.number("mu", s.potential.mu).boolean("stop_at_contact", s.potential.stop_at_contact);
+  if (s.potential.kind == PotentialKind::Central && s.potential.j2 != 0.0)
+    pot.number("j2", s.potential.j2)
+        .number("reference_radius", s.potential.reference_radius)
+        .array("pole", to_vector(s.potential.pole));
   if (s.potential.kind == PotentialKind::Uniform || s.potential.kind == PotentialKind::HeavyTop)
     pot.array("g", to_vector(s.potential.g));
   if (s.potential.kind == PotentialKind::HeavyTop) pot.array("pivot_to_com", to_vector(s.potential.pivot_to_com));
@@ -87,6 +91,7 @@ JsonObject setup_json(const Scenario& s) {
     o.object("interaction", inter);
   }
   o.object("integrator", integ).integer("output_every", s.output_every);
+  if (!s.forcing.empty()) o.integer("forcing_terms", static_cast<std::int64_t>(s.forcing.size()));
   return o;
 }
 
@@ -147,6 +152,12 @@ std::string summary_json(const Scenario& sc, const SimulationResult& r) {
       .object("final", state_json(r.final_state.body(0)))
       .raw("final_bodies", json_lines(final_bodies))
       .object("setup", setup_json(sc));
+  if (!sc.forcing.empty())
+    // energy errors above are E - E0 - W; angular and linear momentum
+    // "errors" are their changes under the forcing, not errors.
+    s.number("work", st.work)
+        .string("energy_error_is", "E - E0 - work")
+        .string("momentum_error_is", "the change of L and P, which the forcing does not conserve");
   return s.str() + "\n";
 }
 

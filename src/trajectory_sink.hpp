@@ -25,6 +25,14 @@ inline constexpr const char* bodies_trajectory_header =
     "linear_momentum_error,Lx,Ly,Lz,momentum_error";
 inline constexpr int bodies_trajectory_columns = 26;
 
+/// A forced scenario's ([[forcing]]) columns: the above and the work W done
+/// by the forcing since t = 0 (energy_error is then E - E0 - W).
+inline constexpr const char* forced_trajectory_header =
+    "t,x,y,z,qw,qx,qy,qz,px,py,pz,wx,wy,wz,energy,energy_error,quat_norm_error,Lx,Ly,Lz,momentum_error,work";
+inline constexpr const char* forced_bodies_trajectory_header =
+    "t,body,x,y,z,qw,qx,qy,qz,px,py,pz,wx,wy,wz,quat_norm_error,energy,energy_error,Px,Py,Pz,"
+    "linear_momentum_error,Lx,Ly,Lz,momentum_error,work";
+
 /// What a trajectory file holds: the column names, and how many rows make
 /// one output step (1 for a single-body scenario; N, one per body, for a
 /// [[bodies]] scenario, whose npz and HDF5 arrays are then shaped
@@ -34,8 +42,14 @@ struct TrajectoryLayout {
   int columns = trajectory_columns;
   std::int64_t bodies = 0;  ///< 0: the single-body layout, 2-D arrays; N >= 1: the long layout
 
-  static TrajectoryLayout single_body() { return {}; }
-  static TrajectoryLayout long_format(std::int64_t n) { return {bodies_trajectory_header, bodies_trajectory_columns, n}; }
+  static TrajectoryLayout single_body(bool forced = false) {
+    if (forced) return {forced_trajectory_header, trajectory_columns + 1, 0};
+    return {};
+  }
+  static TrajectoryLayout long_format(std::int64_t n, bool forced = false) {
+    if (forced) return {forced_bodies_trajectory_header, bodies_trajectory_columns + 1, n};
+    return {bodies_trajectory_header, bodies_trajectory_columns, n};
+  }
   /// Rows per output step.
   std::int64_t rows_per_step() const { return bodies > 0 ? bodies : 1; }
 };

@@ -182,6 +182,12 @@ class ComposedStepper {
     base_.resume(state, t, internal);
   }
   const System& system() const { return base_.system(); }
+  /// The forcing's work since initialize() (steppers with a forcing, forcing.hpp).
+  double forcing_work() const
+    requires requires(const Base& b) { b.forcing_work(); }
+  {
+    return base_.forcing_work();
+  }
   const CompositionTable& table() const { return table_; }
   /// The composed method Phi (method-specific accessors).
   const Base& base() const { return base_; }

@@ -11,6 +11,7 @@
 #include <lgvi/system.hpp>
 
 #include <concepts>
+#include <type_traits>
 #include <cstdint>
 #include <utility>
 
@@ -32,6 +33,7 @@ struct SystemStepInfo {
   const SystemState& state;
   const SystemEvaluation& evaluation;  ///< V and every body's F, M at `state`
   const SolveReport& solve;            ///< the solves that produced `state` (empty at k = 0)
+  double work = 0.0;  ///< the work done by the stepper's forcing since it was initialized (forcing.hpp)
 };
 
 /// A stop request checked before each step (a signal flag, a time limit).
@@ -63,6 +65,12 @@ template <Stepper S>
 void start(S& s, RigidBodyState& state, double) {
   s.initialize(state);
 }
+/// The forcing's work of a stepper that has a forcing, 0 otherwise.
+template <class S>
+double forcing_work(const S& s) {
+  if constexpr (requires { s.forcing_work(); }) return s.forcing_work();
+  else return 0.0;
+}
 template <class State>
 using StepInfoOf = std::conditional_t<std::is_same_v<State, SystemState>, SystemStepInfo, StepInfo>;
 }  // namespace detail
@@ -86,8 +94,11 @@ std::int64_t integrate_range(S& stepper, State& state, double t0, double h, std:
       throw IntegrationFailure(k, t, f);
     }
     std::swap(state, next);
-    observer(detail::StepInfoOf<State>{k + 1, t0 + static_cast<double>(k + 1) * h, state, stepper.evaluation(),
-                                       stepper.last_solve()});
+    if constexpr (std::is_same_v<State, SystemState>)
+      observer(SystemStepInfo{k + 1, t0 + static_cast<double>(k + 1) * h, state, stepper.evaluation(),
+                              stepper.last_solve(), detail::forcing_work(stepper)});
+    else
+      observer(StepInfo{k + 1, t0 + static_cast<double>(k + 1) * h, state, stepper.evaluation(), stepper.last_solve()});
   }
   return k_end;
 }

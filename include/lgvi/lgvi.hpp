@@ -94,6 +94,7 @@ class ImplicitStepperBase : public StepperBase<I> {
         v.insert(v.end(), p.begin(), p.end());
       }
     }
+    this->forcing_internal(v);  // nothing without forcing: the layout above is unchanged
     return v;
   }
 
@@ -120,8 +121,9 @@ class ImplicitStepperBase : public StepperBase<I> {
   void restore(const std::vector<double>& internal, const char* what) {
     const std::size_t n = this->system_.size();
     const std::size_t per_body = extra_size() + stages() * Predictor::serialized_size;
-    if (internal.size() != per_body * n)
+    if (internal.size() != per_body * n + this->forcing_internal_size())
       throw InvalidInput(std::string("checkpoint: ") + what + " data has the wrong size");
+    this->restore_forcing(internal.data() + per_body * n);
     for (std::size_t a = 0; a < n; ++a) {
       const double* d = internal.data() + a * per_body + extra_size();
       deserialize_extra(a, internal.data() + a * per_body);
@@ -135,11 +137,11 @@ class ImplicitStepperBase : public StepperBase<I> {
 
   /// p_half = p0 + (h/2) F0 and x1 = x0 + (h/m) p_half for body a.
   void drift(SystemState& s, std::size_t a, double h) {
-    p_half_[a] = s.p[a] + (0.5 * h) * this->eval_.force[a];
+    p_half_[a] = s.p[a] + (0.5 * h) * this->force(a);
     s.x[a] += (h / this->system_.body(a).mass()) * p_half_[a];
   }
   /// p1 = p_half + (h/2) F1 for body a (after the evaluation at the new state).
-  void kick(SystemState& s, std::size_t a, double h) { s.p[a] = p_half_[a] + (0.5 * h) * this->eval_.force[a]; }
+  void kick(SystemState& s, std::size_t a, double h) { s.p[a] = p_half_[a] + (0.5 * h) * this->force(a); }
 
   /// Combines the bodies' reports and checks the new state.
   void finish_step(const SystemState& s) {
@@ -177,11 +179,14 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
 
   /// One step of the paper's system "eqhamilton" (forms above). Each solve
   /// starts from its RotationPredictor's extrapolation of the last steps' f.
-  void step(SystemState& s, double /*t*/, double h) {
+  /// With a forcing, F and M are the potential's plus the forcing's, at the
+  /// start and at the end of the step (forcing.hpp).
+  void step(SystemState& s, double t, double h) {
     const System& sys = this->system_;
+    this->begin_step(s, t);
     detail::for_each_body(sys, this->par_, [&](std::size_t a) {
       // b = (h/4)(w0 + h M0), the right side of g(xi0) = b.
-      w_half_[a] = s.w[a] + h * this->eval_.torque[a];
+      w_half_[a] = s.w[a] + h * this->torque(a);
       RotationPredictor& predictor = this->predictor(a);
       if (predictor.empty()) predictor.reset(S3d::exp(sys.body(a).inertia_inverse() * ((0.25 * h) * w_half_[a])));
       S3d f = predictor.predict();
@@ -192,12 +197,16 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
       f_[a] = f;
     });
     this->evaluate_at(s);
-    detail::for_each_body(sys, this->par_, [&](std::size_t a) {
+    this->end_step(s, t + h, h, [&](std::size_t a) {
       this->kick(s, a, h);
-      s.w[a] = f_[a].inverse().act(w_half_[a]) + h * this->eval_.torque[a];
+      s.w[a] = f_[a].inverse().act(w_half_[a]) + h * this->torque(a);
     });
     this->finish_step(s);
   }
+
+  /// Adds a forcing (forcing.hpp) to the potential's force and torque, by the
+  /// discrete Lagrange-d'Alembert principle. Before initialize().
+  void set_forcing(ForcingSet forcing) { this->install_forcing(std::move(forcing)); }
 
   /// Resumes at `s` (evaluating the potential there) with saved internals.
   void resume(const SystemState& s, double t, const std::vector<double>& internal) {

@@ -97,9 +97,33 @@ class HeavyTop {
 /// its radius of the source, where the point-mass formula no longer holds for
 /// a solid ball; by default (as in the paper) the balls interact as point
 /// masses and their radii only enter the inertia.
+///
+/// An oblate source (J2): with `j2` != 0, a reference radius R and the unit
+/// pole k, each ball feels the field's second zonal harmonic,
+///   V_i = -mu m_i / r [1 - J2 (R/r)^2 P2(k . r/|r|)],  P2(s) = (3 s^2 - 1)/2,
+/// r = x + pi(q) rho_i, with the force from the exact gradient
+///   -dV_i/dr = -mu m_i r / |r|^3 - (3/2) J2 mu m_i R^2 / |r|^5 [(1 - 5 z^2/|r|^2) r + 2 z k],  z = k . r
+/// (Vallado, Fundamentals of Astrodynamics and Applications, 4th ed., 8.6.1;
+/// checked against finite differences of V in tests/test_j2.cpp). The field is
+/// symmetric about the pole, so the angular momentum about the pole, k . L,
+/// is conserved by the discrete flow (discrete Noether); the other components
+/// of L change.
 class CentralGravity {
  public:
-  CentralGravity(const RigidBody& body, double mu, bool stop_at_contact = false) : mu_(mu) {
+  /// A point source (J2 = 0).
+  CentralGravity(const RigidBody& body, double mu, bool stop_at_contact = false)
+      : CentralGravity(body, mu, stop_at_contact, 0.0, 0.0, Vector3<double>::UnitZ()) {}
+  /// An oblate source: J2, reference radius R > 0 and pole k (normalized here;
+  /// InvalidInput if it is zero or R is not > 0 while J2 != 0).
+  CentralGravity(const RigidBody& body, double mu, bool stop_at_contact, double j2, double reference_radius,
+                 const Vector3<double>& pole)
+      : mu_(mu), j2_(j2), radius2_ref_(reference_radius * reference_radius) {
+    if (j2_ != 0.0) {
+      if (!(reference_radius > 0.0 && std::isfinite(reference_radius)))
+        throw InvalidInput("potential.reference_radius: must be > 0 (the radius J2 refers to)");
+      if (!(pole.norm() > 0.0 && pole.allFinite())) throw InvalidInput("potential.pole: must be a non-zero vector");
+      pole_ = pole.normalized();
+    }
     if (body.balls().empty()) {
       rho_.emplace_back(Vector3<double>::Zero());
       mass_.push_back(body.mass());
@@ -125,7 +149,14 @@ class CentralGravity {
       const double inv_d = 1.0 / std::sqrt(d2);
       const double mu_m_inv_d = mu_ * mass_[i] * inv_d;
       e.energy -= mu_m_inv_d;
-      const Vector3<double> f = (-mu_m_inv_d * inv_d * inv_d) * pos;  // -dV_i/dx
+      Vector3<double> f = (-mu_m_inv_d * inv_d * inv_d) * pos;  // -dV_i/dx
+      if (j2_ != 0.0) {
+        // V_J2 = mu m J2 R^2 P2(z/r) / r^3; its force, above.
+        const double z = pole_.dot(pos), inv_d2 = inv_d * inv_d, zr2 = z * z * inv_d2;
+        const double c = j2_ * radius2_ref_ * mu_m_inv_d * inv_d2;  // mu m J2 R^2 / r^3
+        e.energy += c * 0.5 * (3.0 * zr2 - 1.0);
+        f -= (1.5 * c * inv_d2) * ((1.0 - 5.0 * zr2) * pos + (2.0 * z) * pole_);
+      }
       e.force += f;
       torque_inertial += arm.cross(f);
     }
@@ -146,6 +177,8 @@ class CentralGravity {
   }
 
   double mu_;
+  double j2_ = 0.0, radius2_ref_ = 0.0;
+  Vector3<double> pole_ = Vector3<double>::UnitZ();
   std::vector<Vector3<double>> rho_;
   std::vector<double> mass_;
   std::vector<double> radius2_;

@@ -11,12 +11,15 @@
 #pragma once
 
 #include <lgvi/error.hpp>
+#include <lgvi/forcing.hpp>
 #include <lgvi/interaction.hpp>
 #include <lgvi/parallel.hpp>
 #include <lgvi/rotation_solver.hpp>
 #include <lgvi/system.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <concepts>
 #include <string>
 #include <vector>
@@ -115,14 +118,25 @@ class StepperBase {
   const SystemEvaluation& evaluation() const { return eval_; }
   const SolveReport& last_solve() const { return report_; }
   void set_parallelism(Parallelism par) { par_ = par; }
+  /// The forcing acting besides the potential (forcing.hpp); empty if none.
+  const ForcingSet& forcing() const { return forcing_; }
+  /// The work done by the forcing since initialize() (trapezoidal rule,
+  /// forcing.hpp), 0 without forcing.
+  double forcing_work() const { return work_; }
 
-  /// Evaluates the potential at s.
-  void initialize(const SystemState& s, double /*t*/) {
+  /// Evaluates the potential at s, and the forcing at (t, s) (sampled
+  /// controllers sample there; the work starts from 0).
+  void initialize(const SystemState& s, double t) {
     if (s.size() != system_.size())
       throw InvalidInput("state: " + std::to_string(s.size()) + " bodies, the system has " +
                          std::to_string(system_.size()));
     potential_.evaluate(s, eval_);
     require_finite(system_, s, eval_);
+    if (forcing_.empty()) return;
+    forcing_.reset();
+    forcing_.sample(t, s, system_);
+    work_ = 0.0;
+    evaluate_forcing(t, s);
   }
 
  protected:
@@ -134,11 +148,137 @@ class StepperBase {
     potential_.evaluate(s, eval_);
   }
 
+  /// Installs a forcing (steppers that implement the discrete
+  /// Lagrange-d'Alembert step expose this as set_forcing).
+  void install_forcing(ForcingSet f) {
+    forcing_ = std::move(f);
+    const std::size_t n = system_.size();
+    ext_force_.assign(n, Vector3<double>::Zero());
+    ext_torque_.assign(n, Vector3<double>::Zero());
+    total_force_ = eval_.force;
+    total_torque_ = eval_.torque;
+  }
+
+  /// The force on body a at the current state: the potential's plus the
+  /// forcing's (inertial frame).
+  const Vector3<double>& force(std::size_t a) const { return forcing_.empty() ? eval_.force[a] : total_force_[a]; }
+  /// The body torque on body a at the current state, potential plus forcing.
+  const Vector3<double>& torque(std::size_t a) const { return forcing_.empty() ? eval_.torque[a] : total_torque_[a]; }
+
+  /// At the start of a step from (t, s): sampled controllers sample, and the
+  /// forcing's power there is kept for the work of the step. The forcing at
+  /// (t, s) is the end-of-step value of the step before (or initialize's).
+  void begin_step(const SystemState& s, double t) {
+    if (forcing_.empty()) return;
+    if (forcing_.sample(t, s, system_)) evaluate_forcing(t, s);
+    power0_ = ForcingSet::power(s, system_, ext_force_, ext_torque_);
+  }
+
+  /// Ends a step of size h whose new configuration is in s (the potential
+  /// evaluated there by evaluate_at): evaluates the forcing at (t1, s) and
+  /// calls kick(a), which sets body a's new momenta from force(a) and
+  /// torque(a), for every body. When the forcing reads the momenta, the new
+  /// momenta are a fixed point of (evaluate, kick): iterated until they
+  /// change by less than 4 eps relative (or stagnate at round-off), at most
+  /// 50 times; a StepFailure otherwise. Adds the step's work.
+  template <class Kick>
+  void end_step(SystemState& s, double t1, double h, Kick&& kick) {
+    if (forcing_.empty()) {
+      for_each_body(system_, par_, kick);
+      return;
+    }
+    evaluate_forcing(t1, s);
+    for_each_body(system_, par_, kick);
+    if (forcing_.depends_on_velocity()) {
+      constexpr int max_iterations = 50;
+      constexpr double eps = std::numeric_limits<double>::epsilon();
+      double previous = std::numeric_limits<double>::infinity();
+      for (int it = 1;; ++it) {
+        p_iterate_ = s.p;
+        w_iterate_ = s.w;
+        evaluate_forcing(t1, s);
+        for_each_body(system_, par_, kick);
+        double change = 0.0, scale = 0.0;
+        for (std::size_t a = 0; a < s.size(); ++a) {
+          change = std::max({change, (s.p[a] - p_iterate_[a]).norm(), (s.w[a] - w_iterate_[a]).norm()});
+          scale = std::max({scale, s.p[a].norm(), s.w[a].norm()});
+        }
+        if (change <= 4 * eps * scale) break;
+        // Round-off stagnation: the iteration stopped contracting a few ulps away.
+        if (change >= previous && change <= 1e3 * eps * scale) break;
+        if (it == max_iterations || !std::isfinite(change))
+          throw StepFailure("the forcing depends on the momenta and the end-of-step momenta did not converge in " +
+                                std::to_string(max_iterations) + " iterations (relative change " +
+                                std::to_string(scale > 0.0 ? change / scale : change) + ")",
+                            "the forcing is too stiff for this step (e.g. h c / j not small for damping): "
+                            "use a smaller step");
+        previous = change;
+      }
+    }
+    work_ += 0.5 * h * (power0_ + ForcingSet::power(s, system_, ext_force_, ext_torque_));
+  }
+
+  /// What a checkpoint keeps of the forcing: the work, the forcing at the
+  /// current state (the next step starts from it, so that a resumed run
+  /// continues bit for bit) and the sampled controllers' values. Empty
+  /// without forcing.
+  void forcing_internal(std::vector<double>& v) const {
+    if (forcing_.empty()) return;
+    v.push_back(work_);
+    for (const auto* arr : {&ext_force_, &ext_torque_})
+      for (const Vector3<double>& x : *arr) v.insert(v.end(), {x.x(), x.y(), x.z()});
+    const std::vector<double> sampled = forcing_.internal_state(system_.size());
+    v.insert(v.end(), sampled.begin(), sampled.end());
+  }
+  std::size_t forcing_internal_size() const {
+    return forcing_.empty() ? 0 : 1 + 6 * system_.size() + forcing_.internal_size(system_.size());
+  }
+  /// Restores what forcing_internal wrote (after initialize()).
+  void restore_forcing(const double* d) {
+    if (forcing_.empty()) return;
+    const std::size_t n = system_.size();
+    work_ = *d++;
+    for (auto* arr : {&ext_force_, &ext_torque_})
+      for (Vector3<double>& x : *arr) {
+        x = Vector3<double>(d[0], d[1], d[2]);
+        d += 3;
+      }
+    forcing_.restore(d, n);
+    sum_wrenches();
+  }
+
   System system_;
   I potential_;
   Parallelism par_;
   SystemEvaluation eval_;
   SolveReport report_;
+
+ private:
+  /// The forcing at (t, s) into ext_*, and the totals potential + forcing.
+  void evaluate_forcing(double t, const SystemState& s) {
+    forcing_.evaluate(t, s, system_, ext_force_, ext_torque_);
+    sum_wrenches();
+    for (std::size_t a = 0; a < s.size(); ++a)
+      if (!(ext_force_[a].allFinite() && ext_torque_[a].allFinite()))
+        throw StepFailure(body_prefix(system_, a) + "the forcing returned a non-finite force or torque at t = " +
+                              std::to_string(t),
+                          "check the forcing's inputs (a table, a callable)");
+  }
+  void sum_wrenches() {
+    const std::size_t n = system_.size();
+    total_force_.resize(n);
+    total_torque_.resize(n);
+    for (std::size_t a = 0; a < n; ++a) {
+      total_force_[a] = eval_.force[a] + ext_force_[a];
+      total_torque_[a] = eval_.torque[a] + ext_torque_[a];
+    }
+  }
+
+  ForcingSet forcing_;
+  std::vector<Vector3<double>> ext_force_, ext_torque_;      ///< the forcing at the current state
+  std::vector<Vector3<double>> total_force_, total_torque_;  ///< potential + forcing
+  std::vector<Vector3<double>> p_iterate_, w_iterate_;
+  double work_ = 0.0, power0_ = 0.0;
 };
 
 }  // namespace detail

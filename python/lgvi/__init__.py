@@ -8,7 +8,7 @@ variational integrator), from Python.
     lgvi.plot.draw_figures(result, "figures")
 
 Public names: Body, Scenario, simulate, Result, SystemResult (many-body runs), Stepper,
-PythonPotential, IntegrationError, ensemble, EnsembleResult (sweeps and Monte Carlo on any
+PythonPotential, PythonForcing (forces and torques written in Python), IntegrationError, ensemble, EnsembleResult (sweeps and Monte Carlo on any
 executor), load, potential (none(), central(mu), uniform(g)), plot (the
 paper's figures), load_run, COLUMNS, BODIES_COLUMNS, METHODS, SOLVERS. Quaternions are scalar-first (w, x, y, z) numpy arrays everywhere. Invalid arguments raise
 ValueError naming the argument.
@@ -23,14 +23,16 @@ _EXPORTS = {
     "Body": "_api", "Scenario": "_api", "simulate": "_api", "Stepper": "_api", "IntegrationError": "_api",
     "METHODS": "_api", "SOLVERS": "_api", "FORMATS": "_api", "__version__": "_api",
     "PythonPotential": "potential",
+    "PythonForcing": "forcing",
     "Result": "_result", "COLUMNS": "_result", "SystemResult": "_result", "BODIES_COLUMNS": "_result",
     "load": "_io",
     "load_run": "_io",
     "ensemble": "_ensemble", "EnsembleResult": "_ensemble",
 }
-_SUBMODULES = ("plot", "potential")
+_SUBMODULES = ("plot", "potential", "forcing")
 
-__all__ = ["Body", "Scenario", "simulate", "Result", "SystemResult", "Stepper", "PythonPotential", "IntegrationError",
+__all__ = ["Body", "Scenario", "simulate", "Result", "SystemResult", "Stepper", "PythonPotential", "PythonForcing",
+           "IntegrationError",
            "load", "potential", "plot", "load_run", "COLUMNS", "BODIES_COLUMNS", "METHODS", "SOLVERS", "FORMATS",
            "ensemble", "EnsembleResult"]
 

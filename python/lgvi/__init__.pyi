@@ -10,7 +10,9 @@ import numpy as np
 import numpy.typing as npt
 
 from . import plot as plot
+from . import forcing as forcing
 from . import potential as potential
+from .forcing import PythonForcing as PythonForcing
 from .potential import PythonPotential as PythonPotential
 
 __version__: str
@@ -193,15 +195,21 @@ class Result:
     def save(self, run_dir: PathLike) -> PathLike: ...
     def draw_figures(self, out_dir: PathLike) -> List[str]: ...
 
+ForcingFunction = Callable[[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray], Tuple[Any, Any]]
+
 def simulate(scenario: Union[Scenario, PathLike],
-             potential: Union[None, PythonPotential, PotentialFunction] = ..., *, check: bool = ...) -> Result:
+             potential: Union[None, PythonPotential, PotentialFunction] = ..., *,
+             forcing: Union[None, PythonForcing, ForcingFunction] = ..., check: bool = ...) -> Result:
     """Run a scenario (bit-identical to `lgvi run`); IntegrationError (with .result) on a failed step."""
     ...
 
 class Stepper:
     """One step at a time, for control loops; quaternion scalar-first (w, x, y, z)."""
     def __init__(self, scenario: Union[Scenario, PathLike],
-                 potential: Union[None, PythonPotential, PotentialFunction] = ...) -> None: ...
+                 potential: Union[None, PythonPotential, PotentialFunction] = ..., *,
+                 forcing: Union[None, PythonForcing, ForcingFunction] = ...) -> None: ...
+    @property
+    def work(self) -> float: ...
     def step(self, n: int = ...) -> None: ...
     def refresh(self) -> None: ...
     def set_potential(self, potential: Union[None, PythonPotential, PotentialFunction]) -> None: ...

@@ -11,6 +11,7 @@ import tomllib
 import numpy as np
 
 from . import _check, _core
+from . import forcing as _forcing
 from . import potential as _potential
 from ._result import BODIES_COLUMNS, Result, SystemResult
 
@@ -671,7 +672,7 @@ def _scenario(scenario, name="scenario"):
 # ---------------------------------------------------------------------------
 # Running
 
-def simulate(scenario, potential=None, *, check=True):
+def simulate(scenario, potential=None, *, forcing=None, check=True):
     """Run a scenario with the CLI's own run loop; returns an lgvi.Result.
 
     ``scenario``: an lgvi.Scenario or the path of a scenario file.
@@ -688,6 +689,11 @@ def simulate(scenario, potential=None, *, check=True):
     except wall_seconds and ns_per_step; with a Python potential,
     summary["setup"]["potential"] is {"kind": "python"}).
 
+    ``forcing``: an ``lgvi.PythonForcing`` or a callable ``(t, x, q, p, w) ->
+    (force, torque)`` (force inertial, torque body frame) added to the
+    scenario's ``[[forcing]]``; the rows then end with the column ``work``
+    and ``energy_error`` is E - E0 - W. Methods lgvi and so3-lgvi only.
+
     A failed step (no root of the rotation equation, solver not converged,
     non-finite values) raises lgvi.IntegrationError, a RuntimeError whose
     ``result`` is the Result up to the last good step (``completed`` False),
@@ -698,11 +704,14 @@ def simulate(scenario, potential=None, *, check=True):
     """
     sc = _scenario(scenario)
     core_pot = _potential.core_potential(potential)
-    data, summary_text, completed, error = _core.simulate(sc._core, core_pot)
+    try:
+        data, summary_text, completed, error = _core.simulate(sc._core, core_pot, _forcing.core_forcing(forcing))
+    except ValueError as e:
+        raise _value_error(e) from None
     summary = json.loads(summary_text)
     if core_pot is not None:
         summary["setup"]["potential"] = {"kind": "python", "function": repr(potential)}
-    many = data.shape[1] == len(BODIES_COLUMNS)  # a [[bodies]] scenario: the long format
+    many = data.shape[1] >= len(BODIES_COLUMNS)  # a [[bodies]] scenario: the long format (26 or 27 columns)
     result = SystemResult(data, summary, sc.toml) if many else Result(data, summary, sc.toml)
     if not completed and check:
         e = IntegrationError(error)
@@ -747,11 +756,12 @@ class Stepper:
     the last good step.
     """
 
-    def __init__(self, scenario, potential=None):
+    def __init__(self, scenario, potential=None, *, forcing=None):
         self._scenario = _scenario(scenario)
         self._potential = potential
         try:
-            self._core = _core.Stepper(self._scenario._core, _potential.core_potential(potential))
+            self._core = _core.Stepper(self._scenario._core, _potential.core_potential(potential),
+                                       _forcing.core_forcing(forcing))
         except ValueError as e:
             raise _value_error(e) from None
 
@@ -860,8 +870,13 @@ class Stepper:
 
     @property
     def energy_error(self):
-        """Energy minus the energy at k = 0."""
-        return self._core.energy - self._core.initial_energy
+        """Energy minus the energy at k = 0, minus the forcing's work (E - E0 - W)."""
+        return self._core.energy - self._core.initial_energy - self._core.work
+
+    @property
+    def work(self):
+        """The work done by the forcing since k = 0 (0 without forcing)."""
+        return self._core.work
 
     @property
     def potential_energy(self):
@@ -890,7 +905,8 @@ class Stepper:
 
     @property
     def row(self):
-        """The 21 trajectory columns at the current step (lgvi.COLUMNS order), exactly as simulate() writes them."""
+        """The 21 trajectory columns at the current step (lgvi.COLUMNS order; 22 with "work" when forced), exactly
+        as simulate() writes them."""
         return self._core.row()
 
     @property

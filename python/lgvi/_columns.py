@@ -14,6 +14,12 @@ BODIES_COLUMNS = ("t", "body", "x", "y", "z", "qw", "qx", "qy", "qz", "px", "py"
                   "quat_norm_error", "energy", "energy_error", "Px", "Py", "Pz", "linear_momentum_error",
                   "Lx", "Ly", "Lz", "momentum_error")
 
+#: The column a forced scenario ([[forcing]]) adds after the others: the work
+#: W done by the forcing since t = 0 (its energy_error is then E - E0 - W).
+WORK = "work"
+FORCED_COLUMNS = COLUMNS + (WORK,)
+FORCED_BODIES_COLUMNS = BODIES_COLUMNS + (WORK,)
+
 
 def body_of(summary):
     """The body of a summary: setup.body (the CLI's layout) or body."""

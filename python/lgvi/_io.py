@@ -20,7 +20,7 @@ import zipfile
 
 import numpy as np
 
-from ._result import BODIES_COLUMNS, COLUMNS, Result, SystemResult
+from ._result import BODIES_COLUMNS, COLUMNS, FORCED_BODIES_COLUMNS, FORCED_COLUMNS, Result, SystemResult
 
 TRAJECTORY_FILES = ("trajectory.csv", "trajectory.npz", "trajectory.h5")
 
@@ -36,8 +36,9 @@ def _text(value):
 
 def _check_columns(names, path):
     names = [_text(n).strip() for n in names]
-    if tuple(names) != COLUMNS:
-        raise ValueError(f"{path}: columns are {','.join(names)}; expected {','.join(COLUMNS)}")
+    if tuple(names) not in (COLUMNS, FORCED_COLUMNS):
+        raise ValueError(f"{path}: columns are {','.join(names)}; expected {','.join(COLUMNS)} (and work, "
+                         f"for a forced scenario)")
 
 
 def _read_side_file(folder, name):
@@ -132,14 +133,14 @@ def load(path):
         data, names, scenario, summary_text = read_h5(file)
     else:
         raise ValueError(f"{file}: unknown trajectory format (expected .csv, .npz or .h5)")
-    if tuple(_text(n).strip() for n in names) == BODIES_COLUMNS:
+    if tuple(_text(n).strip() for n in names) in (BODIES_COLUMNS, FORCED_BODIES_COLUMNS):
         summary = _summary(folder, summary_text)
         if scenario is None:
             scenario = _read_side_file(folder, "scenario.toml")
         return SystemResult(data, summary, scenario, source=file)
     _check_columns(names, file)
-    if data.ndim != 2 or data.shape[1] != len(COLUMNS):
-        raise ValueError(f"{file}: trajectory has shape {data.shape}, expected (rows, {len(COLUMNS)})")
+    if data.ndim != 2 or data.shape[1] != len(names):
+        raise ValueError(f"{file}: trajectory has shape {data.shape}, expected (rows, {len(names)})")
     if summary_text is None:
         summary_text = _read_side_file(folder, "summary.json")
     if scenario is None:

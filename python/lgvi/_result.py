@@ -7,7 +7,8 @@ import os
 
 import numpy as np
 
-from ._columns import BODIES_COLUMNS, COLUMNS, HEADER, body_of  # noqa: F401 (re-exported)
+from ._columns import (BODIES_COLUMNS, COLUMNS, FORCED_BODIES_COLUMNS, FORCED_COLUMNS, HEADER,  # noqa: F401
+                       body_of)
 
 
 class _RunSummary:
@@ -49,12 +50,14 @@ class Result(_RunSummary):
 
     def __init__(self, data, summary=None, scenario_toml=None, source=None):
         data = np.asarray(data, dtype=float)
-        if data.ndim != 2 or data.shape[1] != len(COLUMNS):
-            raise ValueError(f"data: must have shape (N, {len(COLUMNS)}), got shape {data.shape}")
-        #: The (N, 21) table.
+        if data.ndim != 2 or data.shape[1] not in (len(COLUMNS), len(FORCED_COLUMNS)):
+            raise ValueError(f"data: must have shape (N, {len(COLUMNS)}), or (N, {len(FORCED_COLUMNS)}) with the "
+                             f"forcing's work, got shape {data.shape}")
+        #: The (N, 21) table; (N, 22) with the column "work" for a forced scenario.
         self.data = data
+        names = FORCED_COLUMNS if data.shape[1] == len(FORCED_COLUMNS) else COLUMNS
         #: Column name -> 1-D array (views into data), in the CSV header's order.
-        self.columns = {name: data[:, i] for i, name in enumerate(COLUMNS)}
+        self.columns = {name: data[:, i] for i, name in enumerate(names)}
         #: The summary dict (the CLI's summary.json).
         self.summary = dict(summary or {})
         #: The scenario's TOML text, or None.
@@ -169,16 +172,18 @@ class SystemResult(_RunSummary):
 
     def __init__(self, data, summary=None, scenario_toml=None, source=None):
         data = np.asarray(data, dtype=float)
+        widths = (len(BODIES_COLUMNS), len(FORCED_BODIES_COLUMNS))
         if data.ndim == 2:  # the long format's rows: regroup them by step
-            if data.shape[1] != len(BODIES_COLUMNS):
-                raise ValueError(f"data: must have {len(BODIES_COLUMNS)} columns, got shape {data.shape}")
+            if data.shape[1] not in widths:
+                raise ValueError(f"data: must have {len(BODIES_COLUMNS)} columns ({len(FORCED_BODIES_COLUMNS)} with "
+                                 f"the forcing's work), got shape {data.shape}")
             bodies = int(data[:, 1].max()) + 1 if len(data) else 0
             if bodies == 0 or len(data) % bodies:
                 raise ValueError(f"data: {len(data)} rows are not whole steps of {bodies} bodies")
-            data = data.reshape(len(data) // bodies, bodies, len(BODIES_COLUMNS))
-        if data.ndim != 3 or data.shape[2] != len(BODIES_COLUMNS):
+            data = data.reshape(len(data) // bodies, bodies, data.shape[1])
+        if data.ndim != 3 or data.shape[2] not in widths:
             raise ValueError(f"data: must have shape (steps, N, {len(BODIES_COLUMNS)}), got shape {data.shape}")
-        #: The (steps, N, 26) array.
+        #: The (steps, N, 26) array; (steps, N, 27) with "work" for a forced scenario.
         self.data = data
         self.summary = dict(summary or {})
         self.scenario_toml = scenario_toml
@@ -187,7 +192,8 @@ class SystemResult(_RunSummary):
         #: The bodies' names, in scenario order.
         self.names = names if len(names) == data.shape[1] else [f"body{i}" for i in range(data.shape[1])]
         #: Column name -> array: (steps, N) for per-body columns, (steps,) for the system's.
-        self.columns = {name: (data[:, :, i] if i < 16 else data[:, 0, i]) for i, name in enumerate(BODIES_COLUMNS)}
+        names = FORCED_BODIES_COLUMNS if data.shape[2] == len(FORCED_BODIES_COLUMNS) else BODIES_COLUMNS
+        self.columns = {name: (data[:, :, i] if i < 16 else data[:, 0, i]) for i, name in enumerate(names)}
 
     @property
     def bodies(self):

@@ -21,6 +21,8 @@
 #include "summary.hpp"
 
 #include <lgvi/error.hpp>
+#include <lgvi/forcing.hpp>
+#include <lgvi/integrate.hpp>
 #include <lgvi/lgvi.hpp>
 #include <lgvi/potential.hpp>
 #include <lgvi/rigid_body.hpp>
@@ -203,6 +205,38 @@ class PythonPotential {
 
 CallablePotential make_python_potential(py::object spec) { return CallablePotential(PythonPotential(std::move(spec))); }
 
+/// The scenario with a Python forcing added: `forcing` is None (the scenario
+/// as it is) or a tuple (f, body name or None, velocity_dependent) from
+/// lgvi.PythonForcing, f(t, x, q, p, w) -> (force, torque), force inertial,
+/// torque in the body frame, q scalar-first.
+Scenario with_python_forcing(const Scenario& sc, py::object forcing) {
+  if (forcing.is_none()) return sc;
+  const py::tuple spec = forcing.cast<py::tuple>();
+  py::object f = spec[0];
+  if (!PyCallable_Check(f.ptr())) throw py::value_error("forcing: must be callable as f(t, x, q, p, w)");
+  std::size_t body = lgvi::ForcingSet::all_bodies;
+  if (!spec[1].is_none()) {
+    const std::string name = spec[1].cast<std::string>();
+    const auto& names = sc.system.names();
+    const auto it = std::find(names.begin(), names.end(), name);
+    if (it == names.end()) throw py::value_error("forcing: body: no body is named \"" + name + "\"");
+    body = static_cast<std::size_t>(it - names.begin());
+  }
+  Scenario out = sc;
+  auto call = [f](double t, std::size_t, const RigidBodyState& s) {
+    py::array xa = array3(s.x), qa = quaternion_array(s.q), pa = array3(s.p), wa = array3(s.w);
+    for (py::array* a : {&xa, &qa, &pa, &wa}) make_read_only(*a);
+    const py::object r = f(t, xa, qa, pa, wa);
+    if (!(py::isinstance<py::tuple>(r) || py::isinstance<py::list>(r)) || py::len(r) != 2)
+      throw py::value_error("forcing: must return (force, torque), got " + std::string(py::repr(r)));
+    const py::sequence seq = r.cast<py::sequence>();
+    return lgvi::Wrench{vec3(seq[0], "forcing: the returned force", true),
+                        vec3(seq[1], "forcing: the returned torque", true)};
+  };
+  out.forcing.add(lgvi::CallableForcing{call, spec[2].cast<bool>()}, body);
+  return out;
+}
+
 // ---------------------------------------------------------------------------
 // Built-in potentials and type-erased steppers
 
@@ -224,6 +258,8 @@ class AnyStepper {
   virtual SolveReport last_solve() const = 0;
   virtual std::vector<double> internal_state() const = 0;
   virtual void resume(const RigidBodyState& s, const std::vector<double>& internal) = 0;
+  /// The forcing's work since initialize (0 without forcing).
+  virtual double work() const = 0;
 };
 
 template <class S>
@@ -245,6 +281,7 @@ class StepperModel final : public AnyStepper {
   const PotentialEvaluation& evaluation() const override { return eval_; }
   SolveReport last_solve() const override { return s_.last_solve(); }
   std::vector<double> internal_state() const override { return s_.internal_state(); }
+  double work() const override { return lgvi::detail::forcing_work(s_); }
   void resume(const RigidBodyState& s, const std::vector<double>& internal) override {
     state_ = SystemState(s);
     s_.resume(state_, 0.0, internal);
@@ -296,7 +333,9 @@ struct InterruptWatch {
   }
 };
 
-py::tuple run_simulation(const Scenario& sc, py::object potential) {
+py::tuple run_simulation(const Scenario& scenario, py::object potential, py::object forcing) {
+  const Scenario sc = with_python_forcing(scenario, std::move(forcing));
+  const bool python_forcing = sc.forcing.size() != scenario.forcing.size();
   const std::int64_t every = sc.output_every;
   const TrajectoryLayout layout = lgvi::app::scenario_layout(sc);
   MemorySink sink((sc.integrator.steps / every + 2) * layout.rows_per_step(), layout);
@@ -304,8 +343,10 @@ py::tuple run_simulation(const Scenario& sc, py::object potential) {
   InterruptWatch watch;
   SimulationOptions opt;
   watch.install(opt);
-  if (potential.is_none()) {
+  if (potential.is_none() && !python_forcing) {
     py::gil_scoped_release release;
+    r = simulate(sc, sink, opt);
+  } else if (potential.is_none()) {
     r = simulate(sc, sink, opt);
   } else {
     const CallablePotential p = make_python_potential(potential);
@@ -323,7 +364,8 @@ py::tuple run_simulation(const Scenario& sc, py::object potential) {
 
 class PyStepper {
  public:
-  PyStepper(const Scenario& sc, py::object potential) : sc_(sc) {
+  PyStepper(const Scenario& sc, py::object potential, py::object forcing)
+      : sc_(with_python_forcing(sc, std::move(forcing))), python_forcing_(sc_.forcing.size() != sc.forcing.size()) {
     set_potential_impl(std::move(potential));
     state_ = sc_.initial();
     initialize_at(state_, "initial state");
@@ -333,7 +375,7 @@ class PyStepper {
 
   void step(std::int64_t n) {
     if (n < 0) throw py::value_error("n: must be >= 0, got " + std::to_string(n));
-    if (python_ || n < 64) {
+    if (python_ || python_forcing_ || n < 64) {
       advance(n);
       return;
     }
@@ -387,6 +429,8 @@ class PyStepper {
   const PotentialEvaluation& evaluation() const { return impl_->evaluation(); }
   double energy() const { return total_energy(state_, sc_.body(), impl_->evaluation()); }
   double energy0() const { return energy0_; }
+  /// The forcing's work since k = 0 (0 without forcing).
+  double work() const { return impl_->work(); }
   const Vector3<double>& momentum0() const { return momentum0_; }
   const Scenario& scenario() const { return sc_; }
   SolveReport last_solve() const { return impl_->last_solve(); }
@@ -396,9 +440,13 @@ class PyStepper {
   py::array_t<double> row() const {
     const double e = energy();
     const Vector3<double> L = angular_momentum(state_);
-    const SingleBodyRow row(t(), state_, e, e - energy0_, state_.q.norm_error(), L, (L - momentum0_).norm());
-    py::array_t<double> a(trajectory_columns);
+    const bool forced = !sc_.forcing.empty();
+    // With a forcing: E - E0 - W and the column "work", as simulate() writes them.
+    const double de = forced ? e - energy0_ - work() : e - energy0_;
+    const SingleBodyRow row(t(), state_, e, de, state_.q.norm_error(), L, (L - momentum0_).norm());
+    py::array_t<double> a(trajectory_columns + (forced ? 1 : 0));
     std::copy(std::begin(row.values), std::end(row.values), a.mutable_data());
+    if (forced) a.mutable_data()[trajectory_columns] = work();
     return a;
   }
 
@@ -448,7 +496,7 @@ class PyStepper {
       }
       state_ = next;
       ++k_;
-      if (python_ && PyErr_CheckSignals() != 0) throw py::error_already_set();  // Ctrl-C
+      if ((python_ || python_forcing_) && PyErr_CheckSignals() != 0) throw py::error_already_set();  // Ctrl-C
     }
   }
 
@@ -460,6 +508,7 @@ class PyStepper {
   }
 
   Scenario sc_;
+  bool python_forcing_ = false;  // a Python forcing: the GIL stays held
   std::unique_ptr<AnyStepper> impl_;
   py::object python_object_ = py::none();
   bool python_ = false;
@@ -657,10 +706,12 @@ PYBIND11_MODULE(_core, m) {
         "Reads a scenario file exactly as the CLI does; ValueError with the CLI's message otherwise.");
 
   m.def("simulate", &run_simulation, py::arg("scenario"), py::arg("potential") = py::none(),
+        py::arg("forcing") = py::none(),
         "Runs the scenario with the CLI's run loop: returns (rows (N, 21) float64, summary JSON text, completed, "
         "error). `potential`: None (the scenario's own; the GIL is released), one callable (x, q) -> (energy, "
         "force, torque) or a tuple of three callables (x, q) -> energy / force / torque, q scalar-first "
-        "(w, x, y, z). Ctrl-C stops the run with KeyboardInterrupt.");
+        "(w, x, y, z). `forcing`: None or (f, body name or None, velocity_dependent) with f(t, x, q, p, w) -> (force, "
+        "torque), added to the scenario's [[forcing]]. Ctrl-C stops the run with KeyboardInterrupt.");
 
   m.def(
       "check_potential",
@@ -678,7 +729,8 @@ PYBIND11_MODULE(_core, m) {
   py::class_<PyStepper>(m, "Stepper",
                         "One step at a time (C++ integrator of the scenario's method and solver). Quaternions "
                         "scalar-first (w, x, y, z).")
-      .def(py::init<const Scenario&, py::object>(), py::arg("scenario"), py::arg("potential") = py::none(),
+      .def(py::init<const Scenario&, py::object, py::object>(), py::arg("scenario"), py::arg("potential") = py::none(),
+           py::arg("forcing") = py::none(),
            "Initializes the integrator at the scenario's initial state (k = 0).")
       .def("step", &PyStepper::step, py::arg("n") = 1,
            "Takes n steps (IntegrationError on failure; the state stays at the last good step).")
@@ -724,7 +776,9 @@ PYBIND11_MODULE(_core, m) {
                              "Iterations of the last step's rotation solve.")
       .def_property_readonly("python_potential", &PyStepper::python_potential,
                              "Whether the potential is written in Python.")
-      .def("row", &PyStepper::row, "The 21 trajectory columns at the current step, as simulate() writes them.");
+      .def_property_readonly("work", &PyStepper::work, "The forcing's work since k = 0 (0 without forcing).")
+      .def("row", &PyStepper::row,
+           "The 21 trajectory columns at the current step (22 with the forcing's work), as simulate() writes them.");
 
   // Ensembles (lgvi.ensemble): the plan of `lgvi ensemble` and one member's row.
   py::class_<lgvi::app::EnsemblePlan>(m, "EnsemblePlan", "A sweep, read and checked: members and their varied values.")

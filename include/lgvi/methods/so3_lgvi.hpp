@@ -154,10 +154,13 @@ class So3LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I
     for (std::size_t a = 0; a < s.size(); ++a) R_[a] = s.q[a].matrix();
   }
 
-  void step(SystemState& s, double /*t*/, double h) {
+  /// One step; with a forcing, F and M are the potential's plus the
+  /// forcing's at both ends (forcing.hpp), as in the quaternion LGVI.
+  void step(SystemState& s, double t, double h) {
     const System& sys = this->system_;
+    this->begin_step(s, t);
     detail::for_each_body(sys, this->par_, [&](std::size_t a) {
-      w_half_[a] = s.w[a] + h * this->eval_.torque[a];  // 2 (Pi_k + (h/2) M_k)
+      w_half_[a] = s.w[a] + h * this->torque(a);  // 2 (Pi_k + (h/2) M_k)
       detail::CayleyPredictor& predictor = this->predictor(a);
       if (predictor.empty()) predictor.reset(sys.body(a).inertia_inverse() * ((0.25 * h) * w_half_[a]));
       Vector3<double> u = predictor.predict();
@@ -169,12 +172,15 @@ class So3LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I
       s.q[a] = lift(R_[a], s.q[a]);
     });
     this->evaluate_at(s);
-    detail::for_each_body(sys, this->par_, [&](std::size_t a) {
+    this->end_step(s, t + h, h, [&](std::size_t a) {
       this->kick(s, a, h);
-      s.w[a] = F_[a].transpose() * w_half_[a] + h * this->eval_.torque[a];
+      s.w[a] = F_[a].transpose() * w_half_[a] + h * this->torque(a);
     });
     this->finish_step(s);
   }
+
+  /// Adds a forcing by the discrete Lagrange-d'Alembert principle (forcing.hpp). Before initialize().
+  void set_forcing(ForcingSet forcing) { this->install_forcing(std::move(forcing)); }
 
   /// The attitude of body a as this method keeps it.
   const Matrix3<double>& rotation_matrix(std::size_t a = 0) const { return R_[a]; }
