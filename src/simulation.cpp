@@ -1,5 +1,6 @@
 #include "simulation.hpp"
 
+#include "formats/particles.hpp"
 #include "method_dispatch.hpp"
 
 #include <lgvi/error.hpp>
@@ -68,8 +69,10 @@ ScenarioSystemPotential scenario_system_potential(const Scenario& s, const Calla
 }
 
 TrajectoryLayout scenario_layout(const Scenario& s) {
-  return s.bodies_format ? TrajectoryLayout::long_format(static_cast<std::int64_t>(s.bodies()))
-                         : TrajectoryLayout::single_body();
+  TrajectoryLayout layout = s.bodies_format ? TrajectoryLayout::long_format(static_cast<std::int64_t>(s.bodies()))
+                                            : TrajectoryLayout::single_body();
+  if (!holds_columns(s.output_format)) layout.shapes = body_shapes(s.system);
+  return layout;
 }
 
 namespace {
