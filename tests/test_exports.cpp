@@ -50,7 +50,8 @@ TrajectoryLayout two_bodies() {
 void write_rows(TrajectorySink& sink, std::int64_t begin, std::int64_t end, double offset = 0.0) {
   double row[lgvi::app::bodies_trajectory_columns] = {};
   for (std::int64_t r = begin; r < end; ++r) {
-    const double k = static_cast<double>(r / 2) + offset;
+    const std::int64_t step = r / 2;
+    const double k = static_cast<double>(step) + offset;
     for (int c = 0; c < lgvi::app::bodies_trajectory_columns; ++c) row[c] = 0.001 * k * (c + 1) + 0.1 / (c + 1);
     row[0] = 0.01 * k;                       // t
     row[1] = static_cast<double>(r % 2);     // body

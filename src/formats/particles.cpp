@@ -19,8 +19,9 @@ std::vector<BodyShape> body_shapes(const System& system) {
     s.name = system.name(a);
     s.mass = body.mass();
     const Matrix3<double>& j_inv = body.inertia_inverse();
-    for (int i = 0; i < 3; ++i)
-      for (int k = 0; k < 3; ++k) s.inertia_inverse[static_cast<std::size_t>(3 * i + k)] = j_inv(i, k);
+    for (std::size_t i = 0; i < 3; ++i)
+      for (std::size_t k = 0; k < 3; ++k)
+        s.inertia_inverse[3 * i + k] = j_inv(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(k));
     for (const Ball& b : body.balls()) s.sites.push_back({{b.position.x(), b.position.y(), b.position.z()}, b.radius});
     if (s.sites.empty()) {
       // A uniform sphere has every moment 2/5 m r^2: the one of the mean moment tr J / 3.
