@@ -174,7 +174,13 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
         sc.name, st.last_k, result.wall_seconds,
         st.last_k ? result.wall_seconds * 1e9 / static_cast<double>(st.last_k) : 0.0, st.max_energy_error,
         st.max_quat_error, l0 > 0 ? st.max_momentum_error / l0 : st.max_momentum_error, dir);
-  if (opt.figures) {
+  // The figures are drawn from the trajectory's columns; the particle exports
+  // (xyz, vtk) do not hold them (lgvi.load refuses them), so those runs have none.
+  if (opt.figures && !holds_columns(sc.output_format)) {
+    if (!opt.quiet)
+      std::cerr << "lgvi: no figures: they are drawn from csv, npz or hdf5 trajectories, this run wrote the "
+                << to_string(sc.output_format) << " export " << trajectory_path.string() << "\n";
+  } else if (opt.figures) {
     try {
       draw_figures(dir);
     } catch (const std::exception& e) {

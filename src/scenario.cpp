@@ -835,8 +835,10 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   }
   TrajectoryFormat format = TrajectoryFormat::Csv;
   if (const toml::table* out = root.get_as<toml::table>("output"); out && out->contains("format")) {
-    const std::string f =
-        r.string(*out, "output", "format", {format_names[0].second, format_names[1].second, format_names[2].second});
+    static_assert(std::size(format_names) == 5, "list every format below");
+    const std::string f = r.string(*out, "output", "format",
+                                   {format_names[0].second, format_names[1].second, format_names[2].second,
+                                    format_names[3].second, format_names[4].second});
     for (const auto& [kind, name] : format_names)
       if (f == name) format = kind;
   }

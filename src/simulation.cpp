@@ -1,5 +1,6 @@
 #include "simulation.hpp"
 
+#include "formats/particles.hpp"
 #include "method_dispatch.hpp"
 
 #include <lgvi/error.hpp>
@@ -73,8 +74,11 @@ ScenarioSystemPotential scenario_system_potential(const Scenario& s, const Calla
 
 TrajectoryLayout scenario_layout(const Scenario& s) {
   const bool forced = !s.forcing.empty();
-  return s.bodies_format ? TrajectoryLayout::long_format(static_cast<std::int64_t>(s.bodies()), forced)
-                         : TrajectoryLayout::single_body(forced);
+  TrajectoryLayout layout = s.bodies_format
+                                ? TrajectoryLayout::long_format(static_cast<std::int64_t>(s.bodies()), forced)
+                                : TrajectoryLayout::single_body(forced);
+  if (!holds_columns(s.output_format)) layout.shapes = body_shapes(s.system);
+  return layout;
 }
 
 namespace {

@@ -151,8 +151,16 @@ const char* trajectory_file_name(TrajectoryFormat f) {
     case TrajectoryFormat::Csv: return "trajectory.csv";
     case TrajectoryFormat::Npz: return "trajectory.npz";
     case TrajectoryFormat::Hdf5: return "trajectory.h5";
+    case TrajectoryFormat::Xyz: return "trajectory.xyz";
+    case TrajectoryFormat::Vtk: return "trajectory.pvd";
   }
   return "trajectory";
+}
+
+const char* to_string(TrajectoryFormat f) {
+  for (const auto& [format, name] : format_names)
+    if (format == f) return name;
+  return "?";
 }
 
 std::unique_ptr<TrajectorySink> open_trajectory(TrajectoryFormat format, const std::string& path,
@@ -161,6 +169,8 @@ std::unique_ptr<TrajectorySink> open_trajectory(TrajectoryFormat format, const s
     case TrajectoryFormat::Csv: return std::make_unique<CsvTrajectory>(path, layout, resume);
     case TrajectoryFormat::Npz: return open_npz(path, layout, resume);
     case TrajectoryFormat::Hdf5: return open_hdf5(path, layout, resume);
+    case TrajectoryFormat::Xyz: return open_xyz(path, layout, resume);
+    case TrajectoryFormat::Vtk: return open_vtk(path, layout, resume);
   }
   throw std::runtime_error("unknown trajectory format");
 }

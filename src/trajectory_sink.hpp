@@ -1,12 +1,15 @@
-// Where a run's trajectory rows go: CSV, npz or HDF5 files (and, for the
+// Where a run's trajectory rows go: CSV, npz or HDF5 files, the particle
+// exports for OVITO (extended XYZ) and ParaView (VTK XML) (and, for the
 // Python package, memory). One interface, so that the run loop, checkpoints
 // and resume do not depend on the format.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace lgvi::app {
 
@@ -33,6 +36,27 @@ inline constexpr const char* forced_bodies_trajectory_header =
     "t,body,x,y,z,qw,qx,qy,qz,px,py,pz,wx,wy,wz,quat_norm_error,energy,energy_error,Px,Py,Pz,"
     "linear_momentum_error,Lx,Ly,Lz,momentum_error,work";
 
+/// One sphere of a body as the particle exports (xyz, vtk) draw it: its
+/// centre in the body frame (about the centre of mass) and its radius.
+struct Site {
+  std::array<double, 3> rho{};
+  double radius = 0.0;
+};
+
+/// What the particle exports need of a body beyond the trajectory's rows:
+/// they write sites (balls), not bodies, and the rows hold only each body's
+/// centre of mass, quaternion, momentum p and w = 2 J Omega.
+struct BodyShape {
+  std::string name;  ///< the body's name (the XYZ species)
+  double mass = 1.0;
+  /// J^-1, row-major: the angular velocity Omega = J^-1 w / 2 (body frame).
+  std::array<double, 9> inertia_inverse{};
+  /// One per ball; a body given by mass and inertia has one site at its
+  /// centre of mass, with the radius of the uniform sphere of its mean
+  /// moment (tr J / 3 = 2/5 m r^2).
+  std::vector<Site> sites;
+};
+
 /// What a trajectory file holds: the column names, and how many rows make
 /// one output step (1 for a single-body scenario; N, one per body, for a
 /// [[bodies]] scenario, whose npz and HDF5 arrays are then shaped
@@ -41,6 +65,9 @@ struct TrajectoryLayout {
   const char* header = trajectory_header;
   int columns = trajectory_columns;
   std::int64_t bodies = 0;  ///< 0: the single-body layout, 2-D arrays; N >= 1: the long layout
+  /// The bodies' shapes, one per row of a step: needed by the particle
+  /// exports (xyz, vtk) only; the other formats ignore them.
+  std::vector<BodyShape> shapes = {};
 
   static TrajectoryLayout single_body(bool forced = false) {
     if (forced) return {forced_trajectory_header, trajectory_columns + 1, 0};
@@ -57,7 +84,8 @@ struct TrajectoryLayout {
 /// How far a file has been written, as returned by TrajectorySink::sync() and
 /// kept in a checkpoint; a resumed run truncates the file back to it. The
 /// meaning of the fields is the format's own (CSV and npz: bytes of the file
-/// and the CRC-32 of the data so far; HDF5: rows).
+/// and the CRC-32 of the data so far; HDF5: rows; xyz: bytes; vtk: bytes of
+/// the .pvd index and rows, which number the frame files).
 struct SinkPosition {
   std::int64_t rows = 0;
   std::int64_t bytes = 0;
@@ -78,11 +106,22 @@ class TrajectorySink {
   virtual void close(const std::string& scenario_toml, const std::string& summary_json) = 0;
 };
 
-enum class TrajectoryFormat { Csv, Npz, Hdf5 };
+enum class TrajectoryFormat { Csv, Npz, Hdf5, Xyz, Vtk };
 
 /// Every format with its scenario name (`[output] format`), in display order.
 inline constexpr std::pair<TrajectoryFormat, const char*> format_names[] = {
-    {TrajectoryFormat::Csv, "csv"}, {TrajectoryFormat::Npz, "npz"}, {TrajectoryFormat::Hdf5, "hdf5"}};
+    {TrajectoryFormat::Csv, "csv"}, {TrajectoryFormat::Npz, "npz"}, {TrajectoryFormat::Hdf5, "hdf5"},
+    {TrajectoryFormat::Xyz, "xyz"}, {TrajectoryFormat::Vtk, "vtk"}};
+
+/// The scenario name of a format ("csv", ..., "vtk").
+const char* to_string(TrajectoryFormat f);
+
+/// Whether the format holds the trajectory's columns (csv, npz, hdf5), which
+/// lgvi.load and the figures read; the others (xyz, vtk) are exports of the
+/// bodies' spheres for viewers, not for analysis.
+constexpr bool holds_columns(TrajectoryFormat f) {
+  return f == TrajectoryFormat::Csv || f == TrajectoryFormat::Npz || f == TrajectoryFormat::Hdf5;
+}
 
 /// The file name of the trajectory in a run folder for each format.
 const char* trajectory_file_name(TrajectoryFormat f);

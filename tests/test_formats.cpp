@@ -457,6 +457,8 @@ Trajectory read_back(TrajectoryFormat f, const std::string& path) {
     case TrajectoryFormat::Csv: return read_csv(path);
     case TrajectoryFormat::Npz: return read_npz(path);
     case TrajectoryFormat::Hdf5: return read_hdf5(path);
+    case TrajectoryFormat::Xyz:
+    case TrajectoryFormat::Vtk: break;  // the particle exports hold sites, not these columns: test_exports.cpp
   }
   throw std::logic_error("format");
 }
@@ -466,6 +468,8 @@ std::string format_name(TrajectoryFormat f) {
     case TrajectoryFormat::Csv: return "Csv";
     case TrajectoryFormat::Npz: return "Npz";
     case TrajectoryFormat::Hdf5: return "Hdf5";
+    case TrajectoryFormat::Xyz: return "Xyz";
+    case TrajectoryFormat::Vtk: return "Vtk";
   }
   return "?";
 }

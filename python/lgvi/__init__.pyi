@@ -25,7 +25,7 @@ FORMATS: Tuple[str, ...]
 
 Method = Literal["lgvi", "lgvi-lagrangian"]
 Solver = Literal["newton", "newton-exp", "broyden"]
-OutputFormat = Literal["csv", "npz", "hdf5"]
+OutputFormat = Literal["csv", "npz", "hdf5", "xyz", "vtk"]
 Vector3 = Union[Sequence[float], npt.NDArray[np.float64]]
 #: A unit quaternion, scalar-first (w, x, y, z).
 Quaternion = Union[Sequence[float], npt.NDArray[np.float64]]

@@ -286,7 +286,8 @@ class Scenario:
     to higher order; symmetric one-step methods only; None = order 2);
     ``every`` (a
     trajectory row every this many steps, plus the first and last; default
-    1); ``output_format`` for the CLI ("csv", "npz", "hdf5"); ``name``.
+    1); ``output_format`` for the CLI ("csv", "npz", "hdf5", or the viewer
+    exports "xyz" for OVITO and "vtk" for ParaView); ``name``.
 
     The scenario is written as TOML (``.toml``) and read by the CLI's own
     reader, so a code-built scenario is validated exactly like a file and
@@ -512,7 +513,7 @@ class Scenario:
 
     @property
     def output_format(self):
-        """The CLI's trajectory format: "csv", "npz" or "hdf5"."""
+        """The CLI's trajectory format: "csv", "npz", "hdf5", "xyz" (OVITO) or "vtk" (ParaView)."""
         return self._core.output_format
 
     def evaluate_potential(self, position, quaternion):

@@ -1,4 +1,6 @@
-// Binary trajectory formats: numpy's .npz (written without numpy) and HDF5.
+// Trajectory formats beside CSV: numpy's .npz (written without numpy), HDF5,
+// and the particle exports for viewers, extended XYZ (OVITO) and VTK XML
+// (ParaView).
 #pragma once
 
 #include "trajectory_sink.hpp"
@@ -17,5 +19,21 @@ std::unique_ptr<TrajectorySink> open_npz(const std::string& path, const Trajecto
 /// attribute `columns`, and root attributes `scenario` and `summary` (strings).
 std::unique_ptr<TrajectorySink> open_hdf5(const std::string& path, const TrajectoryLayout& layout,
                                           const SinkPosition* resume);
+
+/// The `Properties=` of the extended XYZ frames: the columns of each line.
+/// orientation is (qx, qy, qz, qw), OVITO's order (formats/xyz.cpp).
+inline constexpr const char* xyz_properties =
+    "Properties=species:S:1:pos:R:3:orientation:R:4:radius:R:1:body:I:1:id:I:1:velo:R:3:omega:R:3";
+
+/// `path` (.xyz): extended XYZ, one frame per output step, one line per site
+/// (ball) of every body; needs layout.shapes. Resumes by truncation, like CSV.
+std::unique_ptr<TrajectorySink> open_xyz(const std::string& path, const TrajectoryLayout& layout,
+                                         const SinkPosition* resume);
+
+/// `path` (.pvd): a ParaView collection indexing one VTK XML PolyData file per
+/// output step in the folder named like `path` without its extension; needs
+/// layout.shapes. The .pvd's closing tags are written by close().
+std::unique_ptr<TrajectorySink> open_vtk(const std::string& path, const TrajectoryLayout& layout,
+                                         const SinkPosition* resume);
 
 }  // namespace lgvi::app

@@ -672,12 +672,9 @@ PYBIND11_MODULE(_core, m) {
                              "Sub-step fractions gamma_1..gamma_s of a composed step.")
       .def_readonly("every", &Scenario::output_every, "A row every this many steps (plus the first and last).")
       .def_property_readonly("output_format",
-                             [](const Scenario& s) {
-                               return std::string(s.output_format == TrajectoryFormat::Csv   ? "csv"
-                                                  : s.output_format == TrajectoryFormat::Npz ? "npz"
-                                                                                             : "hdf5");
-                             },
-                             "The CLI's trajectory format: \"csv\", \"npz\" or \"hdf5\".")
+                             [](const Scenario& s) { return std::string(to_string(s.output_format)); },
+                             "The CLI's trajectory format: \"csv\", \"npz\", \"hdf5\", or the exports for viewers "
+                             "\"xyz\" (OVITO) and \"vtk\" (ParaView).")
       .def(
           "evaluate_potential",
           [](const Scenario& s, py::object x, py::object q) {

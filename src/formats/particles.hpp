@@ -1,0 +1,91 @@
+// The particles of the exports for viewers (extended XYZ for OVITO, VTK XML
+// for ParaView): every sphere of every body placed in the inertial frame, one
+// frame per output step. The viewers draw particles, not rigid bodies, so the
+// exports carry each body's spheres ("sites") with the body's orientation.
+#pragma once
+
+#include "trajectory_sink.hpp"
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace lgvi {
+class System;
+}
+
+namespace lgvi::app {
+
+/// The shapes of a system's bodies, for TrajectoryLayout::shapes: a body
+/// made of balls has one site per ball (body-frame centre about the centre of
+/// mass, radius); a body given by mass and inertia one site at its centre of
+/// mass with the radius of the uniform sphere of its mean moment.
+std::vector<BodyShape> body_shapes(const System& system);
+
+/// One site of one body at one output step, in the inertial frame.
+struct Particle {
+  std::int64_t body = 0;
+  std::int64_t site = 0;  ///< the site's number in the frame, 0-based
+  std::array<double, 3> position{};  ///< x + R(q) rho (site_position)
+  std::array<double, 4> q{};  ///< the body's quaternion, scalar first (w, x, y, z) as in lgvi's files
+  std::array<double, 3> velocity{};  ///< of the centre of mass, p / m
+  std::array<double, 3> omega{};  ///< angular velocity in the inertial frame, R(q) J^-1 w / 2
+  double radius = 0.0;
+};
+
+/// One output step as particles, with the system's diagnostics of that step.
+struct ParticleFrame {
+  std::int64_t index = 0;  ///< the frame's number, 0-based
+  double t = 0.0, energy = 0.0, energy_error = 0.0, momentum_error = 0.0;
+  std::vector<Particle> particles;
+};
+
+/// Collects a step's rows (layout.rows_per_step(), one per body) and turns
+/// them into a frame. The rows are the trajectory's own (trajectory_header
+/// or bodies_trajectory_header); columns are found by name.
+class ParticleFrames {
+ public:
+  /// Throws std::runtime_error unless layout.shapes has one shape per row of a step.
+  explicit ParticleFrames(const TrajectoryLayout& layout);
+
+  /// Takes one row; returns the frame when the row completes a step, else nullptr.
+  const ParticleFrame* row(const double* values);
+
+  /// Rows taken so far, and whether a step is partly collected.
+  std::int64_t rows() const { return rows_; }
+  bool mid_step() const { return pending_ != 0; }
+  /// Frames so far (whole steps).
+  std::int64_t frames() const { return frames_; }
+  /// Particles in every frame.
+  std::int64_t particles_per_frame() const { return static_cast<std::int64_t>(frame_.particles.size()); }
+  const std::vector<BodyShape>& shapes() const { return shapes_; }
+
+  /// Continues after `rows` rows (a whole number of steps, as in a
+  /// checkpoint); throws std::runtime_error otherwise.
+  void resume_at(std::int64_t rows);
+
+ private:
+  struct Columns {
+    int t, x, qw, px, wx, energy, energy_error, momentum_error;
+  };
+  std::vector<BodyShape> shapes_;
+  Columns col_{};
+  std::int64_t rows_ = 0, frames_ = 0;
+  std::size_t pending_ = 0;  ///< rows of the current step taken so far
+  std::vector<double> step_rows_;
+  std::size_t columns_;
+  ParticleFrame frame_;
+};
+
+/// x + R rho with R = pi(q) of S3::matrix() (the rotation the integrators
+/// use), each coordinate summed as (R_i0 rho_0 + R_i1 rho_1) + R_i2 rho_2:
+/// the order is fixed so that a reader can reproduce the positions bit for
+/// bit from the CSV's x and q (tests/python/test_exports.py does).
+std::array<double, 3> site_position(const double* x, const double* q_wxyz, const std::array<double, 3>& rho);
+
+/// Appends v with 17 significant digits (%.17g, as the CSV writer prints
+/// them: every double round-trips exactly).
+void append_number(std::string& text, double v);
+
+}  // namespace lgvi::app
