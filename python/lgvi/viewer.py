@@ -169,6 +169,7 @@ def page_data(result, max_frames=MAX_FRAMES, max_bytes=MAX_BYTES):
     extent_pts = x[idx].reshape(-1, 3)
     lo, hi = extent_pts.min(axis=0), extent_pts.max(axis=0)
     size = float(np.max(parts[:, 8:11])) if len(parts) else 0.0
+    reach = float(np.max(np.linalg.norm(parts[:, 1:4], axis=1) + parts[:, 8:11].max(axis=1))) if len(parts) else 0.0
     meta = {
         "title": summary.get("scenario") or os.path.basename(os.path.dirname(os.fspath(result.source or ""))) or "run",
         "bodies": n, "names": names if n <= 10000 else None,
@@ -176,7 +177,7 @@ def page_data(result, max_frames=MAX_FRAMES, max_bytes=MAX_BYTES):
         "completed": bool(summary.get("completed", True)), "error": summary.get("error", ""),
         "potential": {k: v for k, v in potential.items() if isinstance(v, (str, int, float, list))},
         "interaction": (setup.get("interaction") or {}).get("kind", "none"),
-        "parts": len(parts), "box": [lo.tolist(), hi.tolist()], "part_size": size,
+        "parts": len(parts), "box": [lo.tolist(), hi.tolist()], "part_size": size, "body_size": reach,
         "max_abs": {k: float(np.max(np.abs(v))) if len(v) else 0.0 for k, v in diag.items()},
         "plots": {},
     }

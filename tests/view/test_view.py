@@ -181,6 +181,23 @@ def test_python_view_of_a_result_in_memory(tmp_path, tmp_path_factory):
     assert lgvi.view(run) == os.path.join(run, "view.html")
 
 
+def test_run_with_view_writes_the_page(tmp_path):
+    out = str(tmp_path / "top")
+    run_cli("run", os.path.join(SOURCE, "scenarios", "heavy-top.toml"), "--out", out, "--no-figures", "-q", "--view")
+    html = open(os.path.join(out, "view.html"), encoding="utf-8").read()
+    assert '"three":"data:text/javascript;base64,' in html.replace(" ", "")  # three.js inlined: no network
+    assert "http://" not in html.split("<script type=\"importmap\">")[0] and "src=\"http" not in html
+
+
+def test_open_without_a_display_says_where_the_page_is(tmp_path):
+    out = str(tmp_path / "top")
+    run_cli("run", os.path.join(SOURCE, "scenarios", "heavy-top.toml"), "--out", out, "--no-figures", "-q")
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    p = subprocess.run([BINARY, "view", out, "--open"], capture_output=True, text=True, env=env)
+    assert p.returncode == 0, p.stderr
+    assert f"open file://{os.path.abspath(out)}/view.html in a browser" in p.stdout
+
+
 # ------------------------------------------------------------------ in the browser
 
 @pytest.fixture(scope="module")
