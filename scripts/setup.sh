@@ -10,7 +10,8 @@ packages=(g++ make cmake libeigen3-dev libcli11-dev libtomlplusplus-dev libfmt-d
           libgtest-dev libgmock-dev libbenchmark-dev
           python3 python3-numpy python3-matplotlib python3-pytest pybind11-dev python3-dev
           libhdf5-dev python3-h5py clang clang-tidy libclang-rt-14-dev time libboost-dev git zlib1g-dev libomp-dev
-          openmpi-bin libopenmpi-dev python3-mpi4py python3-distributed python3-vtk9)
+          openmpi-bin libopenmpi-dev python3-mpi4py python3-distributed python3-vtk9
+          chromium ffmpeg nodejs npm)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -25,6 +26,13 @@ if ((${#missing[@]})); then
   export DEBIAN_FRONTEND=noninteractive
   $sudo apt-get update -qq
   $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# lgvi view: three.js (inlined into view.html) and puppeteer-core (drives Debian's chromium for the browser
+# tests and --movie) from npm, pinned by web/package-lock.json. Not committed; installed once.
+if [[ ! -f web/node_modules/.package-lock.json || web/package-lock.json -nt web/node_modules/.package-lock.json ]]; then
+  echo "lgvi setup: installing web/node_modules (npm ci --prefix web)"
+  npm ci --prefix web --no-audit --no-fund >/dev/null
 fi
 
 jobs=$(nproc 2>/dev/null || echo 2)

@@ -41,6 +41,7 @@ int run_cli(int argc, char** argv) {
                   "results do not depend on it")
       ->check(CLI::Range(1, 1024));
   run->add_flag("--no-figures", no_figures, "Do not draw the PNG figures");
+  run->add_flag("--view", options.view, "Also write DIR/view.html, the interactive 3-D view (lgvi view)");
   run->add_flag("-q,--quiet", options.quiet, "Print nothing on success");
   run->footer(
       "Examples:\n  lgvi run scenarios/paper.toml --out results/paper\n"
@@ -96,6 +97,22 @@ int run_cli(int argc, char** argv) {
       "members.csv does not depend on the threads or ranks. Exit status: 0 every member ran (failed members are\n"
       "rows with completed = 0), 2 bad input (no member runs), 130/143 stopped by SIGINT/SIGTERM");
 
+  auto* view = app.add_subcommand(
+      "view", "Write RUN_DIR/view.html: an interactive 3-D view of a run, one file that opens offline");
+  std::string view_dir;
+  lgvi::app::ViewOptions view_options;
+  view->add_option("RUN_DIR", view_dir, "Run folder (written by lgvi run)")->required();
+  view->add_flag("--open", view_options.open, "Open it in the default browser (where there is a display)");
+  view->add_option("--movie", view_options.movie,
+                   "Also render a movie (.mp4 or .gif) with headless chromium and ffmpeg");
+  view->add_option("--movie-seconds", view_options.movie_seconds, "Length of the movie (default 10 s at 30 frames/s)")
+      ->check(CLI::PositiveNumber);
+  view->add_option("--max-frames", view_options.max_frames, "Frames embedded at most (default 2000; fewer for "
+                   "many bodies: the page stays under about 50 MB)")->check(CLI::Range(2, 1000000));
+  view->add_flag("-q,--quiet", view_options.quiet, "Print nothing on success");
+  view->footer("Examples:\n  lgvi view results/paper-orbit --open\n  lgvi view results/paper-orbit --movie orbit.mp4\n"
+               "  lgvi run scenarios/paper-orbit.toml --view    # the same at the end of a run");
+
   auto* show = app.add_subcommand("show", "Print the summary of a run folder (or an ensemble folder) as a table");
   std::string show_dir;
   show->add_option("DIR", show_dir, "Run folder (written by lgvi run)")->required();
@@ -137,6 +154,7 @@ int run_cli(int argc, char** argv) {
       ensemble_options.figures = !ensemble_no_figures;
       return lgvi::app::run_ensemble(ensemble_sweep, ensemble_options);
     }
+    if (view->parsed()) return lgvi::app::write_view(view_dir, view_options);
     if (show->parsed()) {
       if (std::filesystem::exists(std::filesystem::path(show_dir) / "members.csv"))
         lgvi::app::show_ensemble(show_dir, std::cout);

@@ -18,6 +18,7 @@
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <vector>
 
 extern char** environ;
 
@@ -188,14 +189,20 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
       return kRunFailed;
     }
   }
+  if (opt.view) {
+    ViewOptions view;
+    view.quiet = opt.quiet;
+    if (write_view(dir, view) != kSuccess) return kRunFailed;  // lgvi.viewer said why, in one line
+  }
   return kSuccess;
 }
 
 }  // namespace
 
 namespace {
-/// Runs `python -m MODULE DIR` with the lgvi package on PYTHONPATH.
-void run_python_module(const std::string& module, const std::string& run_dir) {
+/// Runs `python ARGS...` with the lgvi package on PYTHONPATH; returns its exit status (-1 if it did not
+/// exit). Throws std::runtime_error if it cannot start, naming what it was for (`purpose`) and the fix.
+int run_python(const std::vector<std::string>& python_args, const std::string& purpose) {
   const char* py_env = std::getenv("LGVI_PYTHON");
   const std::string python = py_env ? py_env : "/usr/bin/python3";
   std::string pythonpath = python_dir();
@@ -207,25 +214,42 @@ void run_python_module(const std::string& module, const std::string& run_dir) {
   envp.reserve(env_strings.size() + 1);
   for (auto& e : env_strings) envp.push_back(e.data());
   envp.push_back(nullptr);
-  std::vector<std::string> args{python, "-m", module, run_dir};
+  std::vector<std::string> args{python};
+  args.insert(args.end(), python_args.begin(), python_args.end());
   std::vector<char*> argv;
   argv.reserve(args.size() + 1);
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
   pid_t pid;
   if (posix_spawn(&pid, python.c_str(), nullptr, nullptr, argv.data(), envp.data()) != 0)
-    throw std::runtime_error("cannot start " + python + " to draw the figures (install python3-matplotlib, or set "
-                             "LGVI_PYTHON; --no-figures skips them)");
+    throw std::runtime_error("cannot start " + python + " to " + purpose);
   int status = 0;
   waitpid(pid, &status, 0);
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    throw std::runtime_error("drawing the figures with " + python + " -m " + module +
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+/// Runs `python -m MODULE DIR` (the figures); throws std::runtime_error if it fails.
+void run_python_module(const std::string& module, const std::string& run_dir) {
+  if (run_python({"-m", module, run_dir},
+                 "draw the figures (install python3-matplotlib, or set LGVI_PYTHON; --no-figures skips them)") != 0)
+    throw std::runtime_error("drawing the figures with python3 -m " + module +
                              " failed (see its message above; --no-figures skips them)");
 }
 }  // namespace
 
 void draw_figures(const std::string& run_dir) { run_python_module("lgvi.plot", run_dir); }
 void draw_compare_figures(const std::string& dir) { run_python_module("lgvi.compare_plot", dir); }
+
+int write_view(const std::string& run_dir, const ViewOptions& options) {
+  std::vector<std::string> args{"-m", "lgvi.viewer", run_dir};
+  if (options.open) args.emplace_back("--open");
+  if (!options.movie.empty()) args.insert(args.end(), {"--movie", options.movie});
+  if (options.movie_seconds > 0) args.insert(args.end(), {"--movie-seconds", fmt::format("{}", options.movie_seconds)});
+  if (options.max_frames > 0) args.insert(args.end(), {"--max-frames", std::to_string(options.max_frames)});
+  if (options.quiet) args.emplace_back("-q");
+  const int status = run_python(args, "write the view (set LGVI_PYTHON to a Python with numpy)");
+  return status == kSuccess || status == kBadInput ? status : kRunFailed;
+}
 
 int run_scenario(const Scenario& sc, const RunOptions& opt) {
   return execute(sc, opt.out_dir.empty() ? sc.name : opt.out_dir, opt, nullptr);

@@ -16,6 +16,15 @@ struct RunOptions {
   bool quiet = false;              ///< no summary line, no progress line
   std::int64_t checkpoint_every = 0;  ///< write DIR/checkpoint.bin every N steps (0: never)
   int threads = 0;                    ///< --threads (0: the scenario's [run] threads, else all cores)
+  bool view = false;                  ///< write DIR/view.html at the end (lgvi view)
+};
+
+struct ViewOptions {
+  bool open = false;           ///< open the page in the default browser (xdg-open) where there is a display
+  std::string movie;           ///< also render this movie (.mp4 or .gif): headless chromium + ffmpeg
+  double movie_seconds = 0;    ///< its length (0: lgvi.viewer's default, 10 s)
+  int max_frames = 0;          ///< frames embedded at most (0: lgvi.viewer's default, 2000)
+  bool quiet = false;          ///< print nothing on success
 };
 
 /// Exit statuses of `lgvi run`.
@@ -40,5 +49,9 @@ void draw_figures(const std::string& run_dir);
 
 /// Draws the figures of `lgvi compare` in `dir` with `lgvi.compare_plot`.
 void draw_compare_figures(const std::string& dir);
+
+/// `lgvi view`: writes RUN_DIR/view.html, the interactive 3-D view, with `lgvi.viewer` (Python, the same
+/// code as lgvi.view()). Returns the exit status: 0, 2 for bad input (lgvi.viewer printed one line), 1 else.
+int write_view(const std::string& run_dir, const ViewOptions& options);
 
 }  // namespace lgvi::app

@@ -10,7 +10,7 @@ variational integrator), from Python.
 Public names: Body, Scenario, simulate, Result, SystemResult (many-body runs), Stepper,
 PythonPotential, PythonForcing (forces and torques written in Python), IntegrationError, ensemble, EnsembleResult (sweeps and Monte Carlo on any
 executor), load, potential (none(), central(mu), uniform(g)), plot (the
-paper's figures), load_run, COLUMNS, BODIES_COLUMNS, METHODS, SOLVERS. Quaternions are scalar-first (w, x, y, z) numpy arrays everywhere. Invalid arguments raise
+paper's figures), view (an interactive 3-D view of a run, one offline HTML file), load_run, COLUMNS, BODIES_COLUMNS, METHODS, SOLVERS. Quaternions are scalar-first (w, x, y, z) numpy arrays everywhere. Invalid arguments raise
 ValueError naming the argument.
 
 `import lgvi` itself is cheap: names are loaded on first use (numpy, and the compiled lgvi._core
@@ -28,13 +28,14 @@ _EXPORTS = {
     "load": "_io",
     "load_run": "_io",
     "ensemble": "_ensemble", "EnsembleResult": "_ensemble",
+    "view": "viewer",
 }
 _SUBMODULES = ("plot", "potential", "forcing")
 
 __all__ = ["Body", "Scenario", "simulate", "Result", "SystemResult", "Stepper", "PythonPotential", "PythonForcing",
            "IntegrationError",
            "load", "potential", "plot", "load_run", "COLUMNS", "BODIES_COLUMNS", "METHODS", "SOLVERS", "FORMATS",
-           "ensemble", "EnsembleResult"]
+           "ensemble", "EnsembleResult", "view"]
 
 
 def _import(submodule):

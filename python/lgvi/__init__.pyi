@@ -314,3 +314,9 @@ def ensemble(scenario: Union[Scenario, PathLike], vary: Union[Dict[str, Any], Se
              trajectories: str = ...) -> EnsembleResult:
     """Run an ensemble of a scenario with some of its numbers varied (the semantics of `lgvi ensemble`)."""
     ...
+
+def view(source: Union[PathLike, Result, SystemResult], out: Optional[PathLike] = ..., max_frames: int = ...,
+         display: bool = ...) -> str:
+    """Write the interactive 3-D view of a run (one offline HTML file, default RUN_DIR/view.html); its path.
+    In Jupyter it is also displayed inline."""
+    ...

@@ -1,0 +1,297 @@
+"""lgvi view: the page generator (lgvi.viewer) and the page itself in a real browser.
+
+The browser tests run `lgvi run` and `lgvi view` (the CLI), open view.html from
+file:// in Debian's headless chromium (tests/view/view_check.mjs, puppeteer-core
+from web/node_modules), read the displayed state back through window.lgviView
+and compare it with the trajectory file, and check a screenshot: the body
+colours at the projected positions of the bodies. Any console error, page
+error or network request fails them.
+
+Registered as ctest `view.pytest` (tests/CMakeLists.txt) with LGVI_BINARY,
+LGVI_SOURCE_DIR and PYTHONPATH (the built package).
+"""
+
+import colorsys
+import json
+import os
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import lgvi
+from lgvi import viewer
+
+SOURCE = os.environ.get("LGVI_SOURCE_DIR", os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..")))
+BINARY = os.environ.get("LGVI_BINARY", os.path.join(SOURCE, "build", "lgvi"))
+CHECK = os.path.join(os.path.dirname(os.path.abspath(__file__)), "view_check.mjs")
+CHROMIUM = "/usr/bin/chromium"
+
+# float32 rounds to nearest: relative error at most 2^-24 per embedded number.
+F32 = 2.0 ** -24
+
+
+def _browser_missing():
+    missing = [what for what, ok in (
+        ("node (apt-get install nodejs)", shutil.which("node")),
+        (f"{CHROMIUM} (apt-get install chromium)", os.access(CHROMIUM, os.X_OK)),
+        ("web/node_modules/puppeteer-core (npm ci --prefix web)",
+         os.path.isdir(os.path.join(SOURCE, "web", "node_modules", "puppeteer-core"))),
+        ("web/node_modules/three (npm ci --prefix web)",
+         os.path.isdir(os.path.join(SOURCE, "web", "node_modules", "three")))) if not ok]
+    return ", ".join(missing)
+
+
+needs_browser = pytest.mark.skipif(bool(_browser_missing()),
+                                   reason=f"missing {_browser_missing()}; scripts/setup.sh installs them")
+
+
+def run_cli(*args, check=True):
+    p = subprocess.run([BINARY, *args], capture_output=True, text=True)
+    if check:
+        assert p.returncode == 0, f"lgvi {' '.join(args)}: status {p.returncode}\n{p.stderr}"
+    return p
+
+
+def make_run(tmp_path_factory, scenario, name):
+    out = str(tmp_path_factory.mktemp(name) / "run")
+    run_cli("run", os.path.join(SOURCE, "scenarios", scenario), "--out", out, "--no-figures", "-q")
+    return out
+
+
+def drive(html, out_dir, plan):
+    """Runs view_check.mjs; returns its report (problems, times, states, projection, overlay, ...)."""
+    p = subprocess.run(["node", CHECK, html, str(out_dir), json.dumps(plan)], capture_output=True, text=True,
+                       timeout=600)
+    assert p.returncode == 0, f"view_check.mjs failed ({p.returncode}):\n{p.stdout}\n{p.stderr}"
+    with open(os.path.join(out_dir, "report.json"), encoding="utf-8") as f:
+        report = json.load(f)
+    assert report["problems"] == [], "the page reported problems (console errors or network requests)"
+    return report
+
+
+def screenshot(out_dir):
+    import matplotlib.image
+    return matplotlib.image.imread(os.path.join(out_dir, "screenshot.png"))[:, :, :3]  # floats in [0, 1]
+
+
+def hue_sat(rgb):
+    h, s, v = colorsys.rgb_to_hsv(*rgb)
+    return h, s, v
+
+
+def hue_distance(a, b):
+    d = abs(a - b) % 1.0
+    return min(d, 1.0 - d)
+
+
+def is_colour_of(pixel, colour, tol=0.03):
+    """The pixel shows this body colour: Lambert shading under white light scales the colour (its hue
+    stays, to the 8-bit rounding: 0.03 of the hue circle) and the background and trails are grey."""
+    h, s, v = hue_sat(pixel)
+    return s > 0.3 and v > 0.15 and hue_distance(h, hue_sat(colour)[0]) < tol
+
+
+def nlerp(qa, qb, u):
+    qb = np.where((np.sum(qa * qb, axis=-1) < 0)[..., None], -qb, qb)
+    q = qa + u * (qb - qa)
+    return q / np.linalg.norm(q, axis=-1, keepdims=True), np.linalg.norm(q, axis=-1)
+
+
+def check_states(report, t, x, q):
+    """The displayed state at the requested times equals the trajectory file's rows (at embedded frames)
+    or their interpolation (between frames), to the float32 rounding of the embedded data."""
+    times = np.array(report["times"])
+    for state in report["states"]:
+        i, u = state["frame"], state["u"]
+        pos, quat = np.array(state["positions"]), np.array(state["quaternions"])
+        a = int(np.flatnonzero(t == times[i])[0])  # the embedded frame's row in the file
+        if u == 0:
+            # Exactly the row: |dx| <= 2^-24 |x|; q/|q| of the rounded q: <= 2^-24 per component plus
+            # 2^-24 from the norm, plus the file's own |q| - 1 (< 1e-12): 2^-22 covers both.
+            np.testing.assert_allclose(pos, x[a], rtol=F32, atol=1e-300)
+            np.testing.assert_allclose(quat, q[a], rtol=0, atol=4 * F32)
+        else:
+            b = int(np.flatnonzero(t == times[i + 1])[0])
+            assert abs(state["t"] - (times[i] + u * (times[i + 1] - times[i]))) < 1e-12 * max(1, abs(state["t"]))
+            # Linear between the rounded rows: the rounding of each row, at most 2^-24 of the larger.
+            bound = F32 * np.maximum(np.abs(x[a]), np.abs(x[b])) * 1.0000001 + 1e-300
+            assert np.all(np.abs(pos - (x[a] + u * (x[b] - x[a]))) <= bound)
+            # nlerp: the rounding (2^-24 per component, 2 for both rows and the norm) over |lerp|.
+            expected, norm = nlerp(q[a], q[b], u)
+            assert np.all(np.abs(quat - expected) <= 4 * F32 / norm[..., None])
+
+
+# ------------------------------------------------------------------ without a browser
+
+def test_inertia_ellipsoid_has_the_bodys_inertia():
+    """Semi-axes from the principal moments: the solid ellipsoid (a, b, c) of mass m has
+    J1 = m (b^2 + c^2) / 5 ..., here rotated; the quaternion turns the ellipsoid's axes into the body's."""
+    m, axes = 2.5, np.array([0.3, 0.7, 1.1])
+    q0 = np.array([0.9, 0.1, -0.3, 0.2]) / np.linalg.norm([0.9, 0.1, -0.3, 0.2])
+    R = lgvi.plot.rotation_matrix(q0)
+
+    def moments(a):
+        return m / 5 * np.array([a[1] ** 2 + a[2] ** 2, a[0] ** 2 + a[2] ** 2, a[0] ** 2 + a[1] ** 2])
+
+    J = R @ np.diag(moments(axes)) @ R.T
+    semi, q = viewer.inertia_ellipsoid(m, J)
+    np.testing.assert_allclose(np.sort(semi), axes, rtol=1e-12)
+    Rq = lgvi.plot.rotation_matrix(q)  # the drawn ellipsoid (semi-axes along Rq's columns) has inertia J
+    np.testing.assert_allclose(Rq @ np.diag(moments(semi)) @ Rq.T, J, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.det(Rq), 1.0, atol=1e-12)
+
+
+def test_decimation_is_even_and_keeps_the_last_row():
+    idx = viewer._frames(1000001, 2000, 60, 36_000_000)
+    assert len(idx) <= 2000 and idx[0] == 0 and idx[-1] == 1000000
+    assert set(np.diff(idx[:-1])) == {501}  # ceil(1e6 / 1999)
+    # The byte budget wins for many bodies: 10^4 bodies of 28 bytes a frame, 36 MB: 128 frames.
+    assert len(viewer._frames(100001, 2000, 10000 * 28 + 32, 36_000_000)) <= 128
+    np.testing.assert_array_equal(viewer._frames(11, 2000, 60, 36_000_000), np.arange(11))
+
+
+def test_missing_threejs_names_the_fix(monkeypatch, tmp_path):
+    monkeypatch.setattr(viewer, "_source_dirs", lambda: [str(tmp_path)])
+    with pytest.raises(viewer.ViewError, match=r"three\.js is not installed.*scripts/setup\.sh.*npm ci --prefix web"):
+        viewer.web_dir()
+
+
+def test_view_of_a_folder_without_a_run_is_one_line_status_2(tmp_path):
+    p = run_cli("view", str(tmp_path), check=False)
+    assert p.returncode == 2
+    assert p.stderr.count("\n") == 1 and p.stderr.startswith("lgvi: error: ")
+    assert "no run here" in p.stderr and str(tmp_path) in p.stderr
+    p = run_cli("view", str(tmp_path / "absent"), check=False)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and "no such run folder" in p.stderr
+
+
+def test_python_view_of_a_result_in_memory(tmp_path, tmp_path_factory):
+    run = make_run(tmp_path_factory, "heavy-top.toml", "top")
+    result = lgvi.load(run)
+    with pytest.raises(ValueError, match="out="):
+        lgvi.view(result)
+    path = lgvi.view(result, out=str(tmp_path / "top.html"), max_frames=50)
+    assert path == str(tmp_path / "top.html")
+    html = open(path, encoding="utf-8").read()
+    meta = json.loads(html.split('id="lgvi-meta">')[1].split("</script>")[0])
+    # 2001 rows into at most 50 frames: every ceil(2000 / 49) = 41st row (0 .. 1968) and the last.
+    assert meta["frames"] == 50 and meta["rows"] == 2001 and meta["decimated"]
+    assert lgvi.view(run) == os.path.join(run, "view.html")
+
+
+def test_run_with_view_writes_the_page(tmp_path):
+    out = str(tmp_path / "top")
+    run_cli("run", os.path.join(SOURCE, "scenarios", "heavy-top.toml"), "--out", out, "--no-figures", "-q", "--view")
+    html = open(os.path.join(out, "view.html"), encoding="utf-8").read()
+    assert '"three":"data:text/javascript;base64,' in html.replace(" ", "")  # three.js inlined: no network
+    assert "http://" not in html.split("<script type=\"importmap\">")[0] and "src=\"http" not in html
+
+
+def test_open_without_a_display_says_where_the_page_is(tmp_path):
+    out = str(tmp_path / "top")
+    run_cli("run", os.path.join(SOURCE, "scenarios", "heavy-top.toml"), "--out", out, "--no-figures", "-q")
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    p = subprocess.run([BINARY, "view", out, "--open"], capture_output=True, text=True, env=env)
+    assert p.returncode == 0, p.stderr
+    assert f"open file://{os.path.abspath(out)}/view.html in a browser" in p.stdout
+
+
+# ------------------------------------------------------------------ in the browser
+
+@pytest.fixture(scope="module")
+def orbit(tmp_path_factory):
+    run = make_run(tmp_path_factory, "paper-orbit.toml", "orbit")
+    p = run_cli("view", run)
+    assert "view.html" in p.stdout
+    return run
+
+
+@needs_browser
+def test_paper_orbit_in_the_browser(orbit, tmp_path):
+    html = os.path.join(orbit, "view.html")
+    size = os.path.getsize(html)
+    assert size < 50e6
+    r = lgvi.load(orbit)
+    t, x, q = r.t, r.x[:, None, :], r.q[:, None, :]
+    # 10001 rows: every 6th embedded (ceil(10000 / 1999) = 6), 1668 frames; ask at frames and between.
+    asked = [t[0], t[3000], t[3000] + 0.017, t[-1] - 0.03, t[-1]]
+    report = drive(html, tmp_path, {"times": asked, "seek": t[3000],
+                                     "set": {"follow": 0, "distance": 3.0, "trails": True}})
+    assert report["rows"] == 10001 and report["frames"] == 1668
+    assert "showing 1668 of 10001 frames" in report["overlay"]["note"]
+    check_states(report, t, x, q)
+    assert [s["u"] == 0 for s in report["states"]] == [True, True, False, False, True]
+    # The overlay: the diagnostics of the row at t = 300, printed with 4 significant digits.
+    row = 3000
+    for name in ("energy_error", "quat_norm_error", "momentum_error"):
+        shown = float(report["overlay"][name])
+        assert abs(shown - r.columns[name][row]) <= 5e-4 * abs(r.columns[name][row])
+    # The screenshot: each ball's colour at its projected centre (the three balls of radius 0.1 seen from 3:
+    # about 25 px), background where no body is.
+    img = screenshot(tmp_path)
+    colour = report["colours"][0]
+    balls = report["projection"]["parts"]
+    assert len(balls) == 3
+    for ball in balls:
+        assert ball["radius"] > 10
+        assert is_colour_of(img[round(ball["y"]), round(ball["x"])], colour), ball
+    far = [(yy, xx) for yy in range(20, img.shape[0] - 20, 40) for xx in range(20, img.shape[1] - 20, 40)
+           if all(np.hypot(xx - b["x"], yy - b["y"]) > 1.5 * b["radius"] for b in balls)]
+    assert len(far) > 200
+    assert not any(is_colour_of(img[yy, xx], colour, tol=0.1) for yy, xx in far)
+
+
+@needs_browser
+def test_many_bodies_in_the_browser(tmp_path_factory, tmp_path):
+    run = make_run(tmp_path_factory, "lj-gas.toml", "gas")
+    run_cli("view", run, "-q")
+    html = os.path.join(run, "view.html")
+    r = lgvi.load(run)
+    report = drive(html, tmp_path, {"times": [r.t[0], r.t[5], r.t[5] + 0.05, r.t[-1]], "seek": r.t[5],
+                                     "set": {"trails": False}})
+    assert report["rows"] == report["frames"] == 11  # 1000 steps, every 100th written: all embedded
+    assert "all 11 frames" in report["overlay"]["note"]
+    check_states(report, r.t, r.x, r.q)
+    # The screenshot: at each molecule's projected centre of mass the colour is that of the ball nearest the
+    # camera there (molecules hide each other in the gas; a molecule's own centre lies between its balls, 0.577
+    # from each, radius 0.5). The hues are golden-ratio steps, so a wrong position or attitude shows another
+    # hue. Pixels within 10 % of the front ball's projected edge are ambiguous (edges are antialiased, and an
+    # off-axis sphere projects to an ellipse slightly larger than the disk assumed here): skipped. Measured:
+    # 562 of 574 unambiguous centres match (98 %), 426 skipped.
+    img = screenshot(tmp_path)
+    proj = report["projection"]
+    parts = proj["parts"]
+    px, py = np.array([p["x"] for p in parts]), np.array([p["y"] for p in parts])
+    depth, rad = np.array([p["depth"] for p in parts]), np.array([p["radius"] for p in parts])
+    size = np.array([p["size"] for p in parts])
+    owner = np.array([p["body"] for p in parts], dtype=int)
+    matched = checked = 0
+    for body in proj["bodies"]:
+        d = np.hypot(px - body["x"], py - body["y"])
+        near = np.flatnonzero(d < 1.1 * rad + 1)
+        if near.size == 0:
+            continue
+        # Depth of each sphere's surface along the ray through the pixel (its centre's depth off the sphere).
+        surface = depth[near] - np.sqrt(np.maximum(size[near] ** 2 - (d[near] * size[near] / rad[near]) ** 2, 0.0))
+        front = near[np.argmin(surface)]
+        if d[front] > 0.9 * rad[front]:
+            continue
+        checked += 1
+        matched += is_colour_of(img[round(body["y"]), round(body["x"])], report["colours"][owner[front]])
+    assert checked >= 400
+    assert matched >= 0.95 * checked, f"{matched} of {checked} centres show the expected molecule's colour"
+
+
+@needs_browser
+def test_movie(orbit, tmp_path):
+    out = str(tmp_path / "orbit.mp4")
+    p = run_cli("view", orbit, "--movie", out, "--movie-seconds", "0.4", check=False)
+    assert p.returncode == 0, p.stderr
+    probe = subprocess.run(["ffprobe", "-v", "error", "-count_frames", "-select_streams", "v:0", "-show_entries",
+                            "stream=nb_read_frames,width,height", "-of", "json", out],
+                           capture_output=True, text=True, check=True)
+    stream = json.loads(probe.stdout)["streams"][0]
+    assert int(stream["nb_read_frames"]) == 12  # 0.4 s at 30 frames/s
+    assert (stream["width"], stream["height"]) == (1280, 720)
