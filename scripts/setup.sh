@@ -11,11 +11,14 @@ packages=(g++ make cmake libeigen3-dev libcli11-dev libtomlplusplus-dev libfmt-d
           python3 python3-numpy python3-matplotlib python3-pytest pybind11-dev python3-dev
           libhdf5-dev python3-h5py clang clang-tidy libclang-rt-14-dev time libboost-dev git zlib1g-dev libomp-dev
           openmpi-bin libopenmpi-dev python3-mpi4py python3-distributed python3-vtk9
-          chromium ffmpeg nodejs npm)
+          chromium ffmpeg nodejs)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+# Debian's nodejs comes without npm (package npm); a nodejs from elsewhere (e.g. NodeSource's)
+# bundles its own npm and conflicts with Debian's package, so npm is installed only when absent.
+command -v npm >/dev/null || missing+=(npm)
 if ((${#missing[@]})); then
   echo "lgvi setup: installing Debian packages: ${missing[*]}"
   sudo=""
