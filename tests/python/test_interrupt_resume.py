@@ -29,8 +29,26 @@ def run(*args):
     return subprocess.run([BINARY, "run", *map(str, args), "--no-figures", "-q"], capture_output=True, text=True)
 
 
-def interrupt(args, sig, after=0.3):
+def line_count(path):
+    try:
+        return path.read_bytes().count(b"\n")
+    except FileNotFoundError:
+        return 0
+
+
+def interrupt(args, sig, out, after=0.3):
+    """Send `sig` `after` seconds once the step loop is running. The handler is
+    installed after the trajectory file is opened, so a fixed delay from launch
+    races with start-up on a loaded machine (the signal then kills the process
+    before the handler exists, status -2). Two rows beyond those present at
+    launch (header and t = 0, or the rows kept by a resume) are written from
+    inside the loop, where the handler is certainly installed."""
+    trajectory = pathlib.Path(out) / "trajectory.csv"
+    before = line_count(trajectory)
     proc = subprocess.Popen([BINARY, "run", *map(str, args), "--no-figures", "-q"], stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while line_count(trajectory) < max(before, 2) + 1 and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.005)
     time.sleep(after)
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=60)
@@ -57,7 +75,7 @@ def uninterrupted(tmp_path_factory):
 @pytest.mark.parametrize("sig,status", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_signal_stops_at_a_step_boundary_and_resume_is_byte_identical(tmp_path, uninterrupted, sig, status):
     out = tmp_path / "run"
-    code, err = interrupt([scenario(tmp_path), "--out", out, "--checkpoint-every", 100000], sig)
+    code, err = interrupt([scenario(tmp_path), "--out", out, "--checkpoint-every", 100000], sig, out)
     assert code == status, err
     assert "interrupted by" in err and "--resume" in err
     summary = json.loads((out / "summary.json").read_text())
@@ -81,9 +99,9 @@ def test_signal_stops_at_a_step_boundary_and_resume_is_byte_identical(tmp_path, 
 
 def test_two_interruptions_then_resume(tmp_path, uninterrupted):
     out = tmp_path / "run"
-    code, _ = interrupt([scenario(tmp_path), "--out", out, "--checkpoint-every", 50000], signal.SIGINT, after=0.2)
+    code, _ = interrupt([scenario(tmp_path), "--out", out, "--checkpoint-every", 50000], signal.SIGINT, out, after=0.2)
     assert code == 130
-    code, _ = interrupt(["--resume", out], signal.SIGINT, after=0.2)
+    code, _ = interrupt(["--resume", out], signal.SIGINT, out, after=0.2)
     assert code in (0, 130)  # it may finish first on a fast machine
     proc = run("--resume", out) if code == 130 else None
     assert proc is None or proc.returncode == 0, proc.stderr
