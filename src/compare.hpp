@@ -41,8 +41,10 @@ struct CompareOptions {
   double ladder_from = 0.0;           ///< h0 (0: the scenario's step h); the long runs keep h
   double error_time = 0.0;            ///< T of the work-precision runs (0: min(duration, 1e4 h))
   std::int64_t long_steps = 1000000;  ///< length of the long runs, in steps of h
+  double timing_budget = 0.2;         ///< seconds of repeated runs per timed ladder point (at least 3 runs)
   bool figures = true;
   bool quiet = false;
+  bool force = false;                 ///< write into an existing non-empty out_dir
 };
 
 /// Runs the comparison and writes DIR/{work_precision.csv, long_time.csv,
