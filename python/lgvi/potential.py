@@ -125,7 +125,13 @@ class PythonPotential:
       the paper's F(q) dV/dq is -2 M).
 
     ``check(x, q)`` compares force and torque with finite differences of
-    the energy: use it once, a wrong sign of the torque is the usual mistake.
+    the energy and says whether they pass (``passed``) and, when the errors
+    show it, the likely mistake (a torque in the inertial frame or with the
+    wrong sign are the usual ones); use it once, at a generic attitude.
+    The energy must be a number (a float, a numpy scalar or a 0-d array; an
+    array of shape (1,) is refused). A non-finite energy, force or torque
+    during a run fails that step, naming it, its time and which was not
+    finite.
 
     Cost: the integrator evaluates the potential once per step (plus once at
     the start), with the GIL held; each evaluation makes two small numpy

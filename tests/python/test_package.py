@@ -485,6 +485,15 @@ def test_integration_failure_raises_with_the_partial_result():
     # Cause-neutral, naming the step, its time and what was not finite.
     assert str(info.value).startswith("step 4 (from t = 0.04) failed: the potential returned a non-finite torque")
     assert "ball" not in str(info.value)
+    for which in ("energy", "force"):
+        def bad(x, q, which=which):
+            nan = np.nan if x[0] > 0.45 else 0.0
+            return (nan if which == "energy" else 0.0), (np.full(3, nan) if which == "force" else np.zeros(3)), \
+                np.zeros(3)
+        with pytest.raises(lgvi.IntegrationError) as info:
+            lgvi.simulate(free, bad)
+        assert str(info.value).startswith(f"step 4 (from t = 0.04) failed: the potential returned a non-finite "
+                                          f"{which}"), str(info.value)
     assert info.value.step == 4 and len(info.value.result) == 5 and info.value.result.t[-1] == 0.04
     assert np.array_equal(info.value.result.data, lgvi.simulate(free.replace(duration=0.04)).data)
 
