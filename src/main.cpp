@@ -70,8 +70,9 @@ int run_cli(int argc, char** argv) {
   compare->add_flag("--force", compare_options.force,
                     "Write into an existing non-empty output folder, overwriting the comparison's files");
   compare->add_option("--timing-budget", compare_options.timing_budget,
-                      "Seconds of repeated runs per timed point: each work-precision run is repeated until its "
-                      "runs add up to this, at least 3 times; medians and quartiles are reported (default 0.2)");
+                      "Seconds of repeated runs per timed point: after an untimed first run, each work-precision "
+                      "run is repeated until the repeats add up to this, at least 3 times; medians and quartiles "
+                      "are reported (default 0.2; the errors do not depend on it)");
   compare->add_option("--ladder", compare_options.ladder, "Number of step sizes h, h/2, ... (default 5)");
   compare->add_option("--ladder-from", compare_options.ladder_from,
                       "Largest step of the ladder (default: the scenario's step; higher orders pay off at larger "
