@@ -69,7 +69,7 @@ def main():
     runs = {"alone_loop": [], "alone_process": []}
     for r in range(args.repeat):
         out = work / f"alone{r}"
-        runs["alone_process"].append(timed([args.lgvi, "run", str(work / "base.toml"), "--out", str(out),
+        runs["alone_process"].append(timed([args.lgvi, "run", str(work / "base.toml"), "--out", str(out), "--force",
                                             "--no-figures", "-q"]))
         runs["alone_loop"].append(json.loads((out / "summary.json").read_text())["wall_seconds"])
         for name, extra, env, launcher in configs:

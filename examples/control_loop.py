@@ -27,7 +27,8 @@ def main(argv=None):
 
     body = lgvi.Body(mass=2.0, inertia=np.diag([0.1, 0.2, 0.25]))
     scenario = lgvi.Scenario(body=body, step=0.01, duration=args.duration,
-                             position=(0.0, 0.0, 0.0), omega=(0.0, 0.0, 1.0))
+                             position=(0.0, 0.0, 0.0), quaternion=(1.0, 0.0, 0.0, 0.0),
+                             momentum=(0.0, 0.0, 0.0), omega=(0.0, 0.0, 1.0))
     command = {"u": np.zeros(3)}  # the thrust, changed by the controller between steps
 
     def gravity_and_thrust(x, q):

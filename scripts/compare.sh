@@ -9,7 +9,7 @@ all=lgvi,lgvi-lagrangian,so3-lgvi,rattle-quaternion,rk4-normalized,euler-exp,no-
 for problem in paper-orbit free-body-manchester-peck free-body-hairer dzhanibekov heavy-top; do
   methods=$all
   grep -q 'kind = "none"' "scenarios/$problem.toml" && methods=$all,exact
-  build/lgvi compare "scenarios/$problem.toml" --methods "$methods" --out "results/compare/$problem" \
+  build/lgvi compare "scenarios/$problem.toml" --methods "$methods" --out "results/compare/$problem" --force \
     --long-steps 1000000 -q
   echo "lgvi compare: results/compare/$problem/comparison.md"
 done

@@ -89,7 +89,7 @@ def run_lgvi(lgvi, scenario_text, out, every=None):
     text = scenario_text if every is None else re.sub(r"every = \d+", f"every = {every}", scenario_text)
     path = out.with_suffix(".toml")
     path.write_text(text)
-    subprocess.run([lgvi, "run", path, "--out", out, "--no-figures", "-q", "--threads", "1"], check=True)
+    subprocess.run([lgvi, "run", path, "--out", out, "--force", "--no-figures", "-q", "--threads", "1"], check=True)
     rows = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
     summary = json.loads((out / "summary.json").read_text())
     return rows.reshape(-1, 2, rows.shape[1]), summary

@@ -28,7 +28,7 @@ TARGETS = (1e-6, 1e-8, 1e-10, 1e-12)
 def run_compare(lgvi, problem, ladder_from, out, long_steps):
     subprocess.run([lgvi, "compare", str(REPO / "scenarios" / f"{problem}.toml"), "--methods", METHODS,
                     "--ladder", "8", "--ladder-from", str(ladder_from), "--long-steps", str(long_steps),
-                    "--out", str(out), "--no-figures", "-q"], check=True, capture_output=True)
+                    "--out", str(out), "--force", "--no-figures", "-q"], check=True, capture_output=True)
     with open(out / "work_precision.csv") as f:
         ladder = list(csv.DictReader(f))
     with open(out / "comparison.csv") as f:

@@ -53,7 +53,7 @@ def run(lgvi, method, step, orbits, every, out):
     text = re.sub(r"every = 57", f"every = {every}", text)
     path = out.parent / f"{method}.toml"
     path.write_text(text)
-    subprocess.run([lgvi, "run", str(path), "--out", str(out), "--no-figures", "-q"], check=True)
+    subprocess.run([lgvi, "run", str(path), "--out", str(out), "--force", "--no-figures", "-q"], check=True)
     import lgvi as lg
     return lg.load(out), json.loads((out / "summary.json").read_text())
 

@@ -96,7 +96,7 @@ def main():
             scen = work / f"{name}.toml"
             scen.write_text(scenario_text(path.read_text(), method, solver, fmt))
             run = work / name
-            proc = subprocess.run([str(binary), "run", str(scen), "--out", str(run), "--no-figures", "-q"],
+            proc = subprocess.run([str(binary), "run", str(scen), "--out", str(run), "--force", "--no-figures", "-q"],
                                   capture_output=True, text=True)
             dest = out / name
             dest.mkdir(exist_ok=True)

@@ -6,6 +6,6 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 for s in paper paper-orbit; do
-  build/lgvi run "scenarios/$s.toml" --out "results/$s"
+  build/lgvi run "scenarios/$s.toml" --out "results/$s" --force
 done
 echo "lgvi: the paper's experiment is in results/paper/ and results/paper-orbit/ (trajectory.csv, summary.json, *.png)"

@@ -3,7 +3,10 @@
 //  * Work-precision: each method over a ladder of steps h, h/2, ... to a time
 //    T; the error of the final state against a reference (the exact flow for
 //    a free body, else RK4 of the continuous equations with a step 8 times
-//    below the finest), against wall time and against potential evaluations.
+//    below the finest), against wall time (median and quartiles of repeated runs after an untimed
+//    warm-up) and against potential evaluations (for a free body: wall time only; the exact flow is
+//    the reference and not ranked). The error is split into position, attitude angle, momentum and
+//    angular velocity, each relative to the problem's size.
 //  * Long-time behaviour at equal cost: every method given the same number of
 //    potential evaluations per unit time (a method needing e evaluations per
 //    step runs with step e h), out to `long_steps` steps of h; energy error,
@@ -41,8 +44,10 @@ struct CompareOptions {
   double ladder_from = 0.0;           ///< h0 (0: the scenario's step h); the long runs keep h
   double error_time = 0.0;            ///< T of the work-precision runs (0: min(duration, 1e4 h))
   std::int64_t long_steps = 1000000;  ///< length of the long runs, in steps of h
+  double timing_budget = 0.2;         ///< seconds of repeated runs per timed ladder point (at least 3 runs)
   bool figures = true;
   bool quiet = false;
+  bool force = false;                 ///< write into an existing non-empty out_dir
 };
 
 /// Runs the comparison and writes DIR/{work_precision.csv, long_time.csv,

@@ -30,7 +30,13 @@ int run_cli(int argc, char** argv) {
   auto* resume_opt =
       run->add_option("--resume", resume_dir, "Continue the interrupted run in this folder from its checkpoint");
   scenario_opt->excludes(resume_opt);
-  run->add_option("--out", options.out_dir, "Output folder (default: a folder named after the scenario)")
+  run->add_option("--out", options.out_dir,
+                  "Output folder (default: a folder named after the scenario); it must not exist or be empty, "
+                  "unless --force")
+      ->excludes(resume_opt);
+  run->add_flag("--force", options.force,
+                "Write into an existing non-empty output folder, overwriting the files this run writes (others "
+                "stay)")
       ->excludes(resume_opt);
   run->add_option("--checkpoint-every", options.checkpoint_every,
                   "Write the full state to DIR/checkpoint.bin every N steps (and on SIGINT/SIGTERM)")
@@ -57,8 +63,16 @@ int run_cli(int argc, char** argv) {
   compare->add_option("SCENARIO", compare_scenario, "Scenario file (TOML)")->required();
   compare->add_option("--methods", compare_methods_list,
                       "Comma-separated methods (see README 'Methods'); NAME:ORDER composes a symmetric one-step "
-                      "method to order 4, 6 or 8 (e.g. lgvi:4)");
-  compare->add_option("--out", compare_options.out_dir, "Output folder (default: SCENARIO-compare)");
+                      "method to order 4, 6 or 8 (e.g. lgvi:4). Default: lgvi,lgvi-lagrangian");
+  compare->add_option("--out", compare_options.out_dir,
+                      "Output folder (default: NAME-compare, NAME the scenario's name); it must not exist or be "
+                      "empty, unless --force");
+  compare->add_flag("--force", compare_options.force,
+                    "Write into an existing non-empty output folder, overwriting the comparison's files");
+  compare->add_option("--timing-budget", compare_options.timing_budget,
+                      "Seconds of repeated runs per timed point: after an untimed first run, each work-precision "
+                      "run is repeated until the repeats add up to this, at least 3 times; medians and quartiles "
+                      "are reported (default 0.2; the errors do not depend on it)");
   compare->add_option("--ladder", compare_options.ladder, "Number of step sizes h, h/2, ... (default 5)");
   compare->add_option("--ladder-from", compare_options.ladder_from,
                       "Largest step of the ladder (default: the scenario's step; higher orders pay off at larger "

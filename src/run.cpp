@@ -251,8 +251,21 @@ int write_view(const std::string& run_dir, const ViewOptions& options) {
   return status == kSuccess || status == kBadInput ? status : kRunFailed;
 }
 
+void require_new_output_folder(const std::string& dir, bool force) {
+  if (force) return;
+  std::error_code ec;
+  const fs::path path(dir);
+  if (!fs::exists(path, ec)) return;  // created by the run (or it says why it cannot be)
+  if (fs::is_directory(path, ec) && fs::is_empty(path, ec) && !ec) return;
+  throw InvalidInput("output folder '" + dir +
+                     "' already exists and is not empty; add --force to overwrite its files, or choose another "
+                     "folder with --out");
+}
+
 int run_scenario(const Scenario& sc, const RunOptions& opt) {
-  return execute(sc, opt.out_dir.empty() ? sc.name : opt.out_dir, opt, nullptr);
+  const std::string dir = opt.out_dir.empty() ? sc.name : opt.out_dir;
+  require_new_output_folder(dir, opt.force);
+  return execute(sc, dir, opt, nullptr);
 }
 
 int resume_run(const std::string& dir, RunOptions opt) {

@@ -17,6 +17,7 @@ struct RunOptions {
   std::int64_t checkpoint_every = 0;  ///< write DIR/checkpoint.bin every N steps (0: never)
   int threads = 0;                    ///< --threads (0: the scenario's [run] threads, else all cores)
   bool view = false;                  ///< write DIR/view.html at the end (lgvi view)
+  bool force = false;                 ///< --force: write into an existing non-empty output folder
 };
 
 struct ViewOptions {
@@ -35,6 +36,10 @@ enum ExitStatus : int {
   kInterruptedSigint = 130,
   kInterruptedSigterm = 143
 };
+
+/// Throws InvalidInput (one line naming --force) if `dir` exists and is not an empty folder, unless `force`:
+/// `lgvi run` and `lgvi compare` do not overwrite an earlier run's files by accident.
+void require_new_output_folder(const std::string& dir, bool force);
 
 /// Runs the scenario; prints errors on stderr; returns the exit status.
 int run_scenario(const Scenario& scenario, const RunOptions& options);

@@ -55,7 +55,7 @@ def lammps_data(lgvi, work):
     """Writes the LAMMPS data file of lgvi's initial state; returns its path."""
     scen = work / "initial.toml"
     scen.write_text(scenario_text(0, 0.002, 1))
-    subprocess.run([lgvi, "run", scen, "--out", work / "initial", "--no-figures", "-q"], check=True)
+    subprocess.run([lgvi, "run", scen, "--out", work / "initial", "--force", "--no-figures", "-q"], check=True)
     rows = np.loadtxt(work / "initial" / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
     summary = json.loads((work / "initial" / "summary.json").read_text())
     body = summary["setup"]["bodies"][0]
@@ -102,7 +102,7 @@ def run_lammps(lmp, work, steps, step, thermo):
 def run_lgvi(lgvi, work, steps, step, every):
     scen = work / "gas.toml"
     scen.write_text(scenario_text(steps, step, every))
-    subprocess.run([lgvi, "run", scen, "--out", work / "lgvi", "--no-figures", "-q", "--threads", "1"], check=True)
+    subprocess.run([lgvi, "run", scen, "--out", work / "lgvi", "--force", "--no-figures", "-q", "--threads", "1"], check=True)
     s = json.loads((work / "lgvi" / "summary.json").read_text())
     return s["wall_seconds"] / steps, s["max_abs_energy_error"], s["initial_energy"]
 

@@ -81,13 +81,18 @@ inline void require_finite(const System& sys, const SystemState& s, const System
     const double sum = s.x[a].sum() + s.q[a].coefficient_sum() + s.p[a].sum() + s.w[a].sum() + e.energy +
                        e.force[a].sum() + e.torque[a].sum();
     if (std::isfinite(sum)) continue;
+    // Cause-neutral: the potential may be the user's. At a finite configuration (x, q) a non-finite
+    // evaluation is the cause (the momenta it fed are non-finite too); name what was not finite (the
+    // caller adds the step and its time).
+    const bool evaluation_finite = std::isfinite(e.energy) && e.force[a].allFinite() && e.torque[a].allFinite();
+    if (!evaluation_finite && s.x[a].allFinite() && s.q[a].all_finite()) {
+      const char* what = !std::isfinite(e.energy) ? "energy" : !e.force[a].allFinite() ? "force" : "torque";
+      throw StepFailure(body_prefix(sys, a) + "the potential returned a non-finite " + what,
+                        "check the potential at this state (where is it not defined?); a smaller step resolves "
+                        "close encounters better");
+    }
     if (!s.body(a).all_finite())
       throw StepFailure(body_prefix(sys, a) + "the state became non-finite", "try a smaller step");
-    if (!(std::isfinite(e.energy) && e.force[a].allFinite() && e.torque[a].allFinite()))
-      throw StepFailure(body_prefix(sys, a) +
-                            "the potential returned a non-finite energy, force or torque (a ball at the field's "
-                            "centre?)",
-                        "check the initial state; a smaller step resolves close encounters better");
   }
 }
 

@@ -67,7 +67,7 @@ class Body:
 class Scenario:
     """One run: body, potential, initial state (quaternion scalar-first (w, x, y, z)), integrator, output."""
     def __init__(self, *, body: Body, step: float, duration: float, potential: PotentialSpec = ...,
-                 position: Vector3 = ..., quaternion: Quaternion = ..., momentum: Optional[Vector3] = ...,
+                 position: Vector3, quaternion: Quaternion, momentum: Optional[Vector3] = ...,
                  velocity: Optional[Vector3] = ..., w: Optional[Vector3] = ..., omega: Optional[Vector3] = ...,
                  method: Method = ..., solver: Solver = ..., tolerance: Optional[float] = ...,
                  max_iterations: Optional[int] = ..., predictor_order: Optional[int] = ...,

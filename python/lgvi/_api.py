@@ -86,11 +86,15 @@ def _ball(b, i):
         if unknown:
             raise ValueError(f"{name}: unknown key(s) {', '.join(sorted(map(str, unknown)))}; "
                              f"a ball has position, mass, radius")
-        if "position" not in b or "mass" not in b:
-            raise ValueError(f"{name}: needs position and mass (radius defaults to 0)")
-        position, mass, radius = b["position"], b["mass"], b.get("radius", 0.0)
-    elif isinstance(b, (tuple, list)) and len(b) in (2, 3):
-        position, mass, radius = b[0], b[1], (b[2] if len(b) == 3 else 0.0)
+        if "position" not in b or "mass" not in b or "radius" not in b:
+            raise ValueError(f"{name}: needs position, mass and radius (radius 0 for a point mass), as a "
+                             f"[[body.ball]] of a scenario file does")
+        position, mass, radius = b["position"], b["mass"], b["radius"]
+    elif isinstance(b, (tuple, list)) and len(b) == 2:
+        raise ValueError(f"{name}: needs (position, mass, radius) (radius 0 for a point mass), as a "
+                         f"[[body.ball]] of a scenario file does; got {b!r}")
+    elif isinstance(b, (tuple, list)) and len(b) == 3:
+        position, mass, radius = b
     else:
         raise ValueError(f"{name}: must be (position, mass, radius) or a dict with position, mass, radius; "
                          f"got {b!r}")
@@ -108,7 +112,7 @@ class Body:
 
     ``Body(balls=[...])`` or ``Body.from_balls([...])``: uniform balls, each
     a tuple ``(position, mass, radius)`` or a dict ``{"position": (3,),
-    "mass": m, "radius": r}`` (radius defaults to 0, a point mass). The
+    "mass": m, "radius": r}`` (radius required; 0 for a point mass, as in a scenario file). The
     centre of mass is moved to the body origin; J = sum m_i (|rho_i|^2 I -
     rho_i rho_i^T) + 2/5 m_i r_i^2 I. Central gravity acts on each ball.
 
@@ -270,12 +274,12 @@ class Scenario:
 
     Arguments: ``body`` (lgvi.Body, required); ``potential``
     (``lgvi.potential.none()`` (default), ``central(mu)``, ``uniform(g)``, a
-    dict ``{"kind": ..}`` or "none"); ``position`` x0 (3,) (default 0);
+    dict ``{"kind": ..}`` or "none"); ``position`` x0 (3,);
     ``quaternion`` q0 (4,), scalar-first (w, x, y, z), within 1e-6 of unit
-    norm (then normalized) (default (1, 0, 0, 0)); ``momentum`` p0 or
-    ``velocity`` v0 = p0 / m (3,) (default p0 = 0); ``w`` w0 = 2 J Omega0
-    (the paper's variable) or ``omega`` Omega0, the body angular velocity
-    (3,) (default 0); ``step`` h > 0 and ``duration`` >= 0 (required; the
+    norm (then normalized); ``momentum`` p0 or ``velocity`` v0 = p0 / m
+    (3,); ``w`` w0 = 2 J Omega0 (the paper's variable) or ``omega`` Omega0,
+    the body angular velocity (3,) (the initial state is required, with no
+    defaults, as [initial] of a scenario file requires it); ``step`` h > 0 and ``duration`` >= 0 (required; the
     run takes ceil(duration / step) steps); ``method`` one of lgvi.METHODS
     ("lgvi", the Hamiltonian side, is the default; "lgvi-lagrangian",
     "so3-lgvi", "rattle-quaternion", "rk4-normalized", "euler-exp",
@@ -295,8 +299,8 @@ class Scenario:
     arguments raise ValueError naming the argument.
     """
 
-    def __init__(self, *, body, step, duration, potential=None, position=(0.0, 0.0, 0.0),
-                 quaternion=(1.0, 0.0, 0.0, 0.0), momentum=None, velocity=None, w=None, omega=None,
+    def __init__(self, *, body, step, duration, potential=None, position=None,
+                 quaternion=None, momentum=None, velocity=None, w=None, omega=None,
                  method="lgvi", solver="newton", tolerance=None, max_iterations=None, predictor_order=None,
                  order=None, composition=None, every=1, output_format="csv", name="scenario"):
         changes = dict(body=body, potential=potential, position=position, quaternion=quaternion,
@@ -309,10 +313,17 @@ class Scenario:
             changes["composition"] = composition
         if output_format != "csv":
             changes["output_format"] = output_format
+        # The initial state is required, as [initial] of a scenario file requires it: no silent zeros.
+        for key, value, text in (("position", position, "x0 (3,)"),
+                                 ("quaternion", quaternion, "q0 (4,), scalar-first; (1, 0, 0, 0) for no rotation")):
+            if value is None:
+                raise ValueError(f"{key}: missing: give {text}, as [initial] of a scenario file requires")
         if momentum is None and velocity is None:
-            changes["momentum"] = (0.0, 0.0, 0.0)
+            raise ValueError("momentum, velocity: give one of them ((0, 0, 0) for a body at rest), as [initial] "
+                             "of a scenario file requires")
         if w is None and omega is None:
-            changes["w"] = (0.0, 0.0, 0.0)
+            raise ValueError("w, omega: give one of them ((0, 0, 0) for no rotation), as [initial] of a scenario "
+                             "file requires")
         doc = _apply({}, changes)
         self._init(_parse(_toml_text(doc), _check_name(name)), doc)
 

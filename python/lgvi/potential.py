@@ -15,6 +15,8 @@ Written in Python: ``PythonPotential`` (pass it as ``lgvi.simulate(scenario,
 potential=...)`` or ``lgvi.Stepper(scenario, potential=...)``).
 """
 
+import numpy as np
+
 from . import _check
 
 __all__ = ["none", "central", "uniform", "heavy_top", "PythonPotential", "KINDS"]
@@ -123,7 +125,13 @@ class PythonPotential:
       the paper's F(q) dV/dq is -2 M).
 
     ``check(x, q)`` compares force and torque with finite differences of
-    the energy: use it once, a wrong sign of the torque is the usual mistake.
+    the energy and says whether they pass (``passed``) and, when the errors
+    show it, the likely mistake (a torque in the inertial frame or with the
+    wrong sign are the usual ones); use it once, at a generic attitude.
+    The energy must be a number (a float, a numpy scalar or a 0-d array; an
+    array of shape (1,) is refused). A non-finite energy, force or torque
+    during a run fails that step, naming it, its time and which was not
+    finite.
 
     Cost: the integrator evaluates the potential once per step (plus once at
     the start), with the GIL held; each evaluation makes two small numpy
@@ -172,26 +180,126 @@ class PythonPotential:
             return self.function(x, q)
         return self.energy(x, q), self.force(x, q), self.torque(x, q)
 
-    def check(self, position, quaternion):
-        """Relative errors of force and torque against 4th-order finite differences of the energy.
+    def check(self, position, quaternion, *, tolerance=1e-6, strict=False):
+        """Checks force and torque against 4th-order finite differences of the energy; returns a verdict.
 
         At centre of mass ``position`` (3,) and attitude ``quaternion`` (4,),
-        scalar-first (w, x, y, z). Returns ``{"force_error": ..,
-        "torque_error": ..}``, each |exact - finite difference| / max norm;
-        values around 1e-10 or below mean the derivatives are right (the
-        C++ test suite's check_potential_derivatives).
+        scalar-first (w, x, y, z). Returns a dict:
+
+        * ``force_error``, ``torque_error``: |returned - finite difference| /
+          the larger norm (the C++ ``check_potential_derivatives``; 0 when
+          both are 0);
+        * ``force_tolerance``, ``torque_tolerance``: what each is held to:
+          ``tolerance`` (default 1e-6) plus the round-off floor of the finite
+          differences, 100 eps |V| / (h |derivative|) with h = eps^(1/5) (times
+          max(1, |x|) for the force): a torque much smaller than |V| (a tidal
+          torque) can only be checked that well. The truncation, (h / L)^4
+          for a potential varying on a length L, is below 1e-6 for
+          L > 0.03 max(1, |x|): a right potential gives errors ~1e-10, a wrong
+          one O(1);
+        * ``passed``: both errors within their tolerances;
+        * ``likely_mistake``: "" or what the error pattern shows: the torque
+          in the inertial frame (it equals R times the right body torque),
+          the torque or force with the wrong sign (-1 times the right one),
+          the torque off by a factor 2 (the paper's F(q) dV/dq is -2 M), the
+          force in the body frame.
+
+        ``strict=True`` raises ValueError (with the errors and the likely
+        mistake) unless it passed.
         """
         from . import _core
         x = _check.vector3(position, "position")
         q = _check.quaternion(quaternion, "quaternion")
+        tol = _check.positive(tolerance, "tolerance")
         force_error, torque_error = _core.check_potential(self._core_spec(), x, q)
-        return {"force_error": force_error, "torque_error": torque_error}
+        energy, force, torque, force_fd, torque_fd = self._finite_differences(x, q)
+        eps = np.finfo(float).eps
+        h = eps ** 0.2
+        floor_f = 100 * eps * abs(energy) / (h * max(1.0, np.linalg.norm(x)))
+        floor_m = 100 * eps * abs(energy) / h
+
+        def limit(floor, a, b):
+            scale = max(np.linalg.norm(a), np.linalg.norm(b))
+            return tol + (floor / scale if scale > 0 else 0.0)
+        force_tol, torque_tol = limit(floor_f, force, force_fd), limit(floor_m, torque, torque_fd)
+        passed = bool(force_error <= force_tol and torque_error <= torque_tol)
+        mistakes = []
+        if not passed:
+            R = _rotation(q)
+
+            def close(a, b, t):
+                scale = max(np.linalg.norm(a), np.linalg.norm(b))
+                return scale > 0 and np.linalg.norm(a - b) <= t * scale
+            if torque_error > torque_tol:
+                for candidate, text in ((-torque_fd, "the torque has the wrong sign (it should be -dV/dtheta)"),
+                                        (R @ torque_fd, "the torque is in the inertial frame: return the body-frame "
+                                                        "torque R^T M"),
+                                        (-(R @ torque_fd), "the torque is in the inertial frame and has the wrong "
+                                                           "sign: return -R^T M"),
+                                        (2 * torque_fd, "the torque is twice the right one (F(q) dV/dq = -2 M)"),
+                                        (torque_fd / 2, "the torque is half the right one (F(q) dV/dq = -2 M)")):
+                    if close(torque, candidate, max(torque_tol, 1e-3)):
+                        mistakes.append(text)
+                        break
+            if force_error > force_tol:
+                for candidate, text in ((-force_fd, "the force has the wrong sign (it should be -dV/dx)"),
+                                        (R.T @ force_fd, "the force is in the body frame: return the inertial "
+                                                         "force R F")):
+                    if close(force, candidate, max(force_tol, 1e-3)):
+                        mistakes.append(text)
+                        break
+        out = {"force_error": force_error, "torque_error": torque_error, "force_tolerance": force_tol,
+               "torque_tolerance": torque_tol, "passed": passed, "likely_mistake": "; ".join(mistakes)}
+        if strict and not passed:
+            raise ValueError(f"potential: check failed at position {x.tolist()}, quaternion {q.tolist()}: "
+                             f"force error {force_error:.3g} (tolerance {force_tol:.3g}), torque error "
+                             f"{torque_error:.3g} (tolerance {torque_tol:.3g})"
+                             + (f"; likely: {out['likely_mistake']}" if mistakes else ""))
+        return out
+
+    def _finite_differences(self, x, q):
+        """(V, force, torque, -dV/dx, -dV/dtheta) at (x, q), the derivatives by the 4th-order central
+        differences of the C++ check (h = eps^(1/5), times max(1, |x|) for x; q -> q exp(theta / 2))."""
+        def energy(xx, qq):
+            return float(np.asarray(self(np.array(xx, dtype=float), np.array(qq, dtype=float))[0], dtype=float))
+        e, f, m = self(np.array(x, dtype=float), np.array(q, dtype=float))
+        h0 = np.finfo(float).eps ** 0.2
+
+        def diff(g, h):
+            return (8.0 * (g(h) - g(-h)) - (g(2 * h) - g(-2 * h))) / (12.0 * h)
+        force_fd, torque_fd = np.zeros(3), np.zeros(3)
+        for i in range(3):
+            unit = np.eye(3)[i]
+            force_fd[i] = -diff(lambda t: energy(x + t * unit, q), h0 * max(1.0, np.linalg.norm(x)))
+            torque_fd[i] = -diff(lambda t: energy(x, _multiply(q, _exp(t / 2 * unit))), h0)
+        return (float(np.asarray(e, dtype=float)), np.asarray(f, dtype=float).reshape(3),
+                np.asarray(m, dtype=float).reshape(3), force_fd, torque_fd)
 
     def __repr__(self):
         if self.function is not None:
             return f"PythonPotential({getattr(self.function, '__name__', self.function)!s})"
         return "PythonPotential(energy={}, force={}, torque={})".format(
             *(getattr(f, "__name__", f) for f in (self.energy, self.force, self.torque)))
+
+
+def _multiply(a, b):
+    """Quaternion product a b, scalar-first."""
+    w1, v1, w2, v2 = a[0], np.asarray(a[1:]), b[0], np.asarray(b[1:])
+    return np.concatenate([[w1 * w2 - v1 @ v2], w1 * v2 + w2 * v1 + np.cross(v1, v2)])
+
+
+def _exp(v):
+    """exp of the pure quaternion (0, v): (cos|v|, sin|v| v / |v|)."""
+    n = np.linalg.norm(v)
+    return np.concatenate([[np.cos(n)], (np.sin(n) / n if n > 0 else 1.0) * np.asarray(v)])
+
+
+def _rotation(q):
+    """R = pi(q) (body to inertial) of a unit quaternion, scalar-first."""
+    w, x, y, z = q / np.linalg.norm(q)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
 def core_potential(potential, name="potential"):

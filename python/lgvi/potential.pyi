@@ -35,6 +35,8 @@ class PythonPotential:
     def __init__(self, function: Optional[Function] = ..., *, energy: Optional[Function] = ...,
                  force: Optional[Function] = ..., torque: Optional[Function] = ...) -> None: ...
     def __call__(self, x: npt.NDArray[np.float64], q: npt.NDArray[np.float64]) -> Tuple[Any, Any, Any]: ...
-    def check(self, position: Vector3, quaternion: Vector3) -> Dict[str, float]:
-        """Relative force/torque errors against finite differences of the energy."""
+    def check(self, position: Vector3, quaternion: Vector3, *, tolerance: float = ...,
+              strict: bool = ...) -> Dict[str, Any]:
+        """Force/torque errors against finite differences of the energy, their tolerances, ``passed`` and
+        ``likely_mistake``; ``strict=True`` raises ValueError unless passed."""
         ...

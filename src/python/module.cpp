@@ -190,7 +190,13 @@ class PythonPotential {
   }
 
  private:
+  /// A Python number, a numpy scalar or a 0-d array. An array of shape (1,) is refused, as numpy (>= 1.25)
+  /// deprecates float() of arrays with dimensions: an energy of shape (1,) is usually a slip (x[:1]).
   static double scalar(py::handle v, const char* name) {
+    if (py::isinstance<py::array>(v) && py::reinterpret_borrow<py::array>(v).ndim() > 0)
+      throw py::value_error(std::string("potential: the returned ") + name +
+                            " must be a number (a float or a 0-d array), got an array of shape " +
+                            std::string(py::str(v.attr("shape"))) + "; return float(e[0]) if that is meant");
     const double d = PyFloat_AsDouble(v.ptr());
     if (d == -1.0 && PyErr_Occurred()) {
       PyErr_Clear();

@@ -22,7 +22,7 @@ def comparison(tmp_path_factory):
     methods = ",".join(list(NOMINAL) + ["exact"])
     proc = subprocess.run([BINARY, "compare", str(SOURCE / "scenarios" / "free-body-manchester-peck.toml"),
                            "--methods", methods, "--out", str(out), "--ladder", "4", "--error-time", "10",
-                           "--long-steps", "20000", "-q"], capture_output=True, text=True)
+                           "--long-steps", "20000", "--timing-budget", "0.02", "-q"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     with open(out / "comparison.csv", newline="") as f:
         return out, {r["method"]: r for r in csv.DictReader(f)}
@@ -72,6 +72,7 @@ def test_composed_orders_in_compare(tmp_path):
     proc = subprocess.run([BINARY, "compare", str(SOURCE / "scenarios" / "free-body-manchester-peck.toml"),
                            "--methods", "lgvi:4,no-squish:6", "--out", str(tmp_path / "c"), "--ladder", "3",
                            "--ladder-from", "0.2", "--error-time", "8", "--long-steps", "1000", "-q",
+                           "--timing-budget", "0",
                            "--no-figures"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     with open(tmp_path / "c" / "comparison.csv", newline="") as f:
@@ -83,3 +84,61 @@ def test_composed_orders_in_compare(tmp_path):
         proc = subprocess.run([BINARY, "compare", str(SOURCE / "scenarios" / "paper-orbit.toml"), "--methods", bad,
                                "--out", str(tmp_path / "bad")], capture_output=True, text=True)
         assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and message in proc.stderr, proc.stderr
+
+
+def test_timings_are_repeated_medians_with_quartiles(comparison):
+    out, rows = comparison
+    with open(out / "work_precision.csv", newline="") as f:
+        points = list(csv.DictReader(f))
+    for p in points:
+        # At least 3 repeats, and until they add up to the budget (0.02 s here): the sum of the repeats is
+        # at least about repeats x the first quartile.
+        n = int(p["timing_repeats"])
+        assert n >= 3, p
+        q25, median, q75 = (float(p[k]) for k in ("wall_seconds_q25", "wall_seconds", "wall_seconds_q75"))
+        assert 0 < q25 <= median <= q75, p
+    for r in rows.values():
+        assert float(r["ns_per_step_q25"]) <= float(r["ns_per_step"]) <= float(r["ns_per_step_q75"])
+        assert r["vs_lgvi_within_noise"] in ("true", "false")
+    assert rows["lgvi"]["vs_lgvi_within_noise"] == "false"  # not ranked against itself
+
+
+def test_error_parts_do_not_mix_units(comparison):
+    out, rows = comparison
+    with open(out / "work_precision.csv", newline="") as f:
+        points = [p for p in csv.DictReader(f) if p["method"] == "lgvi"]
+    for p in points:
+        parts = [float(p[k]) for k in ("position_error", "attitude_error_rad", "momentum_error",
+                                       "angular_velocity_error")]
+        # The error is the largest part, exactly (the same doubles).
+        assert float(p["error"]) == max(parts)
+        # The free body rests at the origin: x and p stay 0 exactly (absolute errors, the scale is 0).
+        assert parts[0] == 0 and parts[2] == 0
+    # Attitude angle and |R - R_ref|_F = 2 sqrt(2) sin(angle / 2) agree to first order: the attitude error at
+    # the finest step is a small angle, second order in h (ratio 4 per halving, to a few percent).
+    a = [float(p["attitude_error_rad"]) for p in points]
+    assert all(3.8 < a[j] / a[j + 1] < 4.2 for j in range(len(a) - 1)), a
+
+
+def test_free_body_cost_is_wall_time_and_exact_is_not_ranked(comparison):
+    out, _ = comparison
+    md = (out / "comparison.md").read_text()
+    table = md[md.index("Least cost"):]
+    assert "wall time only" in table and "fewest potential evaluations" not in table
+    assert "exact" not in table.split("\n", 1)[1].replace("the exact flow", "")  # the reference, not a contender
+    assert "| exact |" in md  # but its errors are listed
+    assert "stages/step" in md
+
+
+def test_output_folder_is_printed_and_not_overwritten(tmp_path):
+    args = [BINARY, "compare", str(SOURCE / "scenarios" / "free-body-manchester-peck.toml"), "--methods", "lgvi",
+            "--ladder", "2", "--error-time", "1", "--long-steps", "100", "--no-figures", "--timing-budget", "0"]
+    out = tmp_path / "c"
+    proc = subprocess.run(args + ["--out", str(out)], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.rstrip().endswith(f"lgvi compare: output in {out}")
+    again = subprocess.run(args + ["--out", str(out)], capture_output=True, text=True)
+    assert again.returncode == 2 and again.stderr.count("\n") == 1 and "--force" in again.stderr, again.stderr
+    assert subprocess.run(args + ["--out", str(out), "--force", "-q"], capture_output=True).returncode == 0
+    helptext = subprocess.run([BINARY, "compare", "--help"], capture_output=True, text=True).stdout
+    assert "Default: lgvi,lgvi-lagrangian" in helptext and "--force" in helptext and "--timing-budget" in helptext

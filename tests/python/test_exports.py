@@ -384,10 +384,12 @@ def test_python_accepts_the_exports_and_load_refuses_them(runs):
     lgvi = pytest.importorskip("lgvi")
     assert lgvi.FORMATS == ("csv", "npz", "hdf5", "xyz", "vtk")
     body = lgvi.Body(mass=1.0, inertia=np.diag([1.0, 2.0, 3.0]))
-    s = lgvi.Scenario(body=body, step=0.1, duration=1.0, output_format="vtk")
+    s = lgvi.Scenario(body=body, step=0.1, duration=1.0, position=(0, 0, 0), quaternion=(1, 0, 0, 0),
+                      momentum=(0, 0, 0), w=(0, 0, 0), output_format="vtk")
     assert s.output_format == "vtk"
     with pytest.raises(ValueError, match='output_format: must be one of "csv", "npz", "hdf5", "xyz", "vtk"'):
-        lgvi.Scenario(body=body, step=0.1, duration=1.0, output_format="ovito")
+        lgvi.Scenario(body=body, step=0.1, duration=1.0, position=(0, 0, 0), quaternion=(1, 0, 0, 0),
+                      momentum=(0, 0, 0), w=(0, 0, 0), output_format="ovito")
     for target in (runs["xyz"], runs["xyz"] / "trajectory.xyz", runs["vtk"], runs["vtk"] / "trajectory.pvd"):
         with pytest.raises(ValueError, match='export for viewers .* use|format = "csv", "npz" or "hdf5"'):
             lgvi.load(target)

@@ -222,6 +222,46 @@ def test_python_potential_forms_agree_and_check_derivatives():
     assert wrong_sign.check(sc.position, sc.quaternion)["torque_error"] > 1.0
 
 
+def test_check_gives_a_verdict_and_names_the_likely_mistake():
+    sc = short_orbit(duration=0.5)
+    central = python_central_gravity(sc.body, 1.0)
+    # A generic state: close to the field (a torque far above the round-off floor, eps |V| / h ~ 3e-13 |V|)
+    # and an attitude whose R moves the torque (at q = 1 the body and inertial frames agree).
+    x, q = np.array([3.0, -2.0, 1.0]), np.array([0.5, 0.5, -0.5, 0.5])
+    R = plot.rotation_matrix(q)
+    good = lgvi.PythonPotential(central).check(x, q)
+    # The stated tolerance: 1e-6 plus the round-off floor; a right potential's errors are ~1e-10
+    # (4th-order differences with h = eps^(1/5): truncation and round-off ~1e-13 |V| each).
+    assert good["passed"] and good["likely_mistake"] == "" and good["torque_error"] < 1e-8
+    assert 1e-6 <= good["torque_tolerance"] < 1e-5 and 1e-6 <= good["force_tolerance"] < 1e-5
+    wrong = {
+        "inertial frame": lambda x, q: (central(x, q)[0], central(x, q)[1], R @ central(x, q)[2]),
+        "the torque has the wrong sign": lambda x, q: (central(x, q)[0], central(x, q)[1], -central(x, q)[2]),
+        "the force has the wrong sign": lambda x, q: (central(x, q)[0], -central(x, q)[1], central(x, q)[2]),
+        "twice": lambda x, q: (central(x, q)[0], central(x, q)[1], 2 * central(x, q)[2]),
+    }
+    for mistake, potential in wrong.items():
+        c = lgvi.PythonPotential(potential).check(x, q)
+        assert not c["passed"] and mistake in c["likely_mistake"], (mistake, c)
+        with pytest.raises(ValueError, match="check failed.*likely: .*" + mistake):
+            lgvi.PythonPotential(potential).check(x, q, strict=True)
+    assert lgvi.PythonPotential(central).check(x, q, strict=True)["passed"]
+    # A wrong torque that is none of the known mistakes: not passed, nothing named.
+    other = lgvi.PythonPotential(lambda x, q: (central(x, q)[0], central(x, q)[1], np.ones(3)))
+    c = other.check(x, q)
+    assert not c["passed"] and c["likely_mistake"] == ""
+
+
+def test_energy_must_be_a_number_not_an_array():
+    sc = scenario(duration=0.02)
+    for value in (np.array([1.0]), [1.0]):
+        with pytest.raises(ValueError, match=r"the returned energy must be a number"):
+            lgvi.simulate(sc, lambda x, q, v=value: (v, np.zeros(3), np.zeros(3)))
+    # Numbers, numpy scalars and 0-d arrays are numbers.
+    for value in (1.0, np.float64(1.0), np.array(1.0)):
+        assert lgvi.simulate(sc, lambda x, q, v=value: (v, np.zeros(3), np.zeros(3))).completed
+
+
 def test_python_potential_sees_read_only_arrays():
     seen = []
 
@@ -242,9 +282,32 @@ def body():
 
 
 def scenario(**kw):
-    args = dict(body=body(), step=0.01, duration=1.0)
+    """A free body at rest at the origin (the initial state has no defaults: each key is given unless kw has
+    it or its alternative)."""
+    args = dict(body=body(), step=0.01, duration=1.0, position=(0, 0, 0), quaternion=(1, 0, 0, 0))
+    if "momentum" not in kw and "velocity" not in kw:
+        args["momentum"] = (0, 0, 0)
+    if "w" not in kw and "omega" not in kw:
+        args["w"] = (0, 0, 0)
     args.update(kw)
     return lgvi.Scenario(**args)
+
+
+def test_the_initial_state_and_ball_radii_are_required_as_in_scenario_files():
+    # The TOML reader requires position, quaternion, momentum | velocity, w | omega and a ball's radius;
+    # the Python front end asks for the same, in one line naming the key (no silent zeros).
+    full = dict(body=body(), step=0.01, duration=1.0, position=(0, 0, 0), quaternion=(1, 0, 0, 0),
+                momentum=(0, 0, 0), omega=(0, 0, 0))
+    for drop, message in (("position", "position: missing"), ("quaternion", "quaternion: missing"),
+                          ("momentum", "momentum, velocity: give one of them"),
+                          ("omega", "w, omega: give one of them")):
+        args = {k: v for k, v in full.items() if k != drop}
+        with pytest.raises(ValueError, match=message) as info:
+            lgvi.Scenario(**args)
+        assert "\n" not in str(info.value) and "scenario file" in str(info.value)
+    for ball in (((0, 0, 0), 1.0), {"position": (0, 0, 0), "mass": 1.0}):
+        with pytest.raises(ValueError, match=r"balls\[0\]: needs .*radius.*0 for a point mass"):
+            lgvi.Body.from_balls([ball, ((1, 0, 0), 1.0, 0.0), ((0, 1, 0), 1.0, 0.0)])
 
 
 BAD_ARGUMENTS = [
@@ -419,6 +482,18 @@ def test_integration_failure_raises_with_the_partial_result():
     free = scenario(velocity=(10.0, 0.0, 0.0), duration=1.0)  # x_k = 0.1 k
     with pytest.raises(lgvi.IntegrationError, match="non-finite") as info:
         lgvi.simulate(free, blows_up)
+    # Cause-neutral, naming the step, its time and what was not finite.
+    assert str(info.value).startswith("step 4 (from t = 0.04) failed: the potential returned a non-finite torque")
+    assert "ball" not in str(info.value)
+    for which in ("energy", "force"):
+        def bad(x, q, which=which):
+            nan = np.nan if x[0] > 0.45 else 0.0
+            return (nan if which == "energy" else 0.0), (np.full(3, nan) if which == "force" else np.zeros(3)), \
+                np.zeros(3)
+        with pytest.raises(lgvi.IntegrationError) as info:
+            lgvi.simulate(free, bad)
+        assert str(info.value).startswith(f"step 4 (from t = 0.04) failed: the potential returned a non-finite "
+                                          f"{which}"), str(info.value)
     assert info.value.step == 4 and len(info.value.result) == 5 and info.value.result.t[-1] == 0.04
     assert np.array_equal(info.value.result.data, lgvi.simulate(free.replace(duration=0.04)).data)
 

@@ -16,8 +16,8 @@ def test_heavy_top_built_in_code_equals_the_file():
     in_code = lgvi.Scenario(
         body=lgvi.Body(mass=1.0, inertia=np.diag([0.35, 0.35, 0.05])),
         potential=lgvi.potential.heavy_top((0.0, 0.0, -9.81), (0.0, 0.0, 0.5)),
-        quaternion=(math.cos(0.15), math.sin(0.15), 0.0, 0.0), omega=(0.0, 0.0, 50.0),
-        step=0.001, duration=0.5, every=10, name="heavy-top")
+        position=(0.0, 0.0, 0.0), quaternion=(math.cos(0.15), math.sin(0.15), 0.0, 0.0),
+        momentum=(0.0, 0.0, 0.0), omega=(0.0, 0.0, 50.0), step=0.001, duration=0.5, every=10, name="heavy-top")
     a, b = lgvi.simulate(from_file), lgvi.simulate(in_code)
     # The file spells the quaternion with 16 digits; the code computes it: equal
     # to round-off at t = 0, and the flows then agree to ~1e-13 after 500 steps.
