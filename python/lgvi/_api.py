@@ -50,6 +50,8 @@ def _toml_value(v):
         return json.dumps(v)  # a TOML basic string (JSON escapes are TOML escapes)
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):  # an inline table ([initial] orbit, attitude)
+        return "{ " + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + " }"
     raise TypeError(f"cannot write {v!r} as TOML")
 
 
@@ -208,9 +210,17 @@ def _apply(doc, changes):
     if "potential" in changes:
         doc["potential"] = _potential.spec(changes["potential"])
     init = doc["initial"]
-    if "position" in changes:
+    for key in ("orbit", "attitude"):
+        if changes.get(key) is not None:
+            if not isinstance(changes[key], dict):
+                raise ValueError(f"{key}: must be a dict, e.g. " + (
+                    "orbit=dict(altitude=500e3, inclination=51.6)" if key == "orbit"
+                    else 'attitude=dict(frame="lvlh", pitch=5.0, rate="orbit")'))
+            init[key] = {k: (float(v) if isinstance(v, int) and not isinstance(v, bool) else v)
+                         for k, v in changes[key].items()}
+    if changes.get("position") is not None:
         init["position"] = _floats(_check.vector3(changes["position"], "position"))
-    if "quaternion" in changes:
+    if changes.get("quaternion") is not None:
         init["quaternion"] = _floats(_check.quaternion(changes["quaternion"], "quaternion"))
     for a, b in _INITIAL_PAIRS:
         if changes.get(a) is not None and changes.get(b) is not None:
@@ -275,7 +285,13 @@ class Scenario:
     norm (then normalized) (default (1, 0, 0, 0)); ``momentum`` p0 or
     ``velocity`` v0 = p0 / m (3,) (default p0 = 0); ``w`` w0 = 2 J Omega0
     (the paper's variable) or ``omega`` Omega0, the body angular velocity
-    (3,) (default 0); ``step`` h > 0 and ``duration`` >= 0 (required; the
+    (3,) (default 0); ``orbit`` a dict of the scenario key [initial] orbit
+    (``altitude`` | ``radius``, ``eccentricity``, ``inclination``, ``raan``,
+    ``arg_periapsis``, ``true_anomaly``; degrees; with a central potential)
+    in place of position and momentum; ``attitude`` a dict of [initial]
+    attitude (``frame="lvlh"``, ``roll``, ``pitch``, ``yaw`` in degrees,
+    ``rate="orbit"``) in place of quaternion (and w); converted by the
+    reader, so ``scenario.toml`` holds the plain keys; ``step`` h > 0 and ``duration`` >= 0 (required; the
     run takes ceil(duration / step) steps); ``method`` one of lgvi.METHODS
     ("lgvi", the Hamiltonian side, is the default; "lgvi-lagrangian",
     "so3-lgvi", "rattle-quaternion", "rk4-normalized", "euler-exp",
@@ -295,23 +311,30 @@ class Scenario:
     arguments raise ValueError naming the argument.
     """
 
-    def __init__(self, *, body, step, duration, potential=None, position=(0.0, 0.0, 0.0),
-                 quaternion=(1.0, 0.0, 0.0, 0.0), momentum=None, velocity=None, w=None, omega=None,
+    def __init__(self, *, body, step, duration, potential=None, position=None,
+                 quaternion=None, momentum=None, velocity=None, w=None, omega=None,
                  method="lgvi", solver="newton", tolerance=None, max_iterations=None, predictor_order=None,
-                 order=None, composition=None, every=1, output_format="csv", name="scenario"):
+                 order=None, composition=None, every=1, output_format="csv", name="scenario",
+                 orbit=None, attitude=None):
+        # orbit sets position and momentum, attitude the quaternion (and with
+        # rate = "orbit" w): their defaults apply only without them.
+        if position is None and orbit is None:
+            position = (0.0, 0.0, 0.0)
+        if quaternion is None and attitude is None:
+            quaternion = (1.0, 0.0, 0.0, 0.0)
         changes = dict(body=body, potential=potential, position=position, quaternion=quaternion,
                        momentum=momentum, velocity=velocity, w=w, omega=omega, method=method, solver=solver,
                        step=step, duration=duration, tolerance=tolerance, max_iterations=max_iterations,
-                       predictor_order=predictor_order, every=every)
+                       predictor_order=predictor_order, every=every, orbit=orbit, attitude=attitude)
         if order is not None:
             changes["order"] = order
         if composition is not None:
             changes["composition"] = composition
         if output_format != "csv":
             changes["output_format"] = output_format
-        if momentum is None and velocity is None:
+        if momentum is None and velocity is None and orbit is None:
             changes["momentum"] = (0.0, 0.0, 0.0)
-        if w is None and omega is None:
+        if w is None and omega is None and not (isinstance(attitude, dict) and "rate" in attitude):
             changes["w"] = (0.0, 0.0, 0.0)
         doc = _apply({}, changes)
         self._init(_parse(_toml_text(doc), _check_name(name)), doc)
