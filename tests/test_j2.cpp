@@ -30,6 +30,16 @@ using V3 = lgvi::Vector3<double>;
 
 constexpr double eps = std::numeric_limits<double>::epsilon();
 
+/// The message with which the scenario reader refuses `text`, or "(no error)".
+std::string parse_error(const std::string& text, const std::string& name) {
+  try {
+    lgvi::app::parse_scenario(text, name);
+  } catch (const lgvi::InvalidInput& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
 RigidBody point_mass() { return RigidBody(1.0, lgvi::Matrix3<double>::Identity()); }
 
 RigidBody three_balls() {
@@ -154,14 +164,7 @@ duration = 1.0
 kind = "central"
 mu = 1.0
 )";
-  auto error = [&](const std::string& extra) {
-    try {
-      lgvi::app::parse_scenario(base + extra, "j2.toml");
-    } catch (const lgvi::InvalidInput& e) {
-      return std::string(e.what());
-    }
-    return std::string("(no error)");
-  };
+  auto error = [&](const std::string& extra) { return parse_error(base + extra, "j2.toml"); };
   EXPECT_NE(error("j2 = 0.001\n").find("key 'potential.reference_radius': missing"), std::string::npos);
   EXPECT_NE(error("j2 = 0.001\nreference_radius = -1.0\n").find("must be > 0"), std::string::npos);
   EXPECT_NE(error("j2 = 0.001\nreference_radius = 1.0\npole = [0, 0, 0]\n").find("key 'potential.pole'"),
@@ -256,14 +259,7 @@ mu = 4.0e14
   EXPECT_LE((plain.initial_state.body(0).q.scalar_first() - lgvi::Vector4<double>(1, 0, 0, 0)).norm(), 1e-15);
   EXPECT_NEAR(plain.initial_state.body(0).w.z(), 2 * 3.0 * 7000.0 / 8.0e6, 1e-18);
 
-  auto error = [&](const std::string& initial) {
-    try {
-      read(initial);
-    } catch (const lgvi::InvalidInput& e) {
-      return std::string(e.what());
-    }
-    return std::string("(no error)");
-  };
+  auto error = [&](const std::string& initial) { return parse_error(head + "[initial]\n" + initial, "orbit.toml"); };
   const std::string att = "attitude = { frame = \"lvlh\", rate = \"orbit\" }\n";
   EXPECT_NE(error("orbit = { radius = 8e6, inclination = 0.0 }\nmomentum = [0.0, 1.0, 0.0]\n" + att)
                 .find("key 'initial.momentum': conflicts with initial.orbit"),
