@@ -7,6 +7,7 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <string>
 
 namespace lgvi::app {
@@ -116,7 +117,14 @@ Checkpoint read_checkpoint(const std::string& path) {
     r.linear_momentum_scale = s[12];
     r.max_linear_momentum_error = s[13];
   }
-  if (s.size() == 23u) {
+  if (s.size() != 23u) {
+    // Unknown before this checkpoint: the summary says null rather than a
+    // range of the resumed leg only (std::min/max keep the NaN).
+    const double unknown = std::numeric_limits<double>::quiet_NaN();
+    r.rot_energy0 = r.min_rot_energy = r.max_rot_energy = unknown;
+    r.spin0 = Vector3<double>::Constant(unknown);
+    r.min_spin = r.max_spin = r.max_spin_change = unknown;
+  } else {
     r.rot_energy0 = s[14];
     r.min_rot_energy = s[15];
     r.max_rot_energy = s[16];
