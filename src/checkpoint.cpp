@@ -7,6 +7,7 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <string>
 
 namespace lgvi::app {
@@ -40,7 +41,9 @@ void write_checkpoint(const std::string& path, const Checkpoint& c) {
   const RunStatistics& s = c.stats;
   put_vec({s.energy0, s.momentum0.x(), s.momentum0.y(), s.momentum0.z(), s.max_energy_error, s.max_quat_error,
            s.max_momentum_error, s.last_t, s.wall_seconds_before, s.linear_momentum0.x(), s.linear_momentum0.y(),
-           s.linear_momentum0.z(), s.linear_momentum_scale, s.max_linear_momentum_error});
+           s.linear_momentum0.z(), s.linear_momentum_scale, s.max_linear_momentum_error, s.rot_energy0,
+           s.min_rot_energy, s.max_rot_energy, s.spin0.x(), s.spin0.y(), s.spin0.z(), s.min_spin, s.max_spin,
+           s.max_spin_change});
   put(s.iterations_total);
   put(s.potential_evaluations);
   put(s.steps_solved);
@@ -98,7 +101,9 @@ Checkpoint read_checkpoint(const std::string& path) {
   get_vec(c.stepper_internal);
   std::vector<double> s;
   get_vec(s);
-  if (s.size() != (version == 2 ? 9u : 14u)) fail();
+  // 14 numbers: a checkpoint from before the rotation statistics (they
+  // then cover the resumed leg only).
+  if (version == 2 ? s.size() != 9u : (s.size() != 14u && s.size() != 23u)) fail();
   RunStatistics& r = c.stats;
   r.energy0 = s[0];
   r.momentum0 = {s[1], s[2], s[3]};
@@ -111,6 +116,22 @@ Checkpoint read_checkpoint(const std::string& path) {
     r.linear_momentum0 = {s[9], s[10], s[11]};
     r.linear_momentum_scale = s[12];
     r.max_linear_momentum_error = s[13];
+  }
+  if (s.size() != 23u) {
+    // Unknown before this checkpoint: the summary says null rather than a
+    // range of the resumed leg only (std::min/max keep the NaN).
+    const double unknown = std::numeric_limits<double>::quiet_NaN();
+    r.rot_energy0 = r.min_rot_energy = r.max_rot_energy = unknown;
+    r.spin0 = Vector3<double>::Constant(unknown);
+    r.min_spin = r.max_spin = r.max_spin_change = unknown;
+  } else {
+    r.rot_energy0 = s[14];
+    r.min_rot_energy = s[15];
+    r.max_rot_energy = s[16];
+    r.spin0 = {s[17], s[18], s[19]};
+    r.min_spin = s[20];
+    r.max_spin = s[21];
+    r.max_spin_change = s[22];
   }
   std::int64_t observed = 0, crc = 0;
   get(r.iterations_total);

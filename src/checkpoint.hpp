@@ -30,6 +30,12 @@ struct RunStatistics {
   double last_t = 0.0;
   bool observed = false;          ///< the initial state was evaluated
   double wall_seconds_before = 0.0;  ///< integration time of earlier legs of a resumed run
+  // Rotation (summed over the bodies): kinetic energy T = sum Pi.J^-1 Pi / 2
+  // and spin angular momentum S = sum R Pi (Pi = w / 2, the body angular
+  // momentum), their initial values and ranges, and max |S - S0|.
+  double rot_energy0 = 0.0, min_rot_energy = 0.0, max_rot_energy = 0.0;
+  Vector3<double> spin0 = Vector3<double>::Zero();
+  double min_spin = 0.0, max_spin = 0.0, max_spin_change = 0.0;
   double work = 0.0;  ///< [[forcing]]: the work done up to last_k (not checkpointed: the stepper keeps it)
 };
 

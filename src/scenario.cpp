@@ -283,9 +283,165 @@ RigidBodyState read_state(const Reader& r, const toml::table& t, const std::stri
   return s;
 }
 
+/// A rotation by `angle` (rad) about coordinate axis `axis` (0, 1, 2), as a
+/// unit quaternion and as a matrix.
+S3d axis_quaternion(int axis, double angle) {
+  double v[3] = {0.0, 0.0, 0.0};
+  v[axis] = std::sin(angle / 2);
+  return {std::cos(angle / 2), v[0], v[1], v[2]};
+}
+Matrix3<double> axis_matrix(int axis, double angle) {
+  const double c = std::cos(angle), s = std::sin(angle);
+  const int j = (axis + 1) % 3, k = (axis + 2) % 3;
+  Matrix3<double> m = Matrix3<double>::Zero();
+  m(axis, axis) = 1.0;
+  m(j, j) = c;
+  m(j, k) = -s;
+  m(k, j) = s;
+  m(k, k) = c;
+  return m;
+}
+
+toml::array toml_vector(const Eigen::Ref<const Eigen::VectorXd>& v) {
+  toml::array a;
+  for (Eigen::Index i = 0; i < v.size(); ++i) a.push_back(v(i) + 0.0);  // + 0.0: no "-0.0" in the copy
+  return a;
+}
+
+/// [initial] orbit = {...} and attitude = {...} (single-body scenarios about
+/// a central potential), converted once into the plain keys position,
+/// momentum, quaternion and w of the same table, which read_initial then reads
+/// like any other. Angles in degrees. The orbit's elements refer to the
+/// scenario's axes (the equator is the x-y plane when the pole is z); radius
+/// is the semi-major axis and altitude the semi-major axis minus
+/// potential.reference_radius. The LVLH frame: x radial (from the centre
+/// out), z the orbit normal r x v / |r x v|, y = z x x (along-track: the
+/// velocity's direction on a circular orbit). The body's attitude in it:
+/// pitch about z, then roll about the new y, then yaw about the new x
+/// (R_LVLH^T R = Rz(pitch) Ry(roll) Rx(yaw)). rate = "orbit": the body turns
+/// with the LVLH frame, Omega = R^T (|r x v| / |r|^2) z_LVLH. Returns the two
+/// original tables as TOML comment lines (for the run's scenario copy), empty
+/// when there were none.
+std::string convert_orbit_attitude(const Reader& r, toml::table& root, const RigidBody& body,
+                                   const PotentialSpec& pot) {
+  toml::table* t = root.get_as<toml::table>("initial");
+  if (!t) return {};  // read_initial names what is missing
+  const toml::node* on = t->get("orbit");
+  const toml::node* an = t->get("attitude");
+  if (!on && !an) return {};
+  const std::string which = on ? "initial.orbit" : "initial.attitude";
+  if (pot.kind != PotentialKind::Central)
+    r.fail(which, "needs [potential] kind = \"central\" (the orbit's centre and mu come from it); "
+                  "otherwise give position, momentum and quaternion");
+  constexpr double deg = std::numbers::pi / 180.0;
+  Vector3<double> x = Vector3<double>::Zero(), v = Vector3<double>::Zero();
+  S3d q_lvlh;
+  bool have_q_lvlh = false;
+  std::string note = "# lgvi converted [initial] orbit / attitude into the plain keys below; they were\n";
+  if (on) {
+    if (!on->is_table()) r.fail("initial.orbit", "must be a table, e.g. orbit = { altitude = 500e3, inclination = 51.6 }");
+    const toml::table& o = *on->as_table();
+    r.only_keys(o, "initial.orbit",
+                {"altitude", "radius", "eccentricity", "inclination", "raan", "arg_periapsis", "true_anomaly"});
+    for (const char* k : {"position", "momentum", "velocity"})
+      if (t->contains(k))
+        r.fail(std::string("initial.") + k, "conflicts with initial.orbit, which sets the position and momentum; "
+                                             "remove one of them");
+    if (o.contains("altitude") == o.contains("radius"))
+      r.fail("initial.orbit", "give exactly one of altitude (semi-major axis minus potential.reference_radius) or "
+                              "radius (the semi-major axis)");
+    double a = 0.0;
+    std::string a_key = "initial.orbit.radius";
+    if (o.contains("altitude")) {
+      a_key = "initial.orbit.altitude";
+      if (!(pot.reference_radius > 0.0))
+        r.fail(a_key, "needs potential.reference_radius to measure from (give it with j2; j2 = 0.0 is allowed), "
+                      "or give radius = reference radius + altitude");
+      a = pot.reference_radius + r.number(o, "initial.orbit", "altitude");
+    } else {
+      a = r.number(o, "initial.orbit", "radius");
+    }
+    if (!(a > 0.0)) r.fail(a_key, "gives a semi-major axis " + std::to_string(a) + " <= 0; it must be > 0");
+    auto opt = [&](const char* k) { return o.contains(k) ? r.number(o, "initial.orbit", k) : 0.0; };
+    const double e = opt("eccentricity");
+    if (!(e >= 0.0 && e < 1.0))
+      r.fail("initial.orbit.eccentricity", "must be in [0, 1): orbit sets up closed (circular or elliptic) orbits");
+    if (!o.contains("inclination"))
+      r.fail("initial.orbit.inclination", "missing (degrees from the scenario's x-y plane, e.g. inclination = 51.6)");
+    const double inc = opt("inclination") * deg, raan = opt("raan") * deg, argp = opt("arg_periapsis") * deg,
+                 nu = opt("true_anomaly") * deg;
+    const double p = a * (1.0 - e * e), radius = p / (1.0 + e * std::cos(nu));
+    const Matrix3<double> Q = axis_matrix(2, raan) * axis_matrix(0, inc) * axis_matrix(2, argp);
+    x = Q * Vector3<double>(radius * std::cos(nu), radius * std::sin(nu), 0.0);
+    v = Q * (std::sqrt(pot.mu / p) * Vector3<double>(-std::sin(nu), e + std::cos(nu), 0.0));
+    q_lvlh = axis_quaternion(2, raan) * axis_quaternion(0, inc) * axis_quaternion(2, argp + nu);
+    have_q_lvlh = true;
+    const Vector3<double> momentum = body.mass() * v;
+    t->insert_or_assign("position", toml_vector(x));
+    t->insert_or_assign("momentum", toml_vector(momentum));
+    toml::table copy = o;
+    copy.is_inline(true);
+    std::ostringstream os;
+    os << copy;
+    note += "#   orbit = " + os.str() + "\n";
+  }
+  if (an) {
+    if (!an->is_table())
+      r.fail("initial.attitude", "must be a table, e.g. attitude = { frame = \"lvlh\", pitch = 5.0, rate = \"orbit\" }");
+    const toml::table& at = *an->as_table();
+    r.only_keys(at, "initial.attitude", {"frame", "roll", "pitch", "yaw", "rate"});
+    if (t->contains("quaternion"))
+      r.fail("initial.quaternion", "conflicts with initial.attitude, which sets the attitude; remove one of them");
+    r.string(at, "initial.attitude", "frame", {"lvlh"});
+    if (!on) {
+      x = r.vector<3>(*t, "initial", "position");
+      if (t->contains("momentum") == t->contains("velocity"))
+        r.fail("initial", "give exactly one of momentum = [px, py, pz] or velocity = [vx, vy, vz]");
+      v = t->contains("velocity") ? r.vector<3>(*t, "initial", "velocity")
+                                  : Vector3<double>(r.vector<3>(*t, "initial", "momentum") / body.mass());
+    }
+    const Vector3<double> h = x.cross(v);
+    if (!(h.norm() > 0.0))
+      r.fail("initial.attitude", "the LVLH frame needs an orbit: the position and velocity must not be parallel or zero");
+    if (!have_q_lvlh) {
+      Matrix3<double> lvlh;
+      lvlh.col(0) = x.normalized();
+      lvlh.col(2) = h.normalized();
+      lvlh.col(1) = lvlh.col(2).cross(lvlh.col(0));
+      q_lvlh = S3d::from_rotation_matrix(lvlh);
+    }
+    auto angle = [&](const char* k) { return at.contains(k) ? r.number(at, "initial.attitude", k) * deg : 0.0; };
+    const double roll = angle("roll"), pitch = angle("pitch"), yaw = angle("yaw");
+    const S3d q = q_lvlh * (axis_quaternion(2, pitch) * axis_quaternion(1, roll) * axis_quaternion(0, yaw));
+    t->insert_or_assign("quaternion", toml_vector(q.scalar_first()));
+    if (at.contains("rate")) {
+      r.string(at, "initial.attitude", "rate", {"orbit"});
+      if (t->contains("w") || t->contains("omega"))
+        r.fail("initial.attitude.rate", "conflicts with initial.w / initial.omega; give one of them");
+      // The LVLH frame turns about its z axis at |r x v| / |r|^2.
+      const double n = h.norm() / x.squaredNorm();
+      const Matrix3<double> A = axis_matrix(2, pitch) * axis_matrix(1, roll) * axis_matrix(0, yaw);
+      const Vector3<double> omega = A.transpose() * Vector3<double>(0.0, 0.0, n);
+      const Vector3<double> w = 2.0 * body.inertia() * omega;
+      t->insert_or_assign("w", toml_vector(w));
+    } else if (!t->contains("w") && !t->contains("omega")) {
+      r.fail("initial.attitude", "give rate = \"orbit\" (the body turns with the LVLH frame) or initial.omega = "
+                                 "[...] (body angular velocity, body frame)");
+    }
+    toml::table copy = at;
+    copy.is_inline(true);
+    std::ostringstream os;
+    os << copy;
+    note += "#   attitude = " + os.str() + "\n";
+  }
+  t->erase("orbit");
+  t->erase("attitude");
+  return note;
+}
+
 RigidBodyState read_initial(const Reader& r, const toml::table& root, const RigidBody& body) {
   const toml::table& t = r.table(root, "", "initial");
-  r.only_keys(t, "initial", {"position", "quaternion", "momentum", "velocity", "w", "omega"});
+  r.only_keys(t, "initial", {"position", "quaternion", "momentum", "velocity", "w", "omega", "orbit", "attitude"});
   return read_state(r, t, "initial", body);
 }
 
@@ -784,6 +940,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
     bodies.push_back(read_body(r, root));
   }
   PotentialSpec potential = read_potential(r, root);
+  const std::string converted = bodies_format ? std::string() : convert_orbit_attitude(r, root, bodies[0], potential);
   if (!bodies_format) initial = SystemState(read_initial(r, root, bodies[0]));
   const InteractionSpec interaction = read_interaction(r, root);
   IntegratorSpec integrator = read_integrator(r, root);
@@ -866,12 +1023,13 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   sc.output_every = every;
   sc.output_format = format;
   sc.source_text = text;
-  if (inlined) {
-    // File tables were read into the document: the run's copy of the
-    // scenario holds them inline (toml++ writes doubles to round-trip).
+  if (inlined || !converted.empty()) {
+    // File tables were read into the document, or [initial] orbit / attitude
+    // converted into plain keys: the run's copy of the scenario holds them
+    // (toml++ writes doubles to round-trip).
     std::ostringstream os;
     os << root;
-    sc.source_text = os.str() + "\n";
+    sc.source_text = converted + os.str() + "\n";
   }
   return sc;
 }

@@ -96,7 +96,17 @@ struct Recorder {
     const double energy = total_energy(s, scenario.system, i.evaluation);
     const Vector3<double> L = angular_momentum(s);
     const Vector3<double> P = linear_momentum(s);
+    double rot_energy = 0.0;
+    Vector3<double> spin = Vector3<double>::Zero();
+    for (std::size_t a = 0; a < n; ++a) {
+      const Vector3<double> pi = 0.5 * s.w[a];
+      rot_energy += 0.5 * pi.dot(scenario.system.body(a).inertia_inverse() * pi);
+      spin += s.q[a].act(pi);
+    }
     if (i.k == 0) {
+      stats.rot_energy0 = stats.min_rot_energy = stats.max_rot_energy = rot_energy;
+      stats.spin0 = spin;
+      stats.min_spin = stats.max_spin = spin.norm();
       stats.energy0 = energy;
       stats.momentum0 = L;
       stats.linear_momentum0 = P;
@@ -123,6 +133,11 @@ struct Recorder {
     stats.max_quat_error = std::max(stats.max_quat_error, std::abs(dq));
     stats.max_momentum_error = std::max(stats.max_momentum_error, dl);
     stats.max_linear_momentum_error = std::max(stats.max_linear_momentum_error, dp);
+    stats.min_rot_energy = std::min(stats.min_rot_energy, rot_energy);
+    stats.max_rot_energy = std::max(stats.max_rot_energy, rot_energy);
+    stats.min_spin = std::min(stats.min_spin, spin.norm());
+    stats.max_spin = std::max(stats.max_spin, spin.norm());
+    stats.max_spin_change = std::max(stats.max_spin_change, (spin - stats.spin0).norm());
     stats.last_t = i.t;
     stats.last_k = i.k;
     stats.observed = true;

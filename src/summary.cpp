@@ -115,6 +115,51 @@ JsonObject state_json(const RigidBodyState& s) {
   return o;
 }
 
+/// What the scenario conserves, and which "error" keys are changes: the
+/// total angular momentum about the origin is conserved with no field, a
+/// point source or mutual forces only (about the pole with J2; not in a
+/// uniform field, on a pivot or under a forcing); the linear momentum with no
+/// field and no forcing; the energy always (E - E0 - work under a forcing).
+std::string conserved_json(const Scenario& sc) {
+  const bool forced = !sc.forcing.empty();
+  const PotentialKind k = sc.potential.kind;
+  std::vector<std::string> conserved, changes;
+  conserved.emplace_back(forced ? "\"energy_minus_work\"" : "\"energy\"");
+  if (!forced && (k == PotentialKind::None || (k == PotentialKind::Central && sc.potential.j2 == 0.0)))
+    conserved.emplace_back("\"angular_momentum\"");
+  else if (!forced && k == PotentialKind::Central)
+    conserved.emplace_back("\"angular_momentum_along_pole\"");
+  else
+    changes.insert(changes.end(), {"\"max_momentum_error\"", "\"max_relative_momentum_error\""});
+  if (!forced && k == PotentialKind::Central && sc.potential.j2 != 0.0)
+    changes.insert(changes.end(), {"\"max_momentum_error\"", "\"max_relative_momentum_error\""});
+  if (!forced && k == PotentialKind::None)
+    conserved.emplace_back("\"linear_momentum\"");
+  else
+    changes.emplace_back("\"max_linear_momentum_error\"");
+  auto list = [](const std::vector<std::string>& v) {
+    std::string o = "[";
+    for (std::size_t i = 0; i < v.size(); ++i) o += (i ? ", " : "") + v[i];
+    return o + "]";
+  };
+  return fmt::format("{{\"quantities\": {}, \"changes_not_errors\": {}}}", list(conserved), list(changes));
+}
+
+/// The bodies' rotation on one line: kinetic energy T and spin angular
+/// momentum S = sum R Pi (initial value, range, largest change), and the
+/// total energy's error relative to T (the attitude's scale when the orbit
+/// dominates the totals).
+std::string rotation_json(const RunStatistics& st) {
+  return fmt::format(
+      "{{\"initial_kinetic_energy\": {}, \"min_kinetic_energy\": {}, \"max_kinetic_energy\": {}, "
+      "\"initial_spin_angular_momentum\": [{}, {}, {}], \"min_spin_magnitude\": {}, \"max_spin_magnitude\": {}, "
+      "\"max_spin_change\": {}, \"energy_error_over_max_kinetic_energy\": {}}}",
+      json_number(st.rot_energy0), json_number(st.min_rot_energy), json_number(st.max_rot_energy),
+      json_number(st.spin0.x()), json_number(st.spin0.y()), json_number(st.spin0.z()), json_number(st.min_spin),
+      json_number(st.max_spin), json_number(st.max_spin_change),
+      json_number(st.max_rot_energy > 0.0 ? st.max_energy_error / st.max_rot_energy : std::nan("")));
+}
+
 }  // namespace
 
 std::string summary_json(const Scenario& sc, const SimulationResult& r) {
@@ -140,6 +185,8 @@ std::string summary_json(const Scenario& sc, const SimulationResult& r) {
       .number("max_momentum_error", st.max_momentum_error)
       .number("max_relative_momentum_error", l0 > 0 ? st.max_momentum_error / l0 : st.max_momentum_error)
       .number("max_linear_momentum_error", st.max_linear_momentum_error)
+      .raw("rotation", rotation_json(st))
+      .raw("conserved", conserved_json(sc))
       // Per solve: per step, body and sub-step of a composed step (the
       // bodies' and sub-steps' solves are summed in iterations_total).
       .number("solver_iterations_mean", st.steps_solved ? static_cast<double>(st.iterations_total) /

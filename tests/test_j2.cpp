@@ -16,6 +16,7 @@
 #include <cmath>
 #include <string>
 #include <numbers>
+#include <sstream>
 #include <vector>
 
 namespace {
@@ -28,6 +29,16 @@ using lgvi::SystemState;
 using V3 = lgvi::Vector3<double>;
 
 constexpr double eps = std::numeric_limits<double>::epsilon();
+
+/// The message with which the scenario reader refuses `text`, or "(no error)".
+std::string parse_error(const std::string& text, const std::string& name) {
+  try {
+    lgvi::app::parse_scenario(text, name);
+  } catch (const lgvi::InvalidInput& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
 
 RigidBody point_mass() { return RigidBody(1.0, lgvi::Matrix3<double>::Identity()); }
 
@@ -153,14 +164,7 @@ duration = 1.0
 kind = "central"
 mu = 1.0
 )";
-  auto error = [&](const std::string& extra) {
-    try {
-      lgvi::app::parse_scenario(base + extra, "j2.toml");
-    } catch (const lgvi::InvalidInput& e) {
-      return std::string(e.what());
-    }
-    return std::string("(no error)");
-  };
+  auto error = [&](const std::string& extra) { return parse_error(base + extra, "j2.toml"); };
   EXPECT_NE(error("j2 = 0.001\n").find("key 'potential.reference_radius': missing"), std::string::npos);
   EXPECT_NE(error("j2 = 0.001\nreference_radius = -1.0\n").find("must be > 0"), std::string::npos);
   EXPECT_NE(error("j2 = 0.001\nreference_radius = 1.0\npole = [0, 0, 0]\n").find("key 'potential.pole'"),
@@ -169,6 +173,123 @@ mu = 1.0
             std::string::npos);
   EXPECT_NE(error("pole = [0, 0, 1]\n").find("give j2 too"), std::string::npos);
   EXPECT_EQ(error("j2 = 0.001\nreference_radius = 1.0\npole = [0, 1, 0]\n"), "(no error)");
+}
+
+// [initial] orbit and attitude (issue 12): the bundled LEO scenario's keys give
+// the numbers its comment computes by hand (the values it held before, as
+// plain keys) to a few ulp; an eccentric, inclined orbit satisfies the
+// two-body relations; rate = "orbit" turns the body with the LVLH frame; the
+// run's scenario copy holds plain keys that read back to the same bits; and
+// each mistake gets one line naming the key.
+TEST(Orbit, ScenarioKeys) {
+  const auto leo = lgvi::app::read_scenario(std::string(LGVI_SCENARIO_DIR) + "/leo-gravity-gradient.toml");
+  const lgvi::RigidBodyState& s = leo.initial_state.body(0);
+  // The plain keys the file held before (computed by hand in Python). A few
+  // ulp: the same formulas evaluated in another order (e.g. m (v cos i)
+  // against (m v) cos i) differ in the last bits.
+  EXPECT_EQ(s.x, V3(6878137.0, 0.0, 0.0));
+  const V3 p_hand(0.0, 141856.64006779587, 178978.53655622283);
+  const V3 w_hand(0.0, 0.0, 0.050867767193553855);
+  const lgvi::Vector4<double> q_hand(0.8994618674261244, 0.4348168558050407, -0.0189845139169626,
+                                     0.03927135324207566);
+  EXPECT_LE((s.p - p_hand).norm(), 4 * eps * p_hand.norm());
+  EXPECT_LE((s.w - w_hand).norm(), 4 * eps * w_hand.norm());
+  EXPECT_LE((s.q.scalar_first() - q_hand).norm(), 4 * eps);
+  // The copy for the run folder: plain keys only, reading back bit for bit.
+  std::string keys;  // the copy without its comment lines
+  std::istringstream lines(leo.source_text);
+  for (std::string line; std::getline(lines, line);)
+    if (line.rfind('#', 0) != 0) keys += line + "\n";
+  EXPECT_EQ(keys.find("orbit"), std::string::npos);
+  EXPECT_EQ(keys.find("attitude"), std::string::npos);
+  EXPECT_NE(keys.find("quaternion = ["), std::string::npos);
+  const auto copy = lgvi::app::parse_scenario(leo.source_text, "scenario.toml");
+  EXPECT_EQ(copy.initial_state.body(0).x, s.x);
+  EXPECT_EQ(copy.initial_state.body(0).p, s.p);
+  EXPECT_EQ(copy.initial_state.body(0).w, s.w);
+  EXPECT_EQ(copy.initial_state.body(0).q.scalar_first(), s.q.scalar_first());
+
+  const std::string head = R"(
+[body]
+mass = 2.0
+inertia = [[1, 0, 0], [0, 2, 0], [0, 0, 3]]
+[integrator]
+step = 1.0
+duration = 10.0
+[potential]
+kind = "central"
+mu = 4.0e14
+)";
+  auto read = [&](const std::string& initial) {
+    return lgvi::app::parse_scenario(head + "[initial]\n" + initial, "orbit.toml");
+  };
+  const double mu = 4.0e14, a = 8.0e6, e = 0.1, deg = std::numbers::pi / 180.0;
+  const auto ecc = read(
+      "orbit = { radius = 8.0e6, eccentricity = 0.1, inclination = 30.0, raan = 40.0, arg_periapsis = 60.0, "
+      "true_anomaly = 20.0 }\nattitude = { frame = \"lvlh\", roll = 1.0, pitch = 2.0, yaw = 3.0, rate = \"orbit\" }\n");
+  const lgvi::RigidBodyState& b = ecc.initial_state.body(0);
+  const V3 v = b.p / 2.0, h = b.x.cross(v);
+  const double r = b.x.norm();
+  // Conic relations, to round-off (1e-14 relative: a few operations of eps each).
+  EXPECT_NEAR(r, a * (1 - e * e) / (1 + e * std::cos(20 * deg)), 1e-14 * a);
+  EXPECT_NEAR(v.squaredNorm(), mu * (2 / r - 1 / a), 1e-14 * mu / a);
+  EXPECT_NEAR(h.norm(), std::sqrt(mu * a * (1 - e * e)), 1e-14 * h.norm());
+  EXPECT_NEAR(h.z() / h.norm(), std::cos(30 * deg), 1e-14);  // inclination
+  EXPECT_NEAR(std::atan2(h.x(), -h.y()), 40 * deg, 1e-14);  // node: h = (sin i sin raan, -sin i cos raan, cos i)
+  // The argument of latitude u = 80 deg: the position from the node line.
+  const V3 node(std::cos(40 * deg), std::sin(40 * deg), 0.0);
+  EXPECT_NEAR(std::acos(b.x.normalized().dot(node)), 80 * deg, 1e-14);
+  // rate = "orbit": the inertial angular velocity R Omega is |h| / r^2 along h.
+  const lgvi::Matrix3<double> J = ecc.body().inertia();
+  const V3 omega_inertial = b.q.matrix() * (0.5 * J.inverse() * b.w);
+  EXPECT_LE((omega_inertial - h / (r * r)).norm(), 1e-14 * h.norm() / (r * r));
+  // The attitude: R_LVLH^T R = Rz(2 deg) Ry(1 deg) Rx(3 deg).
+  lgvi::Matrix3<double> lvlh;
+  lvlh.col(0) = b.x.normalized();
+  lvlh.col(2) = h.normalized();
+  lvlh.col(1) = lvlh.col(2).cross(lvlh.col(0));
+  const lgvi::Matrix3<double> A = lvlh.transpose() * b.q.matrix();
+  const lgvi::Matrix3<double> expected = (Eigen::AngleAxisd(2 * deg, V3::UnitZ()) *
+                                          Eigen::AngleAxisd(1 * deg, V3::UnitY()) *
+                                          Eigen::AngleAxisd(3 * deg, V3::UnitX())).toRotationMatrix();
+  EXPECT_LE((A - expected).norm(), 1e-14);
+  // attitude without orbit: the LVLH frame of the given position and velocity.
+  const auto plain = read("position = [8.0e6, 0.0, 0.0]\nvelocity = [0.0, 7000.0, 0.0]\n"
+                          "attitude = { frame = \"lvlh\", rate = \"orbit\" }\n");
+  EXPECT_LE((plain.initial_state.body(0).q.scalar_first() - lgvi::Vector4<double>(1, 0, 0, 0)).norm(), 1e-15);
+  EXPECT_NEAR(plain.initial_state.body(0).w.z(), 2 * 3.0 * 7000.0 / 8.0e6, 1e-18);
+
+  auto error = [&](const std::string& initial) { return parse_error(head + "[initial]\n" + initial, "orbit.toml"); };
+  const std::string att = "attitude = { frame = \"lvlh\", rate = \"orbit\" }\n";
+  EXPECT_NE(error("orbit = { radius = 8e6, inclination = 0.0 }\nmomentum = [0.0, 1.0, 0.0]\n" + att)
+                .find("key 'initial.momentum': conflicts with initial.orbit"),
+            std::string::npos);
+  EXPECT_NE(error("orbit = { radius = 8e6, altitude = 1e6, inclination = 0.0 }\n" + att)
+                .find("key 'initial.orbit': give exactly one of altitude"),
+            std::string::npos);
+  EXPECT_NE(error("orbit = { radius = 8e6 }\n" + att).find("key 'initial.orbit.inclination': missing"),
+            std::string::npos);
+  EXPECT_NE(error("orbit = { radius = 8e6, inclination = 0.0, eccentricity = 1.0 }\n" + att)
+                .find("key 'initial.orbit.eccentricity': must be in [0, 1)"),
+            std::string::npos);
+  EXPECT_NE(error("orbit = { radius = -8e6, inclination = 0.0 }\n" + att).find("key 'initial.orbit.radius'"),
+            std::string::npos);
+  EXPECT_NE(error("orbit = { radius = 8e6, inclination = 0.0, anomaly = 3.0 }\n" + att)
+                .find("key 'initial.orbit.anomaly': unknown key"),
+            std::string::npos);
+  EXPECT_NE(error("orbit = { radius = 8e6, inclination = 0.0 }\nattitude = { frame = \"body\", rate = \"orbit\" }\n")
+                .find("key 'initial.attitude.frame'"),
+            std::string::npos);
+  EXPECT_NE(error("orbit = { radius = 8e6, inclination = 0.0 }\nquaternion = [1.0, 0.0, 0.0, 0.0]\n" + att)
+                .find("key 'initial.quaternion': conflicts with initial.attitude"),
+            std::string::npos);
+  EXPECT_NE(error("orbit = { radius = 8e6, inclination = 0.0 }\nw = [0.0, 0.0, 0.0]\n" + att)
+                .find("key 'initial.attitude.rate': conflicts with initial.w"),
+            std::string::npos);
+  EXPECT_NE(error("position = [8e6, 0.0, 0.0]\nvelocity = [8.0, 0.0, 0.0]\n" + att)
+                .find("key 'initial.attitude': the LVLH frame needs an orbit"),
+            std::string::npos);
+  EXPECT_NE(error("orbit = 3.0\n" + att).find("key 'initial.orbit': must be a table"), std::string::npos);
 }
 
 }  // namespace

@@ -67,12 +67,15 @@ class Body:
 class Scenario:
     """One run: body, potential, initial state (quaternion scalar-first (w, x, y, z)), integrator, output."""
     def __init__(self, *, body: Body, step: float, duration: float, potential: PotentialSpec = ...,
-                 position: Vector3, quaternion: Quaternion, momentum: Optional[Vector3] = ...,
+                 position: Optional[Vector3] = ..., quaternion: Optional[Quaternion] = ...,
+                 momentum: Optional[Vector3] = ...,
                  velocity: Optional[Vector3] = ..., w: Optional[Vector3] = ..., omega: Optional[Vector3] = ...,
                  method: Method = ..., solver: Solver = ..., tolerance: Optional[float] = ...,
                  max_iterations: Optional[int] = ..., predictor_order: Optional[int] = ...,
                  order: Optional[int] = ..., composition: Optional[Sequence[float]] = ..., every: int = ...,
-                 output_format: OutputFormat = ..., name: str = ...) -> None: ...
+                 output_format: OutputFormat = ..., name: str = ...,
+                 orbit: Optional[Mapping[str, float]] = ...,
+                 attitude: Optional[Mapping[str, Union[str, float]]] = ...) -> None: ...
     @classmethod
     def from_toml(cls, path: PathLike) -> Scenario:
         """Read a scenario file exactly as `lgvi run` does."""
@@ -187,6 +190,9 @@ class Result:
     def momentum_error(self) -> npt.NDArray[np.float64]: ...
     @property
     def omega(self) -> npt.NDArray[np.float64]: ...
+    def rotation_matrices(self) -> npt.NDArray[np.float64]: ...
+    def euler_angles(self, seq: str = ..., degrees: bool = ...) -> npt.NDArray[np.float64]: ...
+    def lvlh_angles(self, degrees: bool = ...) -> npt.NDArray[np.float64]: ...
     @property
     def completed(self) -> bool: ...
     @property

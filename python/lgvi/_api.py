@@ -50,6 +50,8 @@ def _toml_value(v):
         return json.dumps(v)  # a TOML basic string (JSON escapes are TOML escapes)
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):  # an inline table ([initial] orbit, attitude)
+        return "{ " + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + " }"
     raise TypeError(f"cannot write {v!r} as TOML")
 
 
@@ -212,9 +214,17 @@ def _apply(doc, changes):
     if "potential" in changes:
         doc["potential"] = _potential.spec(changes["potential"])
     init = doc["initial"]
-    if "position" in changes:
+    for key in ("orbit", "attitude"):
+        if changes.get(key) is not None:
+            if not isinstance(changes[key], dict):
+                raise ValueError(f"{key}: must be a dict, e.g. " + (
+                    "orbit=dict(altitude=500e3, inclination=51.6)" if key == "orbit"
+                    else 'attitude=dict(frame="lvlh", pitch=5.0, rate="orbit")'))
+            init[key] = {k: (float(v) if isinstance(v, int) and not isinstance(v, bool) else v)
+                         for k, v in changes[key].items()}
+    if changes.get("position") is not None:
         init["position"] = _floats(_check.vector3(changes["position"], "position"))
-    if "quaternion" in changes:
+    if changes.get("quaternion") is not None:
         init["quaternion"] = _floats(_check.quaternion(changes["quaternion"], "quaternion"))
     for a, b in _INITIAL_PAIRS:
         if changes.get(a) is not None and changes.get(b) is not None:
@@ -279,7 +289,15 @@ class Scenario:
     norm (then normalized); ``momentum`` p0 or ``velocity`` v0 = p0 / m
     (3,); ``w`` w0 = 2 J Omega0 (the paper's variable) or ``omega`` Omega0,
     the body angular velocity (3,) (the initial state is required, with no
-    defaults, as [initial] of a scenario file requires it); ``step`` h > 0 and ``duration`` >= 0 (required; the
+    defaults, as [initial] of a scenario file requires it); ``orbit`` a dict
+    of the scenario key [initial] orbit (``altitude`` | ``radius``,
+    ``eccentricity``, ``inclination``, ``raan``, ``arg_periapsis``,
+    ``true_anomaly``; degrees; with a central potential) in place of position
+    and momentum; ``attitude`` a dict of [initial] attitude
+    (``frame="lvlh"``, ``roll``, ``pitch``, ``yaw`` in degrees,
+    ``rate="orbit"``) in place of quaternion (and, with rate, of w);
+    converted by the reader, so ``scenario.toml`` holds the plain keys;
+    ``step`` h > 0 and ``duration`` >= 0 (required; the
     run takes ceil(duration / step) steps); ``method`` one of lgvi.METHODS
     ("lgvi", the Hamiltonian side, is the default; "lgvi-lagrangian",
     "so3-lgvi", "rattle-quaternion", "rk4-normalized", "euler-exp",
@@ -302,28 +320,33 @@ class Scenario:
     def __init__(self, *, body, step, duration, potential=None, position=None,
                  quaternion=None, momentum=None, velocity=None, w=None, omega=None,
                  method="lgvi", solver="newton", tolerance=None, max_iterations=None, predictor_order=None,
-                 order=None, composition=None, every=1, output_format="csv", name="scenario"):
+                 order=None, composition=None, every=1, output_format="csv", name="scenario",
+                 orbit=None, attitude=None):
         changes = dict(body=body, potential=potential, position=position, quaternion=quaternion,
                        momentum=momentum, velocity=velocity, w=w, omega=omega, method=method, solver=solver,
                        step=step, duration=duration, tolerance=tolerance, max_iterations=max_iterations,
-                       predictor_order=predictor_order, every=every)
+                       predictor_order=predictor_order, every=every, orbit=orbit, attitude=attitude)
         if order is not None:
             changes["order"] = order
         if composition is not None:
             changes["composition"] = composition
         if output_format != "csv":
             changes["output_format"] = output_format
-        # The initial state is required, as [initial] of a scenario file requires it: no silent zeros.
-        for key, value, text in (("position", position, "x0 (3,)"),
-                                 ("quaternion", quaternion, "q0 (4,), scalar-first; (1, 0, 0, 0) for no rotation")):
-            if value is None:
+        # The initial state is required, as [initial] of a scenario file
+        # requires it: no silent zeros. orbit gives position and momentum,
+        # attitude the quaternion (and, with rate = "orbit", w).
+        rate_given = isinstance(attitude, dict) and "rate" in attitude
+        for key, value, alternative, text in (
+                ("position", position, orbit, "x0 (3,) or orbit"),
+                ("quaternion", quaternion, attitude, "q0 (4,), scalar-first, (1, 0, 0, 0) for no rotation, or attitude")):
+            if value is None and alternative is None:
                 raise ValueError(f"{key}: missing: give {text}, as [initial] of a scenario file requires")
-        if momentum is None and velocity is None:
-            raise ValueError("momentum, velocity: give one of them ((0, 0, 0) for a body at rest), as [initial] "
-                             "of a scenario file requires")
-        if w is None and omega is None:
-            raise ValueError("w, omega: give one of them ((0, 0, 0) for no rotation), as [initial] of a scenario "
-                             "file requires")
+        if momentum is None and velocity is None and orbit is None:
+            raise ValueError("momentum, velocity: give one of them ((0, 0, 0) for a body at rest) or orbit, as "
+                             "[initial] of a scenario file requires")
+        if w is None and omega is None and not rate_given:
+            raise ValueError("w, omega: give one of them ((0, 0, 0) for no rotation) or attitude with rate, as "
+                             "[initial] of a scenario file requires")
         doc = _apply({}, changes)
         self._init(_parse(_toml_text(doc), _check_name(name)), doc)
 

@@ -7,6 +7,7 @@ import os
 
 import numpy as np
 
+from . import _attitude
 from ._columns import (BODIES_COLUMNS, COLUMNS, FORCED_BODIES_COLUMNS, FORCED_COLUMNS, HEADER,  # noqa: F401
                        body_of)
 
@@ -123,6 +124,32 @@ class Result(_RunSummary):
         if inertia is None:
             raise ValueError("omega: the summary has no body inertia (setup.body.inertia)")
         return 0.5 * np.linalg.solve(np.asarray(inertia, dtype=float), self.w.T).T
+
+    # Attitude ----------------------------------------------------------------
+    def rotation_matrices(self):
+        """R = pi(q) at every row, shape (N, 3, 3): body frame -> inertial frame (column j: body axis j)."""
+        return _attitude.rotation_matrices(self.q)
+
+    def euler_angles(self, seq="ZYX", degrees=False):
+        """Euler angles of R at every row, shape (N, 3), in the order of `seq`.
+
+        Upper case `seq` is intrinsic (R = R_A(a) R_B(b) R_C(c) for "ABC",
+        default "ZYX": yaw, pitch, roll about the inertial axes' z, then the
+        new y, then the new x); lower case is extrinsic (scipy's convention).
+        Radians unless degrees=True."""
+        return _attitude.euler_angles(self.rotation_matrices(), seq, degrees)
+
+    def lvlh_angles(self, degrees=True):
+        """Roll, pitch, yaw of the body in the LVLH frame of its own orbit about the origin, shape (N, 3).
+
+        LVLH: x radial (out from the central source at the origin), z the
+        orbit normal x cross p / |x cross p|, y = z cross x (along-track). The
+        attitude in it is R_LVLH^T R = Rz(pitch) Ry(roll) Rx(yaw) (pitch about
+        the orbit normal, then roll about the new y, then yaw about the new
+        x), as the scenario key [initial] attitude = { frame = "lvlh", roll,
+        pitch, yaw }. Degrees unless degrees=False; pitch and yaw in (-180,
+        180], roll in [-90, 90]."""
+        return _attitude.lvlh_angles(self.x, self.p, self.q, degrees)
 
 
     def __repr__(self):

@@ -15,6 +15,7 @@ import sys
 
 import numpy as np
 
+from ._attitude import euler_angles, lvlh_angles, rotation_matrices
 from ._columns import body_of
 from ._io import _trajectory_in, load, load_run  # noqa: F401 (load_run: lgvi.plot.load_run, as before)
 from ._result import SystemResult
@@ -24,6 +25,10 @@ REQUIRED_COLUMNS = ("t", "x", "y", "qw", "qx", "qy", "qz", "energy_error",
 DPI = 120
 FIGSIZE = (6.0, 4.5)
 N_INSTANTS = 12
+#: body_motion.png draws the attitude against time instead of the body on its
+#: path when the body's size is below this fraction of the path's extent (a
+#: 1 m satellite on a 6.9e6 m orbit would be a dot).
+TINY_BODY = 1e-3
 
 
 def _pyplot():
@@ -94,8 +99,55 @@ def _trajectory(plt, c, out_dir, written):
     _save(fig, out_dir, "trajectory.png", written)
 
 
+def _body_size(summary):
+    """The body's radius: its farthest ball's reach, else sqrt(trace J / m) (0 if unknown)."""
+    body = body_of(summary)
+    balls = body.get("balls") or []
+    if balls:
+        return max(np.linalg.norm(b["position"]) + b.get("radius", 0.0) for b in balls)
+    inertia, mass = body.get("inertia"), body.get("mass")
+    if inertia is None or not mass:
+        return 0.0
+    return float(np.sqrt(np.trace(np.asarray(inertia, dtype=float)) / mass))
+
+
+def _attitude_against_time(plt, c, extent, size, out_dir, written):
+    """body_motion.png for a body tiny against its path: its attitude in the LVLH
+    frame of its orbit about the origin (roll, pitch, yaw against time), or in
+    the inertial axes when it has no orbit about the origin."""
+    t = c["t"]
+    x = np.column_stack([c["x"], c["y"], c["z"]])
+    p = np.column_stack([c["px"], c["py"], c["pz"]])
+    q = np.column_stack([c["qw"], c["qx"], c["qy"], c["qz"]])
+    try:
+        angles = lvlh_angles(x, p, q)
+        names = ("roll (about along-track y)", "pitch (about orbit normal z)", "yaw (about radial x)")
+        frame = "LVLH frame (x radial, y along-track, z orbit normal)"
+    except ValueError:
+        angles = euler_angles(rotation_matrices(q), "ZYX", degrees=True)[:, ::-1]
+        names = ("about x (last)", "about y", "about z (first)")
+        frame = "inertial axes, intrinsic z-y-x"
+    # The first three orbits (as the path figure draws one), else the whole run.
+    period = orbit_period(t, c["x"], c["y"])
+    shown = np.ones(len(t), dtype=bool) if period is None else t <= t[0] + 3.0 * period
+    span = "whole run" if period is None or shown.all() else f"first 3 orbits (T = {period:.6g})"
+    fig, ax = plt.subplots(figsize=(8.0, 4.5))
+    for k, name in enumerate(names):
+        ax.plot(t[shown], angles[shown, k], lw=1.0, label=name)
+    ax.set(title=f"Attitude in the {frame}, {span}\n(body size {size:.3g} vs path {extent:.3g}: "
+                 "too small to draw on the path)", xlabel="t", ylabel="angle (deg)")
+    ax.title.set_fontsize("small")
+    _outside_legend(ax)
+    _save(fig, out_dir, "body_motion.png", written)
+
+
 def _body_motion(plt, c, summary, out_dir, written):
     t, x, y = c["t"], c["x"], c["y"]
+    path_extent = max(np.ptp(x), np.ptp(y), np.ptp(c["z"]) if "z" in c else 0.0)
+    size = _body_size(summary)
+    if size > 0.0 and size < TINY_BODY * path_extent and all(k in c for k in ("z", "px", "py", "pz")):
+        _attitude_against_time(plt, c, path_extent, size, out_dir, written)
+        return
     period = orbit_period(t, x, y)
     if period is None:
         idx = np.linspace(0, len(t) - 1, N_INSTANTS)
@@ -316,6 +368,12 @@ def _out_dir_of(source, out_dir):
 
 def draw_figures(source, out_dir=None):
     """Draw the paper's five PNG figures of a run into out_dir.
+
+    body_motion.png draws the body on its path; when the body is smaller than
+    TINY_BODY (1e-3) times the path's extent, it draws the attitude against
+    time instead: roll, pitch, yaw in the LVLH frame of the orbit about the
+    origin (as Result.lvlh_angles), or z-y-x Euler angles in the inertial
+    axes when there is no orbit about the origin.
 
     ``source`` is a run folder (trajectory.csv, .npz or .h5 plus
     summary.json), a trajectory file, or an in-memory ``lgvi.Result`` (any
