@@ -452,13 +452,16 @@ class Scenario:
 
     @property
     def potential(self):
-        """The built-in potential as a dict: {"kind": "none"}, {"kind": "central", "mu": ..}, {"kind": "uniform", "g": [..]} or {"kind": "heavy-top", "g": [..], "pivot_to_com": [..]}."""
-        kind = self._core.potential_kind
-        if kind == "central":
-            return {"kind": kind, "mu": self._core.mu}
-        if kind == "uniform":
-            return {"kind": kind, "g": self._core.g.tolist()}
-        return {"kind": kind}
+        """The built-in potential as a dict, every key as the scenario gives it: {"kind": "none"},
+        {"kind": "central", "mu": .., and j2, reference_radius, pole, stop_at_contact where given},
+        {"kind": "uniform", "g": [..]} or {"kind": "heavy-top", "g": [..], "pivot_to_com": [..]}.
+        ``Scenario(potential=scenario.potential)`` gives the same potential."""
+        # From the scenario's own table, so that no key is dropped (an earlier
+        # version rebuilt the dict from kind, mu and g alone and lost heavy-top's
+        # pivot_to_com, J2 and stop_at_contact).
+        table = copy.deepcopy(self.document.get("potential", {}))
+        table.setdefault("kind", self._core.potential_kind)
+        return table
 
     @property
     def position(self):

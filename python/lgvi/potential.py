@@ -4,7 +4,8 @@ Built in (compiled, as in scenario files; pass them as ``Scenario(potential=...)
 
 * ``none()``: the free body, V = 0;
 * ``central(mu)``: central gravity V = -mu sum_i m_i / |x + R rho_i| over the
-  body's balls (a body without balls is a point mass);
+  body's balls (a body without balls is a point mass), optionally oblate
+  (``j2``, ``reference_radius``, ``pole``);
 * ``uniform(g)``: uniform gravity V = -m g . x.
 
 They are plain dicts, ``{"kind": "central", "mu": 1.0}``, the [potential]
@@ -30,19 +31,37 @@ def none():
     return {"kind": "none"}
 
 
-def central(mu, stop_at_contact=False):
-    """Central gravity of a point source of strength mu > 0 at the origin.
+def central(mu, stop_at_contact=False, j2=None, reference_radius=None, pole=None):
+    """Central gravity of a source of strength mu > 0 at the origin, optionally oblate.
 
     V = -mu sum_i m_i / |x + R rho_i| over the body's balls (rho_i relative
     to the centre of mass, R = pi(q)); a body without balls is a point mass.
-    With ``stop_at_contact`` the run stops when a ball's centre comes within
-    its radius of the source (by default the balls interact as point masses).
-    Returns ``{"kind": "central", "mu": mu}`` (plus ``stop_at_contact`` when
-    true). ValueError naming ``mu`` unless it is a finite number > 0.
+    With ``j2`` (and its ``reference_radius`` R_e > 0, the source's equatorial
+    radius) each ball feels V = -mu m / r [1 - J2 (R_e / r)^2 P2(pole . r/r)]
+    about ``pole`` (3,), a unit vector (default z). With ``stop_at_contact``
+    the run stops when a ball's centre comes within its radius of the source
+    (by default the balls interact as point masses). Returns ``{"kind":
+    "central", "mu": mu}`` plus the keys given, the [potential] table of a
+    scenario file. ValueError naming the argument unless mu > 0, j2 and
+    reference_radius are finite numbers and pole 3 finite numbers; the
+    scenario reader checks the rest (reference_radius > 0, pole unit, j2
+    given with the other two).
     """
     out = {"kind": "central", "mu": _check.positive(mu, "mu")}
     if stop_at_contact:
         out["stop_at_contact"] = True
+    out.update(_oblate_keys(dict(j2=j2, reference_radius=reference_radius, pole=pole), "potential"))
+    return out
+
+
+def _oblate_keys(given, name):
+    """The J2 keys of a central potential that are not None, as TOML values."""
+    out = {}
+    for key in ("j2", "reference_radius"):
+        if given.get(key) is not None:
+            out[key] = _check.number(given[key], f"{name}.{key}")
+    if given.get("pole") is not None:
+        out["pole"] = [float(v) for v in _check.vector3(given["pole"], f"{name}.pole")]
     return out
 
 
@@ -80,7 +99,7 @@ def spec(potential, name="potential"):
         raise ValueError(f"{name}: must be lgvi.potential.none(), central(mu), uniform(g), a dict like "
                          f"{{'kind': 'central', 'mu': 1.0}} or \"none\"; got {potential!r}")
     kind = _check.choice(potential.get("kind"), f"{name}.kind", KINDS)
-    allowed = {"none": set(), "central": {"mu", "stop_at_contact"}, "uniform": {"g"},
+    allowed = {"none": set(), "central": {"mu", "stop_at_contact", "j2", "reference_radius", "pole"}, "uniform": {"g"},
                "heavy-top": {"g", "pivot_to_com"}}[kind]
     extra = set(potential) - {"kind"} - allowed
     if extra:
@@ -93,6 +112,7 @@ def spec(potential, name="potential"):
             if not isinstance(potential["stop_at_contact"], bool):
                 raise ValueError(f"{name}.stop_at_contact: must be True or False")
             out["stop_at_contact"] = potential["stop_at_contact"]
+        out.update(_oblate_keys(potential, name))
         return out
     if kind == "heavy-top":
         for key in ("g", "pivot_to_com"):

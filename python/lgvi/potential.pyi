@@ -14,7 +14,8 @@ Function = Callable[[npt.NDArray[np.float64], npt.NDArray[np.float64]], Any]
 def none() -> Dict[str, Any]:
     """The free body, {"kind": "none"}."""
     ...
-def central(mu: float, stop_at_contact: bool = ...) -> Dict[str, Any]:
+def central(mu: float, stop_at_contact: bool = ..., j2: Optional[float] = ..., reference_radius: Optional[float] = ...,
+            pole: Optional[Sequence[float]] = ...) -> Dict[str, Any]:
     """Central gravity, {"kind": "central", "mu": mu}."""
     ...
 def heavy_top(g: Vector3, pivot_to_com: Vector3) -> Dict[str, Any]:
