@@ -1046,6 +1046,18 @@ Scenario read_scenario(const std::string& path) {
   return parse_scenario(text, path);
 }
 
+ConservationLaws conservation_laws(const Scenario& sc) {
+  ConservationLaws laws;
+  laws.forced = !sc.forcing.empty();
+  const PotentialKind k = sc.potential.kind;
+  if (!laws.forced && (k == PotentialKind::None || (k == PotentialKind::Central && sc.potential.j2 == 0.0)))
+    laws.angular_momentum = ConservationLaws::Angular::Conserved;
+  else if (!laws.forced && k == PotentialKind::Central)
+    laws.angular_momentum = ConservationLaws::Angular::AlongPole;
+  laws.linear_momentum = !laws.forced && k == PotentialKind::None;
+  return laws;
+}
+
 const char* to_string(PotentialKind k) {
   switch (k) {
     case PotentialKind::None: return "none";

@@ -106,6 +106,22 @@ struct Scenario {
   std::size_t bodies() const { return system.size(); }
 };
 
+/// What a scenario's dynamics conserve, by its symmetries (Noether): the
+/// total angular momentum about the origin with no field or a point source
+/// (mutual forces between bodies keep it too), only its component along the
+/// pole with an oblate (J2) source, neither in a uniform field, on a pivot or
+/// under a forcing; the linear momentum with no field and no forcing; the
+/// energy always (E - E0 - W, W the forcing's work, under a forcing). Where a
+/// momentum is not conserved, its "error" columns measure a change, not an
+/// error of the method.
+struct ConservationLaws {
+  enum class Angular { Conserved, AlongPole, NotConserved };
+  bool forced = false;  ///< energy_error is E - E0 - W
+  Angular angular_momentum = Angular::NotConserved;
+  bool linear_momentum = false;
+};
+ConservationLaws conservation_laws(const Scenario& sc);
+
 /// Reads and validates a scenario file. Throws InvalidInput with a message
 /// "FILE: KEY: what is wrong; how to fix it".
 Scenario read_scenario(const std::string& path);

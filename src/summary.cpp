@@ -115,25 +115,20 @@ JsonObject state_json(const RigidBodyState& s) {
   return o;
 }
 
-/// What the scenario conserves, and which "error" keys are changes: the
-/// total angular momentum about the origin is conserved with no field, a
-/// point source or mutual forces only (about the pole with J2; not in a
-/// uniform field, on a pivot or under a forcing); the linear momentum with no
-/// field and no forcing; the energy always (E - E0 - work under a forcing).
+/// What the scenario conserves (conservation_laws), and which "error" keys
+/// are changes.
 std::string conserved_json(const Scenario& sc) {
-  const bool forced = !sc.forcing.empty();
-  const PotentialKind k = sc.potential.kind;
+  using Angular = ConservationLaws::Angular;
+  const ConservationLaws laws = conservation_laws(sc);
   std::vector<std::string> conserved, changes;
-  conserved.emplace_back(forced ? "\"energy_minus_work\"" : "\"energy\"");
-  if (!forced && (k == PotentialKind::None || (k == PotentialKind::Central && sc.potential.j2 == 0.0)))
+  conserved.emplace_back(laws.forced ? "\"energy_minus_work\"" : "\"energy\"");
+  if (laws.angular_momentum == Angular::Conserved)
     conserved.emplace_back("\"angular_momentum\"");
-  else if (!forced && k == PotentialKind::Central)
+  else if (laws.angular_momentum == Angular::AlongPole)
     conserved.emplace_back("\"angular_momentum_along_pole\"");
-  else
+  if (laws.angular_momentum != Angular::Conserved)
     changes.insert(changes.end(), {"\"max_momentum_error\"", "\"max_relative_momentum_error\""});
-  if (!forced && k == PotentialKind::Central && sc.potential.j2 != 0.0)
-    changes.insert(changes.end(), {"\"max_momentum_error\"", "\"max_relative_momentum_error\""});
-  if (!forced && k == PotentialKind::None)
+  if (laws.linear_momentum)
     conserved.emplace_back("\"linear_momentum\"");
   else
     changes.emplace_back("\"max_linear_momentum_error\"");
