@@ -29,7 +29,41 @@ class _RunSummary:
         return self.data.shape[0]
 
 
-class Result(_RunSummary):
+class _Attitude:
+    """Attitude helpers shared by Result (arrays (rows, ...)) and SystemResult
+    (arrays (steps, N, ...), every body): they use the subclass's x, p and q."""
+
+    def rotation_matrices(self):
+        """R = pi(q) at every row, shape q.shape[:-1] + (3, 3): (rows, 3, 3) for a
+        Result, (steps, N, 3, 3) for a SystemResult. Body frame -> inertial frame
+        (column j: body axis j)."""
+        return _attitude.rotation_matrices(self.q)
+
+    def euler_angles(self, seq="ZYX", degrees=False):
+        """Euler angles of R at every row (and body), shape q.shape[:-1] + (3,), in the order of `seq`.
+
+        Upper case `seq` is intrinsic (R = R_A(a) R_B(b) R_C(c) for "ABC",
+        default "ZYX": yaw, pitch, roll about the inertial axes' z, then the
+        new y, then the new x); lower case is extrinsic (scipy's convention).
+        Radians unless degrees=True."""
+        return _attitude.euler_angles(self.rotation_matrices(), seq, degrees)
+
+    def lvlh_angles(self, degrees=True):
+        """Roll, pitch, yaw of each body in the LVLH frame of its own orbit about the origin,
+        shape q.shape[:-1] + (3,).
+
+        LVLH: x radial (out from the central source at the origin), z the
+        orbit normal x cross p / |x cross p|, y = z cross x (along-track). The
+        attitude in it is R_LVLH^T R = Rz(pitch) Ry(roll) Rx(yaw) (pitch about
+        the orbit normal, then roll about the new y, then yaw about the new
+        x), as the scenario key [initial] attitude = { frame = "lvlh", roll,
+        pitch, yaw }. Degrees unless degrees=False; pitch and yaw in (-180,
+        180], roll in [-90, 90]. ValueError where a body's position and
+        momentum are parallel or zero (no orbit plane)."""
+        return _attitude.lvlh_angles(self.x, self.p, self.q, degrees)
+
+
+class Result(_RunSummary, _Attitude):
     """A trajectory: one row per written step (every `every` steps, plus the first and the last).
 
     Arrays (views into ``data``, the (N, 21) float64 table with the columns of
@@ -125,33 +159,6 @@ class Result(_RunSummary):
             raise ValueError("omega: the summary has no body inertia (setup.body.inertia)")
         return 0.5 * np.linalg.solve(np.asarray(inertia, dtype=float), self.w.T).T
 
-    # Attitude ----------------------------------------------------------------
-    def rotation_matrices(self):
-        """R = pi(q) at every row, shape (N, 3, 3): body frame -> inertial frame (column j: body axis j)."""
-        return _attitude.rotation_matrices(self.q)
-
-    def euler_angles(self, seq="ZYX", degrees=False):
-        """Euler angles of R at every row, shape (N, 3), in the order of `seq`.
-
-        Upper case `seq` is intrinsic (R = R_A(a) R_B(b) R_C(c) for "ABC",
-        default "ZYX": yaw, pitch, roll about the inertial axes' z, then the
-        new y, then the new x); lower case is extrinsic (scipy's convention).
-        Radians unless degrees=True."""
-        return _attitude.euler_angles(self.rotation_matrices(), seq, degrees)
-
-    def lvlh_angles(self, degrees=True):
-        """Roll, pitch, yaw of the body in the LVLH frame of its own orbit about the origin, shape (N, 3).
-
-        LVLH: x radial (out from the central source at the origin), z the
-        orbit normal x cross p / |x cross p|, y = z cross x (along-track). The
-        attitude in it is R_LVLH^T R = Rz(pitch) Ry(roll) Rx(yaw) (pitch about
-        the orbit normal, then roll about the new y, then yaw about the new
-        x), as the scenario key [initial] attitude = { frame = "lvlh", roll,
-        pitch, yaw }. Degrees unless degrees=False; pitch and yaw in (-180,
-        180], roll in [-90, 90]."""
-        return _attitude.lvlh_angles(self.x, self.p, self.q, degrees)
-
-
     def __repr__(self):
         name = self.summary.get("scenario", "?")
         t_end = self.t[-1] if len(self) else float("nan")
@@ -180,7 +187,7 @@ class Result(_RunSummary):
         return plot.draw_figures(self, out_dir)
 
 
-class SystemResult(_RunSummary):
+class SystemResult(_RunSummary, _Attitude):
     """The trajectory of a many-body ([[bodies]]) scenario, from lgvi.simulate() or lgvi.load().
 
     ``data`` is the (steps, N, 26) float64 array with the columns BODIES_COLUMNS

@@ -149,3 +149,34 @@ def test_body_motion_of_a_tiny_body_draws_lvlh_angles(tmp_path):
     # The attitude figure is 8 x 4.5 in at 120 dpi; the path figure 6 x 4.5.
     assert png_size(path) == (960, 540)
     json.dumps(r.summary)  # the new keys are plain JSON
+
+
+def test_system_result_attitude_helpers_per_body():
+    """SystemResult has the attitude helpers of Result, per body: two
+    satellites of the co-rotating kind, on different orbits and with no
+    mutual interaction, give each the LVLH angles, rotation matrices and
+    Euler angles of its own single-body run. The N-body step of independent
+    bodies is the single-body step body by body, so the states agree to
+    round-off of the summed energy only, i.e. exactly here (asserted to
+    1e-12 deg to allow for a reordered sum)."""
+    mu = 3.986004418e14
+    body = lgvi.Body(mass=10.0, inertia=2.0 * np.eye(3))
+    T = 2 * math.pi * math.sqrt(7.0e6 ** 3 / mu)
+    singles = []
+    for raan, pitch in ((20.0, 20.0), (80.0, -35.0)):
+        sc = lgvi.Scenario(body=body, potential=lgvi.potential.central(mu),
+                           orbit=dict(radius=7.0e6, inclination=97.0, raan=raan, true_anomaly=45.0),
+                           attitude=dict(frame="lvlh", roll=10.0, pitch=pitch, yaw=30.0, rate="orbit"),
+                           step=T / 200, duration=0.25 * T, every=10)
+        singles.append((sc, lgvi.simulate(sc)))
+    system = lgvi.Scenario.from_arrays(
+        bodies=body, positions=[s.position for s, _ in singles], quaternions=[s.quaternion for s, _ in singles],
+        momenta=[s.momentum for s, _ in singles], w=[s.w for s, _ in singles],
+        potential=lgvi.potential.central(mu), step=T / 200, duration=0.25 * T, every=10)
+    r = lgvi.simulate(system)
+    angles = r.lvlh_angles()
+    assert angles.shape == (len(r), 2, 3)
+    assert r.rotation_matrices().shape == (len(r), 2, 3, 3)
+    for b, (_, single) in enumerate(singles):
+        np.testing.assert_allclose(angles[:, b], single.lvlh_angles(), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(r.euler_angles("zxz")[:, b], single.euler_angles("zxz"), rtol=0, atol=1e-14)
