@@ -38,6 +38,8 @@ import time
 
 import numpy as np
 
+from lgvi.plot import rotation_matrix as rotation  # R = pi(q), q scalar-first
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SCENARIO = ROOT / "scenarios" / "didymos-order2.toml"
 CHANGES = [  # (GUBAS's example line, the line for this case)
@@ -47,13 +49,6 @@ CHANGES = [  # (GUBAS's example line, the line for this case)
     ("Final Time: 7200.", "Final Time: 86400."),
     ("Fixed Output Frequency: 3600.", "Fixed Output Frequency: 30."),
 ]
-
-
-def rotation(q):
-    w, x, y, z = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
 def angle(a, b):
@@ -98,8 +93,8 @@ def run_lgvi(lgvi, scenario_text, out, every=None):
 def frames(steps):
     """(t, r in the primary's frame, C = R_p^T R_s, R_p, energy) of lgvi's long-format rows."""
     t = steps[:, 0, 0]
-    rp = np.array([rotation(q) for q in steps[:, 0, 5:9]])
-    rs = np.array([rotation(q) for q in steps[:, 1, 5:9]])
+    rp = rotation(steps[:, 0, 5:9])
+    rs = rotation(steps[:, 1, 5:9])
     r = np.einsum("kji,kj->ki", rp, steps[:, 1, 2:5] - steps[:, 0, 2:5])
     c = np.einsum("kji,kjl->kil", rp, rs)
     return t, r, c, rp, steps[:, 0, 16]

@@ -27,21 +27,14 @@ SCENARIO = REPO / "scenarios" / "leo-gravity-gradient.toml"
 POLE = np.array([0.0, 0.0, 1.0])
 
 
-def rotation_matrices(q):
-    w, x, y, z = q.T
-    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-                     np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-                     np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], -2)
-
-
 def pitch_angle(r):
     """Angle of body x from the radial direction about the orbit normal (rad)."""
-    x, p, q = r.x, r.p, r.q
+    x, p = r.x, r.p
     radial = x / np.linalg.norm(x, axis=1)[:, None]
     normal = np.cross(x, p)
     normal /= np.linalg.norm(normal, axis=1)[:, None]
     along = np.cross(normal, radial)
-    body_x = rotation_matrices(q)[:, :, 0]
+    body_x = r.rotation_matrices()[:, :, 0]
     return np.arctan2(np.einsum("ij,ij->i", body_x, along), np.einsum("ij,ij->i", body_x, radial))
 
 

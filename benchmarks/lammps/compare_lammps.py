@@ -31,6 +31,8 @@ import tempfile
 
 import numpy as np
 
+from lgvi.plot import rotation_matrix as rotation  # R = pi(q), q scalar-first
+
 HERE = pathlib.Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
 
@@ -42,13 +44,6 @@ def scenario_text(steps, step, every):
     text = re.sub(r"step = [0-9.]+", f"step = {step!r}", text)
     text = re.sub(r"every = \d+", f"every = {every}", text)
     return text
-
-
-def rotation(q):
-    w, x, y, z = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
 def lammps_data(lgvi, work):

@@ -17,12 +17,22 @@ _AXES = {"x": 0, "y": 1, "z": 2}
 
 
 def rotation_matrices(q):
-    """R = pi(q) for scalar-first unit quaternions: (4,) -> (3, 3), (N, 4) -> (N, 3, 3)."""
+    """R = pi(q) for scalar-first quaternions: (4,) -> (3, 3), (..., 4) -> (..., 3, 3).
+
+    pi(q) = (2 qw^2 - 1) I + 2 v v^T + 2 qw hat(v), v = (qx, qy, qz): the
+    paper's map, as the C++ library evaluates it (S3::matrix), so that
+    for a q whose norm is 1 only to round-off (an integrator's state) Python
+    and C++ give the same matrix to round-off, not to |q|^2 - 1.
+    """
     q = np.asarray(q, dtype=float)
-    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-                     np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-                     np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], -2)
+    w, v = q[..., 0], q[..., 1:]
+    hat = np.zeros(q.shape[:-1] + (3, 3))
+    hat[..., 0, 1], hat[..., 0, 2] = -v[..., 2], v[..., 1]
+    hat[..., 1, 0], hat[..., 1, 2] = v[..., 2], -v[..., 0]
+    hat[..., 2, 0], hat[..., 2, 1] = -v[..., 1], v[..., 0]
+    return ((2.0 * w * w - 1.0)[..., None, None] * np.eye(3)
+            + 2.0 * v[..., :, None] * v[..., None, :]
+            + 2.0 * w[..., None, None] * hat)
 
 
 def euler_angles(R, seq="ZYX", degrees=False):

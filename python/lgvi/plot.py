@@ -42,18 +42,10 @@ def _pyplot():
 def rotation_matrix(q):
     """Rotation matrix R = pi(q) of a scalar-first unit quaternion q = (qw, qx, qy, qz).
 
-    R = (2 qw^2 - 1) I + 2 v v^T + 2 qw hat(v) with v = (qx, qy, qz). Accepts
-    shape (4,) -> (3, 3) or (N, 4) -> (N, 3, 3).
+    Shape (4,) -> (3, 3) or (..., 4) -> (..., 3, 3); the one implementation,
+    lgvi's attitude helpers' (``Result.rotation_matrices``).
     """
-    q = np.asarray(q, dtype=float)
-    w, v = q[..., 0], q[..., 1:]
-    hat = np.zeros(q.shape[:-1] + (3, 3))
-    hat[..., 0, 1], hat[..., 0, 2] = -v[..., 2], v[..., 1]
-    hat[..., 1, 0], hat[..., 1, 2] = v[..., 2], -v[..., 0]
-    hat[..., 2, 0], hat[..., 2, 1] = -v[..., 1], v[..., 0]
-    return ((2.0 * w * w - 1.0)[..., None, None] * np.eye(3)
-            + 2.0 * v[..., :, None] * v[..., None, :]
-            + 2.0 * w[..., None, None] * hat)
+    return rotation_matrices(q)
 
 
 def orbit_period(t, x, y):
