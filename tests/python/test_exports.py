@@ -345,7 +345,14 @@ def test_stopped_or_killed_run_resumes_byte_identical(tmp_path, uninterrupted, f
     out = tmp_path / "run"
     proc = subprocess.Popen([BINARY, "run", long_scenario(tmp_path, fmt), "--out", out, "--checkpoint-every", "100000",
                              "--no-figures", "-q"], stderr=subprocess.PIPE, text=True)
-    time.sleep(0.4)
+    # Signal once the first checkpoint (step 100000 of 4e6) is on disk: the step
+    # loop is running, with the handler installed and something to resume from.
+    # A fixed delay from launch raced with start-up on a loaded machine (no
+    # checkpoint yet when killed, or SIGINT before the handler: status -2).
+    deadline = time.monotonic() + 60
+    while not (out / "checkpoint.bin").is_file() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.005)
+    time.sleep(0.1)
     proc.send_signal(sig)
     proc.communicate(timeout=60)
     assert proc.returncode == (130 if sig == signal.SIGINT else -signal.SIGKILL), proc.returncode
