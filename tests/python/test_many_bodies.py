@@ -101,7 +101,11 @@ def test_resume_of_a_many_body_run_is_byte_identical(tmp_path):
     out = tmp_path / "run"
     proc = subprocess.Popen([BINARY, "run", str(path), "--out", str(out), "--checkpoint-every", "5000", "--no-figures",
                              "-q", "--threads", "1"], stderr=subprocess.PIPE, text=True)
-    time.sleep(0.5)
+    # SIGINT once the first checkpoint is on disk: the step loop runs and its
+    # handler is installed (a fixed delay from launch raced with start-up).
+    deadline = time.monotonic() + 60
+    while not (out / "checkpoint.bin").is_file() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.005)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode in (0, 130), err
