@@ -295,3 +295,58 @@ def test_movie(orbit, tmp_path):
     stream = json.loads(probe.stdout)["streams"][0]
     assert int(stream["nb_read_frames"]) == 12  # 0.4 s at 30 frames/s
     assert (stream["width"], stream["height"]) == (1280, 720)
+
+
+@needs_browser
+def test_the_pole_of_a_j2_field_in_the_browser(tmp_path_factory, tmp_path):
+    """The LEO scenario about an Earth whose pole is tilted to (0, 0.6, 0.8), for 10 orbits (100 rows): the page
+    draws the source as the sphere of the reference radius and the pole's axis through it, along the scenario's
+    pole, in the pole's colour where it projects, and nowhere else."""
+    with open(os.path.join(SOURCE, "scenarios", "leo-gravity-gradient.toml"), encoding="utf-8") as f:
+        text = f.read()
+    for old, new in (("pole = [0.0, 0.0, 1.0]", "pole = [0.0, 0.6, 0.8]"),
+                     ("duration = 5676978.0", "duration = 56769.78")):
+        assert old in text
+        text = text.replace(old, new)
+    scenario = tmp_path_factory.mktemp("oblate") / "tilted-pole.toml"
+    scenario.write_text(text, encoding="utf-8")
+    run = str(scenario.parent / "run")
+    run_cli("run", str(scenario), "--out", run, "--no-figures", "-q")
+    run_cli("view", run, "-q")
+    report = drive(os.path.join(run, "view.html"), tmp_path, {"times": [], "seek": 0.0, "set": {"trails": True}})
+    pole = report["pole"]
+    # The drawn axis, read back from the scene graph: the scenario's unit pole after a few double-precision
+    # operations (the summary's 17 digits, a normalization, a rotation from y): round-off of order 1e-16.
+    np.testing.assert_allclose(pole["direction"], [0.0, 0.6, 0.8], rtol=0, atol=1e-12)
+    # The source is the Earth (reference radius 6378137 m; the orbit at 6878137 m stays outside it).
+    assert pole["sourceRadius"] == 6378137.0 and pole["half"] == 1.5 * 6378137.0
+    img = screenshot(tmp_path)
+    height, width = img.shape[:2]
+    colour = np.array(pole["colour"])
+    source = report["projection"]["source"]
+
+    def shows_pole(yy, xx):
+        # Unlit: the pole's sRGB colour to the 8-bit rounding (0.5/255), 3/255 for the linear-to-sRGB round trip.
+        return np.max(np.abs(img[yy, xx] - colour)) < 3 / 255
+
+    # Points of the axis outside the Earth's disc (and 3 px off its antialiased edge) and on the screen: the pole's
+    # colour within a pixel of each (the shaft is about 6 px wide here; where the south end pierces the plane of
+    # the grid, a 1-px grid line in front of it can cross the very pixel).
+    visible = [p for p in report["projection"]["pole"]
+               if np.hypot(p["x"] - source["x"], p["y"] - source["y"]) > source["radius"] + 3
+               and 3 <= p["x"] < width - 3 and 3 <= p["y"] < height - 3 and abs(p["s"]) < 0.95]
+    assert len(visible) >= 4, report["projection"]["pole"]  # measured: 2 south of the disc, 2 north of it
+    for p in visible:
+        x, y = round(p["x"]), round(p["y"])
+        assert any(shows_pole(y + dy, x + dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)), p
+    # Nowhere far (20 px) from the axis's projected segment is there a pixel of the pole's colour.
+    ends = [np.array([p["x"], p["y"]]) for p in (report["projection"]["pole"][0], report["projection"]["pole"][-1])]
+
+    def distance_to_axis(xx, yy):
+        a, b, v = ends[0], ends[1], np.array([xx, yy])
+        u = np.clip(np.dot(v - a, b - a) / np.dot(b - a, b - a), 0.0, 1.0)
+        return np.linalg.norm(v - (a + u * (b - a)))
+
+    far = [(yy, xx) for yy in range(5, height - 5, 7) for xx in range(5, width - 5, 7) if distance_to_axis(xx, yy) > 20]
+    assert len(far) > 5000
+    assert not any(shows_pole(yy, xx) for yy, xx in far)
