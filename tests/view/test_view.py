@@ -247,6 +247,7 @@ def test_paper_orbit_in_the_browser(orbit, tmp_path):
     report = drive(html, tmp_path, {"times": asked, "seek": t[3000],
                                      "set": {"follow": 0, "distance": 3.0, "trails": True}})
     assert report["rows"] == 10001 and report["frames"] == 1668
+    assert report["drawn"] == {"meshInstances": 3, "sprites": 0, "antialias": True}  # few parts: meshes
     assert "showing 1668 of 10001 frames" in report["overlay"]["note"]
     check_states(report, t, x, q)
     assert [s["u"] == 0 for s in report["states"]] == [True, True, False, False, True]
@@ -279,6 +280,8 @@ def test_many_bodies_in_the_browser(tmp_path_factory, tmp_path):
     report = drive(html, tmp_path, {"times": [r.t[0], r.t[5], r.t[5] + 0.05, r.t[-1]], "seek": r.t[5],
                                      "set": {"trails": False}})
     assert report["rows"] == report["frames"] == 11  # 1000 steps, every 100th written: all embedded
+    # 3000 balls: more than 2000 parts, drawn as sprites (shaded spheres, one vertex each), not mesh instances.
+    assert report["drawn"] == {"meshInstances": 0, "sprites": 3000, "antialias": False}
     assert "all 11 frames" in report["overlay"]["note"]
     check_states(report, r.t, r.x, r.q)
     # The screenshot: at each molecule's projected centre of mass the colour is that of the ball nearest the
