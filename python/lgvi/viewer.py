@@ -299,7 +299,12 @@ def _write_view(source, out, max_frames, max_bytes):
             raise ValueError("view: an in-memory result needs out= (a path for the .html file)")
         out = os.path.join(folder, "view.html")
     html, meta = _render(result, max_frames, max_bytes)
-    tmp = out + ".tmp"
+    if os.path.exists(out) and not os.path.isfile(out):
+        # A device or pipe (--out /dev/stdout): written into; replacing it would put a file in its place.
+        with open(out, "w", encoding="utf-8") as f:
+            f.write(html)
+        return out, meta
+    tmp = out + ".tmp"  # a file: never seen half written
     with open(tmp, "w", encoding="utf-8") as f:
         f.write(html)
     os.replace(tmp, out)

@@ -208,6 +208,24 @@ def test_inline_display_in_jupyter(monkeypatch, tmp_path, tmp_path_factory):
     assert lgvi.view(run) == path and len(shown) == 1
 
 
+def test_view_into_a_pipe_writes_into_it(tmp_path, tmp_path_factory):
+    """--out naming a pipe or device (/dev/stdout) writes into it: it stays a pipe (the write-then-rename of a
+    file would have put a file in its place; as root, even in place of /dev/null)."""
+    import stat
+    import threading
+
+    run = make_run(tmp_path_factory, "heavy-top.toml", "pipe")
+    fifo = str(tmp_path / "page.fifo")
+    os.mkfifo(fifo)
+    received = []
+    reader = threading.Thread(target=lambda: received.append(open(fifo, "rb").read()), daemon=True)
+    reader.start()
+    assert viewer.write_view(run, out=fifo) == fifo
+    reader.join(timeout=10)
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode) and not os.path.exists(fifo + ".tmp")
+    assert received and received[0].startswith(b"<!DOCTYPE html>") and received[0].rstrip().endswith(b"</html>")
+
+
 def test_run_with_view_writes_the_page(tmp_path):
     out = str(tmp_path / "top")
     run_cli("run", os.path.join(SOURCE, "scenarios", "heavy-top.toml"), "--out", out, "--no-figures", "-q", "--view")
