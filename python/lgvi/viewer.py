@@ -251,15 +251,29 @@ def _script_json(value):
     return json.dumps(value, separators=(",", ":")).replace("</", "<\\/")
 
 
-def render_page(result, max_frames=MAX_FRAMES, max_bytes=MAX_BYTES):
-    """The HTML text of the view of a Result/SystemResult."""
+def _render(result, max_frames, max_bytes):
+    """(the HTML text of the view of a Result/SystemResult, the page's metadata)."""
     meta, arrays = page_data(result, max_frames, max_bytes)
     with open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "viewer.html"), encoding="utf-8") as f:
         template = f.read()
     return (template.replace("/*LGVI_IMPORTMAP*/", three_importmap())
             .replace("/*LGVI_META*/", _script_json(meta))
             .replace("/*LGVI_ARRAYS*/", _script_json(arrays))
-            .replace("LGVI_TITLE", f"lgvi view: {meta['title']}".replace("<", "&lt;")))
+            .replace("LGVI_TITLE", f"lgvi view: {meta['title']}".replace("<", "&lt;"))), meta
+
+
+def render_page(result, max_frames=MAX_FRAMES, max_bytes=MAX_BYTES):
+    """The HTML text of the view of a Result/SystemResult."""
+    return _render(result, max_frames, max_bytes)[0]
+
+
+def decimation_note(meta, max_frames=MAX_FRAMES, max_bytes=MAX_BYTES):
+    """What the page embeds of the run's rows, when it cannot embed them all ("" when it does)."""
+    if not meta["decimated"]:
+        return ""
+    return (f"lgvi view: {meta['rows']} rows decimated to {meta['frames']} frames (every k-th row and the last; "
+            f"the page embeds at most {max_frames} frames and {max_bytes / 1e6:.0f} MB of frame data, --max-frames) "
+            f"and interpolates between them")
 
 
 def _load(source):
@@ -277,19 +291,29 @@ def _load(source):
     return source, None
 
 
-def write_view(source, out=None, max_frames=MAX_FRAMES, max_bytes=MAX_BYTES):
-    """Write the view of a run folder, trajectory file or Result to `out` (default RUN_DIR/view.html); the path."""
+def _write_view(source, out, max_frames, max_bytes):
+    """(the path written, the page's metadata): see write_view."""
     result, folder = _load(source)
     if out is None:
         if folder is None:
             raise ValueError("view: an in-memory result needs out= (a path for the .html file)")
         out = os.path.join(folder, "view.html")
-    html = render_page(result, max_frames, max_bytes)
-    tmp = out + ".tmp"
+    html, meta = _render(result, max_frames, max_bytes)
+    if os.path.exists(out) and not os.path.isfile(out):
+        # A device or pipe (--out /dev/stdout): written into; replacing it would put a file in its place.
+        with open(out, "w", encoding="utf-8") as f:
+            f.write(html)
+        return out, meta
+    tmp = out + ".tmp"  # a file: never seen half written
     with open(tmp, "w", encoding="utf-8") as f:
         f.write(html)
     os.replace(tmp, out)
-    return out
+    return out, meta
+
+
+def write_view(source, out=None, max_frames=MAX_FRAMES, max_bytes=MAX_BYTES):
+    """Write the view of a run folder, trajectory file or Result to `out` (default RUN_DIR/view.html); the path."""
+    return _write_view(source, out, max_frames, max_bytes)[0]
 
 
 def view(source, out=None, max_frames=MAX_FRAMES, display=True):
@@ -363,8 +387,11 @@ def main(argv=None):
     try:
         if args.max_frames < 2:
             raise ViewError(f"--max-frames: must be >= 2, got {args.max_frames}")
-        path = write_view(args.run_dir, args.out, args.max_frames)
+        path, meta = _write_view(args.run_dir, args.out, args.max_frames, MAX_BYTES)
         if not args.quiet:
+            note = decimation_note(meta, args.max_frames)
+            if note:
+                print(note, file=sys.stderr)
             print(f"lgvi view: wrote {path} ({os.path.getsize(path) / 1e6:.1f} MB)")
         if args.movie:
             make_movie(path, args.movie, args.movie_seconds)

@@ -181,6 +181,51 @@ def test_python_view_of_a_result_in_memory(tmp_path, tmp_path_factory):
     assert lgvi.view(run) == os.path.join(run, "view.html")
 
 
+def test_inline_display_in_jupyter(monkeypatch, tmp_path, tmp_path_factory):
+    """Debian's python3 here has no IPython (python3-ipython is not installed), so a stand-in with IPython's names
+    (get_ipython, IPython.display.HTML and display) checks lgvi.view's inline path: in a Jupyter kernel (its shell
+    is a ZMQInteractiveShell) it displays one HTML object, an iframe whose srcdoc is the page written; in a
+    terminal IPython it displays nothing; either way it returns the path."""
+    import html as html_module
+    import sys
+    import types
+
+    shown, shell_class = [], {"name": "ZMQInteractiveShell"}
+    ipython, display = types.ModuleType("IPython"), types.ModuleType("IPython.display")
+    ipython.get_ipython = lambda: type(shell_class["name"], (), {})()
+    display.HTML = type("HTML", (), {"__init__": lambda self, data: setattr(self, "data", data)})
+    display.display = shown.append
+    monkeypatch.setitem(sys.modules, "IPython", ipython)
+    monkeypatch.setitem(sys.modules, "IPython.display", display)
+    run = make_run(tmp_path_factory, "heavy-top.toml", "inline")
+    path = lgvi.view(run)
+    assert path == os.path.join(run, "view.html") and len(shown) == 1
+    frame = shown[0].data
+    assert frame.startswith('<iframe srcdoc="') and frame.endswith('" style="width:100%;height:640px;border:0"></iframe>')
+    with open(path, encoding="utf-8") as f:
+        assert html_module.unescape(frame[len('<iframe srcdoc="'):frame.index('" style=')]) == f.read()
+    shell_class["name"] = "TerminalInteractiveShell"
+    assert lgvi.view(run) == path and len(shown) == 1
+
+
+def test_view_into_a_pipe_writes_into_it(tmp_path, tmp_path_factory):
+    """--out naming a pipe or device (/dev/stdout) writes into it: it stays a pipe (the write-then-rename of a
+    file would have put a file in its place; as root, even in place of /dev/null)."""
+    import stat
+    import threading
+
+    run = make_run(tmp_path_factory, "heavy-top.toml", "pipe")
+    fifo = str(tmp_path / "page.fifo")
+    os.mkfifo(fifo)
+    received = []
+    reader = threading.Thread(target=lambda: received.append(open(fifo, "rb").read()), daemon=True)
+    reader.start()
+    assert viewer.write_view(run, out=fifo) == fifo
+    reader.join(timeout=10)
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode) and not os.path.exists(fifo + ".tmp")
+    assert received and received[0].startswith(b"<!DOCTYPE html>") and received[0].rstrip().endswith(b"</html>")
+
+
 def test_run_with_view_writes_the_page(tmp_path):
     out = str(tmp_path / "top")
     run_cli("run", os.path.join(SOURCE, "scenarios", "heavy-top.toml"), "--out", out, "--no-figures", "-q", "--view")
@@ -220,6 +265,7 @@ def test_paper_orbit_in_the_browser(orbit, tmp_path):
     report = drive(html, tmp_path, {"times": asked, "seek": t[3000],
                                      "set": {"follow": 0, "distance": 3.0, "trails": True}})
     assert report["rows"] == 10001 and report["frames"] == 1668
+    assert report["drawn"] == {"meshInstances": 3, "sprites": 0, "antialias": True}  # few parts: meshes
     assert "showing 1668 of 10001 frames" in report["overlay"]["note"]
     check_states(report, t, x, q)
     assert [s["u"] == 0 for s in report["states"]] == [True, True, False, False, True]
@@ -252,6 +298,8 @@ def test_many_bodies_in_the_browser(tmp_path_factory, tmp_path):
     report = drive(html, tmp_path, {"times": [r.t[0], r.t[5], r.t[5] + 0.05, r.t[-1]], "seek": r.t[5],
                                      "set": {"trails": False}})
     assert report["rows"] == report["frames"] == 11  # 1000 steps, every 100th written: all embedded
+    # 3000 balls: more than 2000 parts, drawn as sprites (shaded spheres, one vertex each), not mesh instances.
+    assert report["drawn"] == {"meshInstances": 0, "sprites": 3000, "antialias": False}
     assert "all 11 frames" in report["overlay"]["note"]
     check_states(report, r.t, r.x, r.q)
     # The screenshot: at each molecule's projected centre of mass the colour is that of the ball nearest the
@@ -295,3 +343,92 @@ def test_movie(orbit, tmp_path):
     stream = json.loads(probe.stdout)["streams"][0]
     assert int(stream["nb_read_frames"]) == 12  # 0.4 s at 30 frames/s
     assert (stream["width"], stream["height"]) == (1280, 720)
+
+
+@needs_browser
+def test_the_pole_of_a_j2_field_in_the_browser(tmp_path_factory, tmp_path):
+    """The LEO scenario about an Earth whose pole is tilted to (0, 0.6, 0.8), for 10 orbits (100 rows): the page
+    draws the source as the sphere of the reference radius and the pole's axis through it, along the scenario's
+    pole, in the pole's colour where it projects, and nowhere else."""
+    with open(os.path.join(SOURCE, "scenarios", "leo-gravity-gradient.toml"), encoding="utf-8") as f:
+        text = f.read()
+    for old, new in (("pole = [0.0, 0.0, 1.0]", "pole = [0.0, 0.6, 0.8]"),
+                     ("duration = 5676978.0", "duration = 56769.78")):
+        assert old in text
+        text = text.replace(old, new)
+    scenario = tmp_path_factory.mktemp("oblate") / "tilted-pole.toml"
+    scenario.write_text(text, encoding="utf-8")
+    run = str(scenario.parent / "run")
+    run_cli("run", str(scenario), "--out", run, "--no-figures", "-q")
+    run_cli("view", run, "-q")
+    report = drive(os.path.join(run, "view.html"), tmp_path, {"times": [], "seek": 0.0, "set": {"trails": True}})
+    pole = report["pole"]
+    # The drawn axis, read back from the scene graph: the scenario's unit pole after a few double-precision
+    # operations (the summary's 17 digits, a normalization, a rotation from y): round-off of order 1e-16.
+    np.testing.assert_allclose(pole["direction"], [0.0, 0.6, 0.8], rtol=0, atol=1e-12)
+    # The source is the Earth (reference radius 6378137 m; the orbit at 6878137 m stays outside it).
+    assert pole["sourceRadius"] == 6378137.0 and pole["half"] == 1.5 * 6378137.0
+    img = screenshot(tmp_path)
+    height, width = img.shape[:2]
+    colour = np.array(pole["colour"])
+    source = report["projection"]["source"]
+
+    def shows_pole(yy, xx):
+        # Unlit: the pole's sRGB colour to the 8-bit rounding (0.5/255), 3/255 for the linear-to-sRGB round trip.
+        return np.max(np.abs(img[yy, xx] - colour)) < 3 / 255
+
+    # Points of the axis outside the Earth's disc (and 3 px off its antialiased edge) and on the screen: the pole's
+    # colour within a pixel of each (the shaft is about 6 px wide here; where the south end pierces the plane of
+    # the grid, a 1-px grid line in front of it can cross the very pixel).
+    visible = [p for p in report["projection"]["pole"]
+               if np.hypot(p["x"] - source["x"], p["y"] - source["y"]) > source["radius"] + 3
+               and 3 <= p["x"] < width - 3 and 3 <= p["y"] < height - 3 and abs(p["s"]) < 0.95]
+    assert len(visible) >= 4, report["projection"]["pole"]  # measured: 2 south of the disc, 2 north of it
+    for p in visible:
+        x, y = round(p["x"]), round(p["y"])
+        assert any(shows_pole(y + dy, x + dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)), p
+    # Nowhere far (20 px) from the axis's projected segment is there a pixel of the pole's colour.
+    ends = [np.array([p["x"], p["y"]]) for p in (report["projection"]["pole"][0], report["projection"]["pole"][-1])]
+
+    def distance_to_axis(xx, yy):
+        a, b, v = ends[0], ends[1], np.array([xx, yy])
+        u = np.clip(np.dot(v - a, b - a) / np.dot(b - a, b - a), 0.0, 1.0)
+        return np.linalg.norm(v - (a + u * (b - a)))
+
+    far = [(yy, xx) for yy in range(5, height - 5, 7) for xx in range(5, width - 5, 7) if distance_to_axis(xx, yy) > 20]
+    assert len(far) > 5000
+    assert not any(shows_pole(yy, xx) for yy, xx in far)
+
+
+@needs_browser
+def test_a_million_rows_in_the_browser(tmp_path_factory, tmp_path):
+    """Hairer's free body with a step of 0.0005 for t = 500, every step written (npz): 10^6 + 1 rows. lgvi view
+    decimates them to the page's budget and says so; the page loads without problems and shows the kept rows
+    (and interpolates between them). Measured on 2 shared cores: run 1.4 s, view 5 s, browser 10 s."""
+    with open(os.path.join(SOURCE, "scenarios", "free-body-hairer.toml"), encoding="utf-8") as f:
+        text = f.read()
+    for old, new in (("step = 0.05", "step = 0.0005"), ("every = 10", 'every = 1\nformat = "npz"')):
+        assert old in text
+        text = text.replace(old, new)
+    scenario = tmp_path_factory.mktemp("long") / "million.toml"
+    scenario.write_text(text, encoding="utf-8")
+    run = str(scenario.parent / "run")
+    run_cli("run", str(scenario), "--out", run, "--no-figures", "-q")
+    p = run_cli("view", run)
+    # 10^6 intervals into at most 2000 frames: every ceil(10^6 / 1999) = 501st row (0 .. 999999, 1996 of them)
+    # and the last.
+    assert p.stderr == ("lgvi view: 1000001 rows decimated to 1998 frames (every k-th row and the last; the page "
+                        "embeds at most 2000 frames and 36 MB of frame data, --max-frames) and interpolates between "
+                        "them\n")
+    html = os.path.join(run, "view.html")
+    assert os.path.getsize(html) < 5e6  # 1998 frames of one body: 3.2 MB, most of it three.js
+    r = lgvi.load(run)
+    assert len(r.t) == 1000001
+    # Kept rows (0, 501 k, the last) and times between them, where the nearest kept rows are interpolated.
+    asked = [r.t[0], r.t[501 * 777], r.t[501 * 777] + 0.1, r.t[501 * 1996], r.t[-1] - 0.001, r.t[-1]]
+    report = drive(html, tmp_path, {"times": asked, "seek": asked[2]})
+    assert report["rows"] == 1000001 and report["frames"] == 1998
+    assert "showing 1998 of 1000001 frames" in report["overlay"]["note"]
+    check_states(report, r.t, r.x[:, None, :], r.q[:, None, :])
+    assert [s["frame"] for s in report["states"]] == [0, 777, 777, 1996, 1996, 1997]
+    assert [s["u"] == 0 for s in report["states"]] == [True, True, False, True, False, True]

@@ -1,7 +1,8 @@
 // Drives a view.html in headless chromium for tests/view/test_view.py, which makes the assertions:
 //   node view_check.mjs VIEW_HTML OUT_DIR PLAN_JSON
 // PLAN_JSON: { "times": [t, ...], "seek": t, "set": {follow, distance, trails, axes}, "width": W, "height": H }
-// Writes OUT_DIR/report.json ({ problems, frames, rows, times, states, projection, overlay, colours, seekTime, fps })
+// Writes OUT_DIR/report.json ({ problems, frames, rows, times, states, projection, overlay, colours, pole, drawn,
+// seekTime, fps })
 // and OUT_DIR/screenshot.png (UI panels hidden: the bodies only) and OUT_DIR/screenshot-ui.png.
 import fs from 'node:fs';
 import path from 'node:path';
@@ -19,7 +20,8 @@ try {
   const report = { problems };
   if (await page.evaluate(() => !!(window.lgviView && window.lgviView.ready))) {
     Object.assign(report, await page.evaluate(() => ({
-      frames: lgviView.frames, rows: lgviView.rows, times: lgviView.times, colours: lgviView.colours })));
+      frames: lgviView.frames, rows: lgviView.rows, times: lgviView.times, colours: lgviView.colours,
+      pole: lgviView.pole, drawn: lgviView.drawn })));
     report.states = await page.evaluate((ts) => ts.map((t) => lgviView.state(t)), plan.times || []);
     await page.evaluate((o) => lgviView.set(Object.assign({ ui: false }, o)), plan.set || {});
     report.seekTime = await page.evaluate((t) => lgviView.seek(t), plan.seek);
