@@ -2,6 +2,8 @@
 // draws, one member's run and row, the journal, and the threads runner.
 #include "ensemble.hpp"
 
+#include "formats/formats.hpp"
+
 #include "output.hpp"
 #include "run.hpp"
 #include "simulation.hpp"
@@ -66,6 +68,32 @@ double normal01(std::uint64_t seed, std::int64_t member, std::size_t vary, std::
 
 /// Appends ",v" to a CSV row (fmt::format_to: no temporary strings).
 void append_number(std::string& row, double v) { fmt::format_to(std::back_inserter(row), ",{:.17g}", v); }
+
+/// The fields of one CSV line (RFC 4180 quoting, as csv_field writes it).
+std::vector<std::string> csv_fields(const std::string& line) {
+  std::vector<std::string> out(1);
+  bool quoted = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+        out.back() += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        out.back() += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      out.emplace_back();
+    } else {
+      out.back() += c;
+    }
+  }
+  return out;
+}
 
 /// A CSV field: quoted (with quotes doubled) when it holds a comma, quote or line break.
 std::string csv_field(const std::string& s) {
@@ -439,6 +467,7 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
       throw InvalidInput(fmt::format("{}: member {} ({}): {}", name, m, values, e.what()));
     }
     if (m == 0) {
+      plan.output_format = sc.output_format;
       bodies = sc.bodies();
       state_cols = state_columns(sc);
     } else if (sc.bodies() != bodies) {
@@ -545,11 +574,42 @@ void append_journal(const std::string& dir, const std::string& row) {
   if (std::fclose(f) != 0 || !ok) throw std::runtime_error(path + ": write failed");
 }
 
-void write_members_csv(const std::string& dir, const EnsemblePlan& plan, const std::vector<std::string>& rows) {
+void write_members(const std::string& dir, const EnsemblePlan& plan, const std::vector<std::string>& rows) {
   std::string text = plan.header + "\n";
   for (const std::string& r : rows)
     if (!r.empty()) text += r + "\n";
   write_file_atomically((fs::path(dir) / "members.csv").string(), text);
+  if (plan.output_format != TrajectoryFormat::Npz && plan.output_format != TrajectoryFormat::Hdf5) return;
+  // The same table as arrays, parsed from the rows just written.
+  using Kind = ColumnTable::Column::Kind;
+  ColumnTable table;
+  for (const std::string& name : csv_fields(plan.header)) {
+    ColumnTable::Column c;
+    c.name = name;
+    c.kind = name == "error" ? Kind::String : name == "index" || name == "completed" || name == "steps" ? Kind::Integer
+                                                                                                        : Kind::Number;
+    table.columns.push_back(std::move(c));
+  }
+  for (const std::string& r : rows) {
+    if (r.empty()) continue;
+    const std::vector<std::string> f = csv_fields(r);
+    if (f.size() != table.columns.size())
+      throw std::runtime_error(fmt::format("members table: a row of {} fields under {} columns", f.size(),
+                                           table.columns.size()));
+    for (std::size_t k = 0; k < f.size(); ++k) {
+      ColumnTable::Column& c = table.columns[k];
+      if (c.kind == Kind::String)
+        c.strings.push_back(f[k]);
+      else if (c.kind == Kind::Integer)
+        c.integers.push_back(std::strtoll(f[k].c_str(), nullptr, 10));
+      else
+        c.numbers.push_back(std::strtod(f[k].c_str(), nullptr));  // {:.17g}: the same double; "nan" is NaN
+    }
+  }
+  if (plan.output_format == TrajectoryFormat::Npz)
+    write_npz_table((fs::path(dir) / "members.npz").string(), table);
+  else
+    write_hdf5_table((fs::path(dir) / "members.h5").string(), table);
 }
 
 bool row_failed(const std::string& row, const EnsemblePlan& plan) {
@@ -617,7 +677,7 @@ Prepared prepare(const std::string& sweep_path, const EnsembleOptions& opt) {
 }
 
 int finish(const Prepared& p, std::int64_t done, std::int64_t failed, const EnsembleOptions& opt) {
-  write_members_csv(p.dir, p.plan, p.rows);
+  write_members(p.dir, p.plan, p.rows);
   if (g_ensemble_stop != 0) {
     std::cerr << fmt::format("lgvi: ensemble stopped by {} with {} of {} members done; continue with: lgvi ensemble "
                              "--resume {}\n",
@@ -682,32 +742,6 @@ class EnsembleProgress {
 }  // namespace
 
 namespace {
-
-/// The fields of one CSV line (RFC 4180 quoting, as csv_field writes it).
-std::vector<std::string> csv_fields(const std::string& line) {
-  std::vector<std::string> out(1);
-  bool quoted = false;
-  for (std::size_t i = 0; i < line.size(); ++i) {
-    const char c = line[i];
-    if (quoted) {
-      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
-        out.back() += '"';
-        ++i;
-      } else if (c == '"') {
-        quoted = false;
-      } else {
-        out.back() += c;
-      }
-    } else if (c == '"') {
-      quoted = true;
-    } else if (c == ',') {
-      out.emplace_back();
-    } else {
-      out.back() += c;
-    }
-  }
-  return out;
-}
 
 /// The q-quantile of sorted values (linear interpolation).
 double quantile(const std::vector<double>& sorted, double q) {
@@ -835,7 +869,7 @@ int run_ensemble(const std::string& sweep_path, const EnsembleOptions& opt) {
     for (std::thread& t : pool) t.join();
   }
   if (error) {
-    write_members_csv(p.dir, p.plan, p.rows);
+    write_members(p.dir, p.plan, p.rows);
     std::rethrow_exception(error);
   }
   return finish(p, done, failed, opt);

@@ -51,6 +51,7 @@ struct EnsemblePlan {
   std::vector<std::string> varied_columns;  ///< header names of the varied values (key or key[i])
   std::vector<std::vector<double>> varied;  ///< per member, the varied values in column order
   std::string header;                       ///< members.csv's header line (no newline)
+  TrajectoryFormat output_format = TrajectoryFormat::Csv;  ///< the base scenario's: members.npz / .h5 beside the CSV
 
   std::int64_t members() const { return static_cast<std::int64_t>(varied.size()); }
   /// Member i's scenario as TOML text (the base with the varied values written in).
@@ -117,8 +118,12 @@ Prepared prepare(const std::string& sweep_path, const EnsembleOptions& options);
 EnsemblePlan plan_of_folder(const std::string& dir);
 /// Appends a row to the journal and flushes it (what rank 0 has is on disk).
 void append_journal(const std::string& dir, const std::string& row);
-/// members.csv: the header and every row present, in member order.
-void write_members_csv(const std::string& dir, const EnsemblePlan& plan, const std::vector<std::string>& rows);
+/// members.csv: the header and every row present, in member order; and,
+/// when the base scenario's [output] format is npz or hdf5, members.npz or
+/// members.h5 with the same columns (one array each: int64 index, completed
+/// and steps, the error messages as strings, float64 the rest) and the same
+/// numbers (the CSV's 17 digits read back are the same doubles).
+void write_members(const std::string& dir, const EnsemblePlan& plan, const std::vector<std::string>& rows);
 /// Whether a row records a failed run (completed = 0).
 bool row_failed(const std::string& row, const EnsemblePlan& plan);
 /// Where member i's run folder goes ("" unless trajectories = "all").

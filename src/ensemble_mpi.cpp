@@ -226,7 +226,7 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
   }
   local.join();
   if (!abort_message.empty()) {
-    write_members_csv(dir, p.plan, p.rows);
+    write_members(dir, p.plan, p.rows);
     throw InvalidInput(abort_message);
   }
   return finish(p, done, failed, opt);

@@ -5,6 +5,10 @@
 
 #include "trajectory_sink.hpp"
 
+#include <cstdint>
+#include <string>
+#include <vector>
+
 namespace lgvi::app {
 
 /// `path`.npz with entries trajectory.npy (float64, shape (rows, columns), or
@@ -35,5 +39,33 @@ std::unique_ptr<TrajectorySink> open_xyz(const std::string& path, const Trajecto
 /// layout.shapes. The .pvd's closing tags are written by close().
 std::unique_ptr<TrajectorySink> open_vtk(const std::string& path, const TrajectoryLayout& layout,
                                          const SinkPosition* resume);
+
+/// A table of named columns of equal length, each of numbers (float64),
+/// integers (int64) or strings: the ensemble's members table.
+struct ColumnTable {
+  struct Column {
+    enum class Kind { Number, Integer, String };
+    std::string name;
+    Kind kind = Kind::Number;
+    std::vector<double> numbers;        ///< Kind::Number
+    std::vector<std::int64_t> integers;  ///< Kind::Integer
+    std::vector<std::string> strings;   ///< Kind::String (UTF-8)
+    std::size_t size() const {
+      return kind == Kind::Number ? numbers.size() : kind == Kind::Integer ? integers.size() : strings.size();
+    }
+  };
+  std::vector<Column> columns;
+};
+
+/// `path` (.npz): one 1-D array per column, named by it ('<f8', '<i8' or
+/// '<U', numpy's loader gives float64, int64 and str arrays), stored
+/// uncompressed in column order. Written whole to a temporary name and
+/// renamed: never half-written. The bytes depend on the table alone.
+void write_npz_table(const std::string& path, const ColumnTable& table);
+
+/// `path` (.h5): one 1-D dataset per column at the root (IEEE float64 LE,
+/// int64 LE, variable-length UTF-8 strings), no timestamps, written to a
+/// temporary name and renamed.
+void write_hdf5_table(const std::string& path, const ColumnTable& table);
 
 }  // namespace lgvi::app

@@ -33,6 +33,8 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdio>
+#include <filesystem>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -272,6 +274,59 @@ class Hdf5Trajectory final : public TrajectorySink {
 std::unique_ptr<TrajectorySink> open_hdf5(const std::string& path, const TrajectoryLayout& layout,
                                           const SinkPosition* resume) {
   return std::make_unique<Hdf5Trajectory>(path, layout, resume);
+}
+
+}  // namespace lgvi::app
+
+namespace lgvi::app {
+
+void write_hdf5_table(const std::string& path, const ColumnTable& table) {
+  using Kind = ColumnTable::Column::Kind;
+  const std::string tmp = path + ".tmp";
+  auto fail = [&](const std::string& what) {
+    const std::string detail = hdf5_error();
+    std::remove(tmp.c_str());
+    throw std::runtime_error("HDF5: cannot " + what + " " + tmp + (detail.empty() ? "" : ": " + detail));
+  };
+  auto handle = [&](hid_t id, Handle::Closer closer, const std::string& what) {
+    if (id < 0) fail(what);
+    return Handle(id, closer);
+  };
+  {
+    Handle file = handle(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose, "create");
+    // No modification times in the object headers: the bytes depend on the table alone.
+    Handle dcpl = handle(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, "create the dataset properties of");
+    if (H5Pset_obj_track_times(dcpl.get(), false) < 0) fail("switch off the timestamps of");
+    for (const ColumnTable::Column& column : table.columns) {
+      const hsize_t n = column.size();
+      Handle space = handle(H5Screate_simple(1, &n, nullptr), H5Sclose, "create the dataspace of " + column.name + " in");
+      Handle string_type;
+      hid_t file_type = H5T_IEEE_F64LE, memory_type = H5T_NATIVE_DOUBLE;
+      const void* data = column.numbers.data();
+      std::vector<const char*> pointers;
+      if (column.kind == Kind::Integer) {
+        file_type = H5T_STD_I64LE;
+        memory_type = H5T_NATIVE_INT64;
+        data = column.integers.data();
+      } else if (column.kind == Kind::String) {
+        string_type = handle(H5Tcopy(H5T_C_S1), H5Tclose, "create a string type for");
+        if (H5Tset_size(string_type.get(), H5T_VARIABLE) < 0 || H5Tset_cset(string_type.get(), H5T_CSET_UTF8) < 0)
+          fail("set up a UTF-8 string type for");
+        file_type = memory_type = string_type.get();
+        for (const std::string& s : column.strings) pointers.push_back(s.c_str());
+        data = pointers.data();
+      }
+      Handle dataset = handle(H5Dcreate2(file.get(), column.name.c_str(), file_type, space.get(), H5P_DEFAULT,
+                                         dcpl.get(), H5P_DEFAULT),
+                              H5Dclose, "create /" + column.name + " in");
+      if (n > 0 && H5Dwrite(dataset.get(), memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
+        fail("write /" + column.name + " in");
+    }
+    if (file.reset() < 0) fail("close");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw std::runtime_error("renaming " + tmp + " to " + path + " failed: " + ec.message());
 }
 
 }  // namespace lgvi::app

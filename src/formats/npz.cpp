@@ -44,6 +44,7 @@
 #include "formats/formats.hpp"
 #include "formats/npy.hpp"
 #include "formats/zip_stream.hpp"
+#include "output.hpp"
 
 #include <algorithm>
 #include <array>
@@ -62,6 +63,7 @@ namespace lgvi::app {
 namespace {
 using namespace zip;
 using npy::npy_unicode;
+using npy::npy_header;
 using npy::trajectory_header_bytes;
 using npy::trajectory_npy_header;
 
@@ -287,6 +289,55 @@ class NpzTrajectory final : public TrajectorySink {
 std::unique_ptr<TrajectorySink> open_npz(const std::string& path, const TrajectoryLayout& layout,
                                          const SinkPosition* resume) {
   return std::make_unique<NpzTrajectory>(path, layout, resume);
+}
+
+namespace {
+
+/// Little-endian bytes of 64-bit values (float64 or int64), as .npy stores them.
+template <class T>
+void append_le64(std::string& out, const std::vector<T>& values) {
+  static_assert(sizeof(T) == 8);
+  for (const T& v : values) {
+    std::uint64_t bits;
+    std::memcpy(&bits, &v, 8);
+    for (int b = 0; b < 8; ++b) out.push_back(static_cast<char>((bits >> (8 * b)) & 0xFFu));
+  }
+}
+
+/// A 1-D .npy of `column`.
+std::string npy_column(const ColumnTable::Column& column) {
+  using Kind = ColumnTable::Column::Kind;
+  if (column.kind == Kind::String) return npy_unicode(column.strings, false);
+  const std::string dict = "{'descr': '" + std::string(column.kind == Kind::Number ? "<f8" : "<i8") +
+                           "', 'fortran_order': False, 'shape': (" + std::to_string(column.size()) + ",), }";
+  std::string out = npy_header(dict);
+  if (column.kind == Kind::Number)
+    append_le64(out, column.numbers);
+  else
+    append_le64(out, column.integers);
+  return out;
+}
+
+}  // namespace
+
+void write_npz_table(const std::string& path, const ColumnTable& table) {
+  std::string archive;
+  std::vector<Entry> entries;
+  for (const ColumnTable::Column& column : table.columns) {
+    const std::string content = npy_column(column);
+    Entry e;
+    e.name = column.name + ".npy";
+    e.crc = crc32_of(content);
+    e.size = content.size();
+    e.offset = archive.size();
+    archive += local_header(e);
+    archive += content;
+    entries.push_back(std::move(e));
+  }
+  std::string cd;
+  for (const Entry& e : entries) cd += central_header(e);
+  archive += cd + end_records(entries.size(), archive.size(), cd.size());
+  write_file_atomically(path, archive);
 }
 
 }  // namespace lgvi::app

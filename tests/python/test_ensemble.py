@@ -289,3 +289,56 @@ open({str(tmp_path / 'mpi4py.csv')!r}, "w").write(result.text)
                           capture_output=True, text=True, env=env, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert (tmp_path / "mpi4py.csv").read_bytes() == (tmp_path / "cli" / "members.csv").read_bytes()
+
+
+@pytest.mark.parametrize("fmt,file", [("npz", "members.npz"), ("hdf5", "members.h5")])
+def test_members_table_in_the_output_format_equals_the_csv_and_is_identical_for_threads_and_ranks(tmp_path, fmt,
+                                                                                                  file):
+    """With [output] format = "npz" or "hdf5" the members table is also written
+    as arrays: every column equal to members.csv's (its 17 significant digits
+    read back are the same doubles, so equality is exact; NaN where the CSV
+    says nan), the failure messages as strings, and the file's bytes the same
+    for 1 thread, 2 threads and mpirun -n 2 (HDF5 without timestamps)."""
+    import csv
+    text = """[ensemble]
+scenario = "paper-orbit.toml"
+[[vary]]
+key = "initial.momentum"
+values = [[0.0, 1.0, 0.0], [0.0, 0.0, 0.0]]
+[[vary]]
+key = "integrator.step"
+values = [0.01, 0.02, 0.005]
+"""
+    path = sweep(tmp_path, duration=60.0, text=text, contact=True)
+    scenario = tmp_path / "paper-orbit.toml"
+    scenario.write_text(scenario.read_text().replace("[output]\n", f'[output]\nformat = "{fmt}"\n', 1))
+    assert f'format = "{fmt}"' in scenario.read_text()
+    tables = {}
+    for name, extra, mpi in (("t1", ["--threads", "1"], 0), ("t2", ["--threads", "2"], 0)) + (
+            (("mpi2", [], 2),) if MPIRUN else ()):
+        proc = ensemble(path, "--out", tmp_path / name, *extra, mpi=mpi)
+        assert proc.returncode == 0, proc.stderr
+        tables[name] = (tmp_path / name / file).read_bytes()
+    for name, data in tables.items():
+        assert data == tables["t1"], name
+    with open(tmp_path / "t1" / "members.csv", newline="") as f:
+        rows = list(csv.reader(f))
+    header, rows = rows[0], rows[1:]
+    if fmt == "npz":
+        arrays = dict(np.load(tmp_path / "t1" / file))
+    else:
+        h5py = pytest.importorskip("h5py")
+        with h5py.File(tmp_path / "t1" / file, "r") as h:
+            arrays = {k: h[k][()] for k in h.keys()}
+        arrays["error"] = np.array([s.decode() for s in arrays["error"]])
+    assert sorted(arrays) == sorted(header)
+    for k, name in enumerate(header):
+        column = [r[k] for r in rows]
+        if name == "error":
+            assert list(arrays[name]) == column and all(column[3:]) and not any(column[:3])
+        elif name in ("index", "completed", "steps"):
+            assert arrays[name].dtype == np.int64
+            assert arrays[name].tolist() == [int(v) for v in column], name
+        else:
+            assert arrays[name].dtype == np.float64
+            np.testing.assert_array_equal(arrays[name], np.array([float(v) for v in column]), err_msg=name)
