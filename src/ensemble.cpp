@@ -8,6 +8,7 @@
 #include "run.hpp"
 #include "simulation.hpp"
 #include "summary.hpp"
+#include "toml_writer.hpp"
 #include "trajectory_sink.hpp"
 
 #include <lgvi/error.hpp>
@@ -348,9 +349,7 @@ std::string EnsemblePlan::member_toml(std::int64_t i) const {
     write_value(doc, v, value);
     column += v.components();
   }
-  std::stringstream ss;
-  ss << toml::toml_formatter(doc);
-  return ss.str();
+  return write_toml(doc);
 }
 
 static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std::string& name, const std::string& base_dir,

@@ -1,4 +1,5 @@
 #include "scenario.hpp"
+#include "toml_writer.hpp"
 
 #include <lgvi/error.hpp>
 
@@ -379,11 +380,7 @@ std::string convert_orbit_attitude(const Reader& r, toml::table& root, const Rig
     const Vector3<double> momentum = body.mass() * v;
     t->insert_or_assign("position", toml_vector(x));
     t->insert_or_assign("momentum", toml_vector(momentum));
-    toml::table copy = o;
-    copy.is_inline(true);
-    std::ostringstream os;
-    os << copy;
-    note += "#   orbit = " + os.str() + "\n";
+    note += "#   orbit = " + write_inline_toml(o) + "\n";
   }
   if (an) {
     if (!an->is_table())
@@ -428,11 +425,7 @@ std::string convert_orbit_attitude(const Reader& r, toml::table& root, const Rig
       r.fail("initial.attitude", "give rate = \"orbit\" (the body turns with the LVLH frame) or initial.omega = "
                                  "[...] (body angular velocity, body frame)");
     }
-    toml::table copy = at;
-    copy.is_inline(true);
-    std::ostringstream os;
-    os << copy;
-    note += "#   attitude = " + os.str() + "\n";
+    note += "#   attitude = " + write_inline_toml(at) + "\n";
   }
   t->erase("orbit");
   t->erase("attitude");
@@ -1026,10 +1019,8 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   if (inlined || !converted.empty()) {
     // File tables were read into the document, or [initial] orbit / attitude
     // converted into plain keys: the run's copy of the scenario holds them
-    // (toml++ writes doubles to round-trip).
-    std::ostringstream os;
-    os << root;
-    sc.source_text = converted + os.str() + "\n";
+    // (toml++ prints each double to round-trip).
+    sc.source_text = converted + write_toml(root) + "\n";
   }
   return sc;
 }
