@@ -123,7 +123,12 @@ class VtkTrajectory final : public TrajectorySink {
     std::string line = "    <DataSet timestep=\"";
     append_number(line, f.t);
     line += "\" group=\"\" part=\"0\" file=\"" + folder_name_ + "/" + name + "\"/>\n";
-    if (std::fwrite(line.data(), 1, line.size(), file_) != line.size())
+    // Flushed line by line: the stdio buffer is empty before each line, so the
+    // line (about 100 bytes) reaches the file in one write() and a killed run
+    // leaves whole <DataSet> lines only (a buffer flushed when full would cut
+    // one, listing a truncated file name). One more system call per frame,
+    // beside the frame file's own write and rename.
+    if (std::fwrite(line.data(), 1, line.size(), file_) != line.size() || std::fflush(file_) != 0)
       throw std::runtime_error("writing " + path_ + " failed: " + std::strerror(errno));
   }
 
