@@ -107,6 +107,22 @@ Numbers numbers(py::handle obj, const std::string& name, py::ssize_t n, bool mat
   return a;
 }
 
+/// A Python number, a numpy scalar or a 0-d array, as a double; ValueError
+/// "NAME must be a number ..." otherwise. An array with dimensions is
+/// refused, shape (1,) too: numpy (>= 1.25) deprecates float() of such
+/// arrays, and one is usually a slip (x[:1] for x[0]).
+double number(py::handle v, const std::string& name) {
+  if (py::isinstance<py::array>(v) && py::reinterpret_borrow<py::array>(v).ndim() > 0)
+    throw py::value_error(name + " must be a number (a float or a 0-d array), got an array of shape " +
+                          std::string(py::str(v.attr("shape"))) + "; float(a[0]) if its element is meant");
+  const double d = PyFloat_AsDouble(v.ptr());
+  if (d == -1.0 && PyErr_Occurred()) {
+    PyErr_Clear();
+    throw py::value_error(name + " must be a number, got " + std::string(py::repr(v)));
+  }
+  return d;
+}
+
 Vector3<double> vec3(py::handle obj, const std::string& name, bool any_value = false) {
   const Numbers a = numbers(obj, name, 3, false, any_value);
   return {a.data()[0], a.data()[1], a.data()[2]};
@@ -178,11 +194,11 @@ class PythonPotential {
       if (!(py::isinstance<py::tuple>(r) || py::isinstance<py::list>(r)) || py::len(r) != 3)
         throw py::value_error("potential: must return (energy, force, torque), got " + std::string(py::repr(r)));
       const py::sequence s = r.cast<py::sequence>();
-      e.energy = scalar(s[0], "energy");
+      e.energy = number(s[0], "potential: the returned energy");
       e.force = vec3(s[1], "potential: the returned force", true);
       e.torque = vec3(s[2], "potential: the returned torque", true);
     } else {
-      e.energy = scalar(energy_(xa, qa), "energy");
+      e.energy = number(energy_(xa, qa), "potential: the returned energy");
       e.force = vec3(force_(xa, qa), "potential: the returned force", true);
       e.torque = vec3(torque_(xa, qa), "potential: the returned torque", true);
     }
@@ -190,22 +206,6 @@ class PythonPotential {
   }
 
  private:
-  /// A Python number, a numpy scalar or a 0-d array. An array of shape (1,) is refused, as numpy (>= 1.25)
-  /// deprecates float() of arrays with dimensions: an energy of shape (1,) is usually a slip (x[:1]).
-  static double scalar(py::handle v, const char* name) {
-    if (py::isinstance<py::array>(v) && py::reinterpret_borrow<py::array>(v).ndim() > 0)
-      throw py::value_error(std::string("potential: the returned ") + name +
-                            " must be a number (a float or a 0-d array), got an array of shape " +
-                            std::string(py::str(v.attr("shape"))) + "; return float(e[0]) if that is meant");
-    const double d = PyFloat_AsDouble(v.ptr());
-    if (d == -1.0 && PyErr_Occurred()) {
-      PyErr_Clear();
-      throw py::value_error(std::string("potential: the returned ") + name + " must be a number, got " +
-                            std::string(py::repr(v)));
-    }
-    return d;
-  }
-
   py::object combined_, energy_, force_, torque_;
 };
 
@@ -526,15 +526,6 @@ class PyStepper {
 
 // ---------------------------------------------------------------------------
 // Bodies
-
-double number(py::handle v, const std::string& name) {
-  const double d = PyFloat_AsDouble(v.ptr());
-  if (d == -1.0 && PyErr_Occurred()) {
-    PyErr_Clear();
-    throw py::value_error(name + ": must be a number, got " + std::string(py::repr(v)));
-  }
-  return d;
-}
 
 RigidBody make_body(py::object mass, py::object inertia) {
   const double m = number(mass, "mass");
