@@ -244,14 +244,7 @@ Scenario with_python_forcing(const Scenario& sc, py::object forcing) {
 }
 
 // ---------------------------------------------------------------------------
-// Built-in potentials and type-erased steppers
-
-using AnyPotential = std::variant<NoPotential, CentralGravity, UniformGravity, HeavyTop, CallablePotential>;
-
-/// The scenario's [potential], as simulate() builds it.
-AnyPotential builtin_potential(const Scenario& s) {
-  return std::visit([](const auto& p) -> AnyPotential { return p; }, lgvi::app::scenario_potential(s));
-}
+// Type-erased steppers
 
 /// The Python Stepper's view of a method: one body (body 0 of the system),
 /// advanced by the same N-body stepper as simulate() builds.
@@ -301,12 +294,14 @@ class StepperModel final : public AnyStepper {
   PotentialEvaluation eval_;
 };
 
-std::unique_ptr<AnyStepper> make_stepper(const Scenario& sc, const AnyPotential& potential) {
+/// The stepper of the scenario's method for its system potential, as
+/// simulate() builds it (scenario_system_potential), with `field` (a Python
+/// potential) in place of its [potential] when given.
+std::unique_ptr<AnyStepper> make_stepper(const Scenario& sc, const CallablePotential* field) {
   if (sc.bodies() != 1)
     throw py::value_error("scenario: Stepper steps one body; this scenario has " + std::to_string(sc.bodies()) +
                           " bodies (use lgvi.simulate for [[bodies]] scenarios)");
   auto evaluations = std::make_shared<std::int64_t>(0);
-  const CallablePotential* field = std::get_if<CallablePotential>(&potential);
   const lgvi::app::ScenarioSystemPotential pot =
       lgvi::app::scenario_system_potential(sc, field, evaluations.get());
   // The same method table as the CLI's run loop (method_dispatch.hpp).
@@ -459,11 +454,12 @@ class PyStepper {
  private:
   void set_potential_impl(py::object potential) {
     if (potential.is_none()) {
-      impl_ = make_stepper(sc_, builtin_potential(sc_));
+      impl_ = make_stepper(sc_, nullptr);
       python_ = false;
       python_object_ = py::none();
     } else {
-      impl_ = make_stepper(sc_, make_python_potential(potential));
+      const CallablePotential p = make_python_potential(potential);
+      impl_ = make_stepper(sc_, &p);
       python_ = true;
       python_object_ = potential;
     }
