@@ -38,6 +38,7 @@
 #include <csignal>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <variant>
@@ -444,10 +445,10 @@ class PyStepper {
     const bool forced = !sc_.forcing.empty();
     // With a forcing: E - E0 - W and the column "work", as simulate() writes them.
     const double de = forced ? e - energy0_ - work() : e - energy0_;
-    const SingleBodyRow row(t(), state_, e, de, state_.q.norm_error(), L, (L - momentum0_).norm());
-    py::array_t<double> a(trajectory_columns + (forced ? 1 : 0));
-    std::copy(std::begin(row.values), std::end(row.values), a.mutable_data());
-    if (forced) a.mutable_data()[trajectory_columns] = work();
+    const SingleBodyRow row(t(), state_, e, de, state_.q.norm_error(), L, (L - momentum0_).norm(),
+                            forced ? std::optional(work()) : std::nullopt);
+    py::array_t<double> a(row.columns);
+    std::copy_n(row.values, row.columns, a.mutable_data());
     return a;
   }
 
