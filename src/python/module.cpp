@@ -37,6 +37,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -253,7 +254,12 @@ class AnyStepper {
  public:
   virtual ~AnyStepper() = default;
   virtual void initialize(const RigidBodyState& s) = 0;
-  virtual void step(RigidBodyState& s, double t, double h) = 0;
+  /// Steps body `s` from step k towards k_end (time k h) with the run loop's
+  /// integrate_range, asking `stop` before each step; `k` counts the steps
+  /// taken. On a failure (IntegrationFailure, or what a Python potential or
+  /// forcing raised) `s` and `k` are the last good step's.
+  virtual void advance(RigidBodyState& s, std::int64_t& k, std::int64_t k_end, double h,
+                       const std::function<bool()>& stop) = 0;
   virtual const PotentialEvaluation& evaluation() const = 0;
   virtual SolveReport last_solve() const = 0;
   virtual std::vector<double> internal_state() const = 0;
@@ -272,9 +278,15 @@ class StepperModel final : public AnyStepper {
     s_.initialize(state_, 0.0);
     eval_ = s_.evaluation().body(0);
   }
-  void step(RigidBodyState& s, double t, double h) override {
+  void advance(RigidBodyState& s, std::int64_t& k, std::int64_t k_end, double h,
+               const std::function<bool()>& stop) override {
     state_.set_body(0, s);
-    s_.step(state_, t, h);
+    try {
+      integrate_range(s_, state_, 0.0, h, k, k_end, [&k](const SystemStepInfo& i) { k = i.k; }, stop);
+    } catch (...) {
+      s = state_.body(0);  // integrate_range left the last good state there
+      throw;
+    }
     s = state_.body(0);
     eval_ = s_.evaluation().body(0);
   }
@@ -482,25 +494,20 @@ class PyStepper {
     }
   }
 
-  /// Steps as integrate_range() does: on a copy, so that a failure leaves
-  /// the last good state; a failure re-initializes the integrator there.
+  /// n steps with the run loop's integrate_range, which leaves the last good
+  /// state on a failure; the integrator is then re-initialized there. With
+  /// Python in the loop, Ctrl-C is checked before every step.
   void advance(std::int64_t n) {
-    const double h = sc_.integrator.step;
-    for (std::int64_t i = 0; i < n; ++i) {
-      RigidBodyState next = state_;
-      try {
-        impl_->step(next, static_cast<double>(k_) * h, h);
-      } catch (const StepFailure& f) {
-        recover();
-        throw IntegrationFailure(k_, static_cast<double>(k_) * h, f);
-      } catch (...) {  // an exception raised by a Python potential
-        recover();
-        throw;
-      }
-      state_ = next;
-      ++k_;
-      if ((python_ || python_forcing_) && PyErr_CheckSignals() != 0) throw py::error_already_set();  // Ctrl-C
+    const bool python = python_ || python_forcing_;
+    const std::function<bool()> stop = [python] { return python && PyErr_CheckSignals() != 0; };
+    const std::int64_t end = k_ + n;
+    try {
+      impl_->advance(state_, k_, end, sc_.integrator.step, stop);
+    } catch (...) {  // IntegrationFailure, or an exception raised by a Python potential or forcing
+      recover();
+      throw;
     }
+    if (k_ < end) throw py::error_already_set();  // Ctrl-C: PyErr_CheckSignals set KeyboardInterrupt
   }
 
   void recover() noexcept {
