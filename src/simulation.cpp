@@ -11,7 +11,6 @@
 #include <chrono>
 #include <algorithm>
 #include <cmath>
-#include <iterator>
 #include <variant>
 
 namespace lgvi::app {
