@@ -1,32 +1,15 @@
-// Summary files of a run: a small JSON writer and atomic file replacement.
+// Output files of a run: lgvi's number text (JSON and CSV) and atomic file
+// replacement.
 #pragma once
 
-#include <cstdint>
 #include <string>
-#include <vector>
-
-#include <fmt/format.h>
 
 namespace lgvi::app {
 
-/// A minimal JSON object writer (the summary is small and flat-ish).
-class JsonObject {
- public:
-  JsonObject& number(const std::string& key, double v);
-  JsonObject& integer(const std::string& key, std::int64_t v);
-  JsonObject& boolean(const std::string& key, bool v);
-  JsonObject& string(const std::string& key, const std::string& v);
-  JsonObject& array(const std::string& key, const std::vector<double>& v);
-  JsonObject& object(const std::string& key, const JsonObject& o);
-  JsonObject& raw(const std::string& key, const std::string& json);
-  std::string str(int indent = 0) const;
-
- private:
-  std::vector<std::pair<std::string, std::string>> items_;
-};
-
+/// A number as lgvi writes it in JSON and CSV files: 17 significant digits
+/// (%.17g, enough to read back the same double), "null" for NaN and inf
+/// (JSON has neither).
 std::string json_number(double v);
-std::string json_string(const std::string& s);
 
 /// Writes `text` to `path` atomically: a temporary file in the same folder,
 /// then a rename, so a reader never sees a half-written file.

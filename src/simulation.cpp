@@ -11,7 +11,6 @@
 #include <chrono>
 #include <algorithm>
 #include <cmath>
-#include <iterator>
 #include <variant>
 
 namespace lgvi::app {
@@ -143,15 +142,8 @@ struct Recorder {
     stats.observed = true;
     if (i.k % scenario.output_every != 0 && i.k != scenario.integrator.steps) return;
     if (!scenario.bodies_format) {
-      const SingleBodyRow row(i.t, s.body(0), energy, de, dq, L, dl);
-      if (!forced) {
-        sink.row(row.values);
-        return;
-      }
-      double values[trajectory_columns + 1];
-      std::copy(std::begin(row.values), std::end(row.values), values);
-      values[trajectory_columns] = i.work;
-      sink.row(values);
+      const SingleBodyRow row(i.t, s.body(0), energy, de, dq, L, dl, forced ? std::optional(i.work) : std::nullopt);
+      sink.row(row.values);  // the layout's columns: the work only when forced
       return;
     }
     for (std::size_t a = 0; a < n; ++a) {

@@ -98,15 +98,19 @@ struct SimulationResult {
 
 /// The diagnostics of one step of one body, as a row of the single-body
 /// layout (trajectory_header): t, x, q (scalar first), p, w, energy, its
-/// error, |q| - 1, L and |L - L0|. The one row builder of the run loop and of
-/// the Python Stepper.
+/// error, |q| - 1, L and |L - L0|, then under a forcing its work W (the
+/// column "work"). The one row builder of the run loop and of the Python
+/// Stepper.
 struct SingleBodyRow {
-  double values[trajectory_columns];
+  double values[trajectory_columns + 1];
+  int columns;  ///< trajectory_columns, or one more with the work
   SingleBodyRow(double t, const RigidBodyState& s, double energy, double energy_error, double quat_norm_error,
-                const Vector3<double>& L, double momentum_error)
+                const Vector3<double>& L, double momentum_error, std::optional<double> work)
       : values{t,      s.x.x(),      s.x.y(),         s.x.z(), s.q.w(), s.q.vec().x(), s.q.vec().y(),
                s.q.vec().z(), s.p.x(), s.p.y(),         s.p.z(), s.w.x(), s.w.y(),       s.w.z(),
-               energy, energy_error, quat_norm_error, L.x(),   L.y(),   L.z(),         momentum_error} {}
+               energy, energy_error, quat_norm_error, L.x(),   L.y(),   L.z(),         momentum_error,
+               work.value_or(0.0)},
+        columns(trajectory_columns + (work ? 1 : 0)) {}
 };
 
 /// The trajectory layout of a scenario: the single-body columns for a [body]

@@ -37,7 +37,9 @@
 #include <cmath>
 #include <csignal>
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <variant>
@@ -105,6 +107,22 @@ Numbers numbers(py::handle obj, const std::string& name, py::ssize_t n, bool mat
   for (py::ssize_t i = 0; i < a.size() && !any_value; ++i)
     if (!std::isfinite(a.data()[i])) throw py::value_error(name + ": must be finite, got " + std::string(py::repr(obj)));
   return a;
+}
+
+/// A Python number, a numpy scalar or a 0-d array, as a double; ValueError
+/// "NAME must be a number ..." otherwise. An array with dimensions is
+/// refused, shape (1,) too: numpy (>= 1.25) deprecates float() of such
+/// arrays, and one is usually a slip (x[:1] for x[0]).
+double number(py::handle v, const std::string& name) {
+  if (py::isinstance<py::array>(v) && py::reinterpret_borrow<py::array>(v).ndim() > 0)
+    throw py::value_error(name + " must be a number (a float or a 0-d array), got an array of shape " +
+                          std::string(py::str(v.attr("shape"))) + "; float(a[0]) if its element is meant");
+  const double d = PyFloat_AsDouble(v.ptr());
+  if (d == -1.0 && PyErr_Occurred()) {
+    PyErr_Clear();
+    throw py::value_error(name + " must be a number, got " + std::string(py::repr(v)));
+  }
+  return d;
 }
 
 Vector3<double> vec3(py::handle obj, const std::string& name, bool any_value = false) {
@@ -178,11 +196,11 @@ class PythonPotential {
       if (!(py::isinstance<py::tuple>(r) || py::isinstance<py::list>(r)) || py::len(r) != 3)
         throw py::value_error("potential: must return (energy, force, torque), got " + std::string(py::repr(r)));
       const py::sequence s = r.cast<py::sequence>();
-      e.energy = scalar(s[0], "energy");
+      e.energy = number(s[0], "potential: the returned energy");
       e.force = vec3(s[1], "potential: the returned force", true);
       e.torque = vec3(s[2], "potential: the returned torque", true);
     } else {
-      e.energy = scalar(energy_(xa, qa), "energy");
+      e.energy = number(energy_(xa, qa), "potential: the returned energy");
       e.force = vec3(force_(xa, qa), "potential: the returned force", true);
       e.torque = vec3(torque_(xa, qa), "potential: the returned torque", true);
     }
@@ -190,22 +208,6 @@ class PythonPotential {
   }
 
  private:
-  /// A Python number, a numpy scalar or a 0-d array. An array of shape (1,) is refused, as numpy (>= 1.25)
-  /// deprecates float() of arrays with dimensions: an energy of shape (1,) is usually a slip (x[:1]).
-  static double scalar(py::handle v, const char* name) {
-    if (py::isinstance<py::array>(v) && py::reinterpret_borrow<py::array>(v).ndim() > 0)
-      throw py::value_error(std::string("potential: the returned ") + name +
-                            " must be a number (a float or a 0-d array), got an array of shape " +
-                            std::string(py::str(v.attr("shape"))) + "; return float(e[0]) if that is meant");
-    const double d = PyFloat_AsDouble(v.ptr());
-    if (d == -1.0 && PyErr_Occurred()) {
-      PyErr_Clear();
-      throw py::value_error(std::string("potential: the returned ") + name + " must be a number, got " +
-                            std::string(py::repr(v)));
-    }
-    return d;
-  }
-
   py::object combined_, energy_, force_, torque_;
 };
 
@@ -244,14 +246,7 @@ Scenario with_python_forcing(const Scenario& sc, py::object forcing) {
 }
 
 // ---------------------------------------------------------------------------
-// Built-in potentials and type-erased steppers
-
-using AnyPotential = std::variant<NoPotential, CentralGravity, UniformGravity, HeavyTop, CallablePotential>;
-
-/// The scenario's [potential], as simulate() builds it.
-AnyPotential builtin_potential(const Scenario& s) {
-  return std::visit([](const auto& p) -> AnyPotential { return p; }, lgvi::app::scenario_potential(s));
-}
+// Type-erased steppers
 
 /// The Python Stepper's view of a method: one body (body 0 of the system),
 /// advanced by the same N-body stepper as simulate() builds.
@@ -259,7 +254,12 @@ class AnyStepper {
  public:
   virtual ~AnyStepper() = default;
   virtual void initialize(const RigidBodyState& s) = 0;
-  virtual void step(RigidBodyState& s, double t, double h) = 0;
+  /// Steps body `s` from step k towards k_end (time k h) with the run loop's
+  /// integrate_range, asking `stop` before each step; `k` counts the steps
+  /// taken. On a failure (IntegrationFailure, or what a Python potential or
+  /// forcing raised) `s` and `k` are the last good step's.
+  virtual void advance(RigidBodyState& s, std::int64_t& k, std::int64_t k_end, double h,
+                       const std::function<bool()>& stop) = 0;
   virtual const PotentialEvaluation& evaluation() const = 0;
   virtual SolveReport last_solve() const = 0;
   virtual std::vector<double> internal_state() const = 0;
@@ -278,9 +278,15 @@ class StepperModel final : public AnyStepper {
     s_.initialize(state_, 0.0);
     eval_ = s_.evaluation().body(0);
   }
-  void step(RigidBodyState& s, double t, double h) override {
+  void advance(RigidBodyState& s, std::int64_t& k, std::int64_t k_end, double h,
+               const std::function<bool()>& stop) override {
     state_.set_body(0, s);
-    s_.step(state_, t, h);
+    try {
+      integrate_range(s_, state_, 0.0, h, k, k_end, [&k](const SystemStepInfo& i) { k = i.k; }, stop);
+    } catch (...) {
+      s = state_.body(0);  // integrate_range left the last good state there
+      throw;
+    }
     s = state_.body(0);
     eval_ = s_.evaluation().body(0);
   }
@@ -301,12 +307,14 @@ class StepperModel final : public AnyStepper {
   PotentialEvaluation eval_;
 };
 
-std::unique_ptr<AnyStepper> make_stepper(const Scenario& sc, const AnyPotential& potential) {
+/// The stepper of the scenario's method for its system potential, as
+/// simulate() builds it (scenario_system_potential), with `field` (a Python
+/// potential) in place of its [potential] when given.
+std::unique_ptr<AnyStepper> make_stepper(const Scenario& sc, const CallablePotential* field) {
   if (sc.bodies() != 1)
     throw py::value_error("scenario: Stepper steps one body; this scenario has " + std::to_string(sc.bodies()) +
                           " bodies (use lgvi.simulate for [[bodies]] scenarios)");
   auto evaluations = std::make_shared<std::int64_t>(0);
-  const CallablePotential* field = std::get_if<CallablePotential>(&potential);
   const lgvi::app::ScenarioSystemPotential pot =
       lgvi::app::scenario_system_potential(sc, field, evaluations.get());
   // The same method table as the CLI's run loop (method_dispatch.hpp).
@@ -449,21 +457,22 @@ class PyStepper {
     const bool forced = !sc_.forcing.empty();
     // With a forcing: E - E0 - W and the column "work", as simulate() writes them.
     const double de = forced ? e - energy0_ - work() : e - energy0_;
-    const SingleBodyRow row(t(), state_, e, de, state_.q.norm_error(), L, (L - momentum0_).norm());
-    py::array_t<double> a(trajectory_columns + (forced ? 1 : 0));
-    std::copy(std::begin(row.values), std::end(row.values), a.mutable_data());
-    if (forced) a.mutable_data()[trajectory_columns] = work();
+    const SingleBodyRow row(t(), state_, e, de, state_.q.norm_error(), L, (L - momentum0_).norm(),
+                            forced ? std::optional(work()) : std::nullopt);
+    py::array_t<double> a(row.columns);
+    std::copy_n(row.values, row.columns, a.mutable_data());
     return a;
   }
 
  private:
   void set_potential_impl(py::object potential) {
     if (potential.is_none()) {
-      impl_ = make_stepper(sc_, builtin_potential(sc_));
+      impl_ = make_stepper(sc_, nullptr);
       python_ = false;
       python_object_ = py::none();
     } else {
-      impl_ = make_stepper(sc_, make_python_potential(potential));
+      const CallablePotential p = make_python_potential(potential);
+      impl_ = make_stepper(sc_, &p);
       python_ = true;
       python_object_ = potential;
     }
@@ -485,25 +494,20 @@ class PyStepper {
     }
   }
 
-  /// Steps as integrate_range() does: on a copy, so that a failure leaves
-  /// the last good state; a failure re-initializes the integrator there.
+  /// n steps with the run loop's integrate_range, which leaves the last good
+  /// state on a failure; the integrator is then re-initialized there. With
+  /// Python in the loop, Ctrl-C is checked before every step.
   void advance(std::int64_t n) {
-    const double h = sc_.integrator.step;
-    for (std::int64_t i = 0; i < n; ++i) {
-      RigidBodyState next = state_;
-      try {
-        impl_->step(next, static_cast<double>(k_) * h, h);
-      } catch (const StepFailure& f) {
-        recover();
-        throw IntegrationFailure(k_, static_cast<double>(k_) * h, f);
-      } catch (...) {  // an exception raised by a Python potential
-        recover();
-        throw;
-      }
-      state_ = next;
-      ++k_;
-      if ((python_ || python_forcing_) && PyErr_CheckSignals() != 0) throw py::error_already_set();  // Ctrl-C
+    const bool python = python_ || python_forcing_;
+    const std::function<bool()> stop = [python] { return python && PyErr_CheckSignals() != 0; };
+    const std::int64_t end = k_ + n;
+    try {
+      impl_->advance(state_, k_, end, sc_.integrator.step, stop);
+    } catch (...) {  // IntegrationFailure, or an exception raised by a Python potential or forcing
+      recover();
+      throw;
     }
+    if (k_ < end) throw py::error_already_set();  // Ctrl-C: PyErr_CheckSignals set KeyboardInterrupt
   }
 
   void recover() noexcept {
@@ -526,15 +530,6 @@ class PyStepper {
 
 // ---------------------------------------------------------------------------
 // Bodies
-
-double number(py::handle v, const std::string& name) {
-  const double d = PyFloat_AsDouble(v.ptr());
-  if (d == -1.0 && PyErr_Occurred()) {
-    PyErr_Clear();
-    throw py::value_error(name + ": must be a number, got " + std::string(py::repr(v)));
-  }
-  return d;
-}
 
 RigidBody make_body(py::object mass, py::object inertia) {
   const double m = number(mass, "mass");

@@ -1,0 +1,39 @@
+// lgvi's JSON files (summary.json): nlohmann::ordered_json documents, written
+// in the layout and with the number text lgvi's files have always had, and
+// read back with one-line errors.
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace lgvi::app {
+
+/// A JSON document; objects keep the order their keys were added in.
+using Json = nlohmann::ordered_json;
+
+/// Where json_text breaks lines. By default an object is written one member a
+/// line (indented by two spaces a level) and an array on one line, with
+/// everything inside it on one line too ("[1, 2]", "[{\"a\": 1, \"b\": 2}]").
+/// The members named here, at any depth, are written otherwise.
+struct JsonLayout {
+  /// Objects written on one line ({"a": 1, "b": 2}).
+  std::vector<std::string_view> one_line;
+  /// Arrays written one element a line (the lists of bodies).
+  std::vector<std::string_view> one_element_a_line;
+};
+
+/// `doc` as JSON text laid out by `layout`. Floating-point numbers are
+/// json_number's text (17 significant digits, null for NaN and inf), so that
+/// a file reads back to the same doubles; integers, booleans and strings are
+/// nlohmann's (UTF-8 written as it is, invalid UTF-8 replaced by U+FFFD).
+std::string json_text(const Json& doc, const JsonLayout& layout = {});
+
+/// Parses the JSON text read from `file`; throws InvalidInput "FILE: not
+/// valid JSON (parse error at line L, column C: WHAT)", on one line, if it is
+/// not JSON.
+Json parse_json_file_text(const std::string& text, const std::string& file);
+
+}  // namespace lgvi::app
