@@ -168,55 +168,77 @@ class LennardJones {
     fill_.assign(cell_start_.begin(), cell_start_.end() - 1);
     sorted_.resize(m);
     for (std::size_t i = 0; i < m; ++i) sorted_[fill_[cell_index_[i]]++] = i;
-    // The lists, one site after the other (sites in increasing index, and
-    // within a cell sorted_ holds increasing indices, but the 27 cells are
-    // visited in space order: sort each list).
+    // The lists, one site after the other. Each site's list is its own: the
+    // sites of other bodies within r_c + skin in the 27 cells around it, then
+    // sorted by index (the cells are visited in space order). So the lists do
+    // not depend on who builds them: the sites are cut into fixed chunks, each
+    // chunk's lists built on some thread into the chunk's buffer, and the
+    // buffers joined in site order.
     const double reach2 = reach * reach;
+    const std::size_t chunks = std::min<std::size_t>(m, list_chunks);
+    chunk_lists_.resize(chunks);
     list_start_.assign(m + 1, 0);
-    neighbours_.clear();
-    for (std::size_t i = 0; i < m; ++i) {
-      const std::size_t a = sites_.body_of(i);
-      const std::array<std::int64_t, 3> c = cell_of(position_[i]);
-      const std::size_t first = neighbours_.size();
-      for (std::int64_t dz = -1; dz <= 1; ++dz) {
-        const std::int64_t z = c[2] + dz;
-        if (z < 0 || z >= dims_[2]) continue;
-        for (std::int64_t dy = -1; dy <= 1; ++dy) {
-          const std::int64_t y = c[1] + dy;
-          if (y < 0 || y >= dims_[1]) continue;
-          for (std::int64_t dx = -1; dx <= 1; ++dx) {
-            const std::int64_t x = c[0] + dx;
-            if (x < 0 || x >= dims_[0]) continue;
-            const auto cell = static_cast<std::size_t>((z * dims_[1] + y) * dims_[0] + x);
-            for (std::size_t k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) {
-              const std::size_t j = sorted_[k];
-              if (sites_.body_of(j) != a && (position_[j] - position_[i]).squaredNorm() < reach2)
-                neighbours_.push_back(j);
+    parallel_for(chunks, par_, [&](std::size_t chunk) {
+      std::vector<std::size_t>& out = chunk_lists_[chunk];
+      out.clear();
+      for (std::size_t i = chunk * m / chunks; i < (chunk + 1) * m / chunks; ++i) {
+        const std::size_t a = sites_.body_of(i);
+        const std::array<std::int64_t, 3> c = cell_of(position_[i]);
+        const std::size_t first = out.size();
+        for (std::int64_t dz = -1; dz <= 1; ++dz) {
+          const std::int64_t z = c[2] + dz;
+          if (z < 0 || z >= dims_[2]) continue;
+          for (std::int64_t dy = -1; dy <= 1; ++dy) {
+            const std::int64_t y = c[1] + dy;
+            if (y < 0 || y >= dims_[1]) continue;
+            for (std::int64_t dx = -1; dx <= 1; ++dx) {
+              const std::int64_t x = c[0] + dx;
+              if (x < 0 || x >= dims_[0]) continue;
+              const auto cell = static_cast<std::size_t>((z * dims_[1] + y) * dims_[0] + x);
+              for (std::size_t k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) {
+                const std::size_t j = sorted_[k];
+                if (sites_.body_of(j) != a && (position_[j] - position_[i]).squaredNorm() < reach2) out.push_back(j);
+              }
             }
           }
         }
+        std::sort(out.begin() + static_cast<std::ptrdiff_t>(first), out.end());
+        list_start_[i + 1] = out.size() - first;  // the count; summed below
       }
-      std::sort(neighbours_.begin() + static_cast<std::ptrdiff_t>(first), neighbours_.end());
-      list_start_[i + 1] = neighbours_.size();
-    }
-    // The unordered pairs (i < j), numbered as they come in i's lists; an
-    // entry (i, j) with j < i finds its pair in j's (sorted) list.
-    pairs_.clear();
-    pair_of_.assign(neighbours_.size(), 0);
-    for (std::size_t i = 0; i < m; ++i)
-      for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k)
-        if (neighbours_[k] > i) {
-          pair_of_[k] = pairs_.size();
-          pairs_.emplace_back(i, neighbours_[k]);
-        }
-    for (std::size_t i = 0; i < m; ++i)
-      for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
+    });
+    for (std::size_t i = 0; i < m; ++i) list_start_[i + 1] += list_start_[i];
+    neighbours_.resize(list_start_[m]);
+    parallel_for(chunks, par_, [&](std::size_t chunk) {
+      std::copy(chunk_lists_[chunk].begin(), chunk_lists_[chunk].end(),
+                neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[chunk * m / chunks]));
+    });
+    // The unordered pairs (i < j), numbered in the order of i and then of j
+    // (the entries j > i are the end of i's sorted list); an entry (i, j)
+    // with j < i finds its pair in j's list.
+    pair_start_.assign(m + 1, 0);
+    parallel_for(m, par_, [&](std::size_t i) {
+      const auto end = neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[i + 1]);
+      pair_start_[i + 1] = static_cast<std::size_t>(
+          end - std::upper_bound(neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[i]), end, i));
+    });
+    for (std::size_t i = 0; i < m; ++i) pair_start_[i + 1] += pair_start_[i];
+    pairs_.resize(pair_start_[m]);
+    pair_of_.resize(neighbours_.size());
+    parallel_for(m, par_, [&](std::size_t i) {
+      const std::size_t above = list_start_[i + 1] - (pair_start_[i + 1] - pair_start_[i]);
+      for (std::size_t k = above; k < list_start_[i + 1]; ++k) {
+        pair_of_[k] = pair_start_[i] + (k - above);
+        pairs_[pair_of_[k]] = {i, neighbours_[k]};
+      }
+    });
+    parallel_for(m, par_, [&](std::size_t i) {
+      for (std::size_t k = list_start_[i]; k < list_start_[i + 1] && neighbours_[k] < i; ++k) {
         const std::size_t j = neighbours_[k];
-        if (j > i) continue;
         const auto begin = neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[j]);
         const auto end = neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[j + 1]);
         pair_of_[k] = pair_of_[static_cast<std::size_t>(std::lower_bound(begin, end, i) - neighbours_.begin())];
       }
+    });
     built_at_ = position_;
   }
 
@@ -228,7 +250,12 @@ class LennardJones {
   mutable std::vector<double> energy_;
   mutable Vector3<double> origin_ = Vector3<double>::Zero(), inv_cell_ = Vector3<double>::Ones();
   mutable std::array<std::int64_t, 3> dims_{1, 1, 1};
-  mutable std::vector<std::size_t> cell_index_, cell_start_, fill_, sorted_, list_start_, neighbours_, pair_of_;
+  /// The lists are built in this many chunks of sites (fixed, so that the
+  /// work split does not depend on the threads; enough for load balance).
+  static constexpr std::size_t list_chunks = 64;
+  mutable std::vector<std::size_t> cell_index_, cell_start_, fill_, sorted_, list_start_, neighbours_, pair_of_,
+      pair_start_;
+  mutable std::vector<std::vector<std::size_t>> chunk_lists_;
   mutable std::vector<std::pair<std::size_t, std::size_t>> pairs_;
   mutable std::vector<Vector3<double>> pair_force_;
   mutable std::vector<double> pair_energy_;
