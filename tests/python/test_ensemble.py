@@ -51,6 +51,19 @@ rotation = "uniform"
 """
 
 
+# 2 momenta x 3 steps; momentum (0, 0, 0) drops the body onto the source: with
+# stop_at_contact that member fails (the grid test says when).
+CONTACT_GRID = """[ensemble]
+scenario = "paper-orbit.toml"
+[[vary]]
+key = "initial.momentum"
+values = [[0.0, 1.0, 0.0], [0.0, 0.0, 0.0]]
+[[vary]]
+key = "integrator.step"
+values = [0.01, 0.02, 0.005]
+"""
+
+
 def sweep(tmp_path, members=24, duration=20.0, text=None, contact=False):
     base_scenario(tmp_path, duration, contact)
     path = tmp_path / "sweep.toml"
@@ -131,16 +144,7 @@ def test_grid_is_the_product_last_key_fastest_and_a_failing_member_is_recorded(t
     # from r = 8 takes pi/2 sqrt(r^3 / 2 mu) = 25 < 60): with stop_at_contact
     # that member fails, recorded with its message; the others complete.
     # (Contact is checked at the steps: much coarser steps can jump past it.)
-    text = """[ensemble]
-scenario = "paper-orbit.toml"
-[[vary]]
-key = "initial.momentum"
-values = [[0.0, 1.0, 0.0], [0.0, 0.0, 0.0]]
-[[vary]]
-key = "integrator.step"
-values = [0.01, 0.02, 0.005]
-"""
-    path = sweep(tmp_path, duration=60.0, text=text, contact=True)
+    path = sweep(tmp_path, duration=60.0, text=CONTACT_GRID, contact=True)
     proc = ensemble(path, "--out", tmp_path / "out")
     assert proc.returncode == 0, proc.stderr
     lines = (tmp_path / "out" / "members.csv").read_text().splitlines()
@@ -300,16 +304,7 @@ def test_members_table_in_the_output_format_equals_the_csv_and_is_identical_for_
     says nan), the failure messages as strings, and the file's bytes the same
     for 1 thread, 2 threads and mpirun -n 2 (HDF5 without timestamps)."""
     import csv
-    text = """[ensemble]
-scenario = "paper-orbit.toml"
-[[vary]]
-key = "initial.momentum"
-values = [[0.0, 1.0, 0.0], [0.0, 0.0, 0.0]]
-[[vary]]
-key = "integrator.step"
-values = [0.01, 0.02, 0.005]
-"""
-    path = sweep(tmp_path, duration=60.0, text=text, contact=True)
+    path = sweep(tmp_path, duration=60.0, text=CONTACT_GRID, contact=True)
     scenario = tmp_path / "paper-orbit.toml"
     scenario.write_text(scenario.read_text().replace("[output]\n", f'[output]\nformat = "{fmt}"\n', 1))
     assert f'format = "{fmt}"' in scenario.read_text()

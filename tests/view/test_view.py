@@ -54,9 +54,22 @@ def run_cli(*args, check=True):
     return p
 
 
-def make_run(tmp_path_factory, scenario, name):
-    out = str(tmp_path_factory.mktemp(name) / "run")
-    run_cli("run", os.path.join(SOURCE, "scenarios", scenario), "--out", out, "--no-figures", "-q")
+def make_run(tmp_path_factory, scenario, name, replace=()):
+    """Runs a bundled scenario into a fresh folder; `replace`: (old, new) edits of its text, each of which must
+    apply, the edited copy written beside the run."""
+    folder = tmp_path_factory.mktemp(name)
+    path = os.path.join(SOURCE, "scenarios", scenario)
+    if replace:
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+        for old, new in replace:
+            assert old in text
+            text = text.replace(old, new)
+        path = str(folder / scenario)
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(text)
+    out = str(folder / "run")
+    run_cli("run", path, "--out", out, "--no-figures", "-q")
     return out
 
 
@@ -350,16 +363,9 @@ def test_the_pole_of_a_j2_field_in_the_browser(tmp_path_factory, tmp_path):
     """The LEO scenario about an Earth whose pole is tilted to (0, 0.6, 0.8), for 10 orbits (100 rows): the page
     draws the source as the sphere of the reference radius and the pole's axis through it, along the scenario's
     pole, in the pole's colour where it projects, and nowhere else."""
-    with open(os.path.join(SOURCE, "scenarios", "leo-gravity-gradient.toml"), encoding="utf-8") as f:
-        text = f.read()
-    for old, new in (("pole = [0.0, 0.0, 1.0]", "pole = [0.0, 0.6, 0.8]"),
-                     ("duration = 5676978.0", "duration = 56769.78")):
-        assert old in text
-        text = text.replace(old, new)
-    scenario = tmp_path_factory.mktemp("oblate") / "tilted-pole.toml"
-    scenario.write_text(text, encoding="utf-8")
-    run = str(scenario.parent / "run")
-    run_cli("run", str(scenario), "--out", run, "--no-figures", "-q")
+    run = make_run(tmp_path_factory, "leo-gravity-gradient.toml", "oblate",
+                   replace=(("pole = [0.0, 0.0, 1.0]", "pole = [0.0, 0.6, 0.8]"),
+                            ("duration = 5676978.0", "duration = 56769.78")))
     run_cli("view", run, "-q")
     report = drive(os.path.join(run, "view.html"), tmp_path, {"times": [], "seek": 0.0, "set": {"trails": True}})
     pole = report["pole"]
@@ -405,15 +411,8 @@ def test_a_million_rows_in_the_browser(tmp_path_factory, tmp_path):
     """Hairer's free body with a step of 0.0005 for t = 500, every step written (npz): 10^6 + 1 rows. lgvi view
     decimates them to the page's budget and says so; the page loads without problems and shows the kept rows
     (and interpolates between them). Measured on 2 shared cores: run 1.4 s, view 5 s, browser 10 s."""
-    with open(os.path.join(SOURCE, "scenarios", "free-body-hairer.toml"), encoding="utf-8") as f:
-        text = f.read()
-    for old, new in (("step = 0.05", "step = 0.0005"), ("every = 10", 'every = 1\nformat = "npz"')):
-        assert old in text
-        text = text.replace(old, new)
-    scenario = tmp_path_factory.mktemp("long") / "million.toml"
-    scenario.write_text(text, encoding="utf-8")
-    run = str(scenario.parent / "run")
-    run_cli("run", str(scenario), "--out", run, "--no-figures", "-q")
+    run = make_run(tmp_path_factory, "free-body-hairer.toml", "long",
+                   replace=(("step = 0.05", "step = 0.0005"), ("every = 10", 'every = 1\nformat = "npz"')))
     p = run_cli("view", run)
     # 10^6 intervals into at most 2000 frames: every ceil(10^6 / 1999) = 501st row (0 .. 999999, 1996 of them)
     # and the last.
