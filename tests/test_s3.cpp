@@ -7,7 +7,9 @@
 
 #include "test_support.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 namespace {
@@ -119,6 +121,13 @@ TEST_P(S3Property, LeftTrivializedTangentIsQTimesPureQuaternion) {
   EXPECT_MAT_NEAR(fd, (lgvi::F(q.quaternion()).transpose() * eta).eval(), 1e-10);
 }
 
+TEST_P(S3Property, TimesNearIdentityIsTheProduct) {
+  // q + q (f - e) is q f: a few roundings of O(1) numbers apart (f_s <= 0,
+  // near -identity, takes the plain product).
+  const S3d f = S3d::exp(GetParam().xi), q = lgvi::test::random_unit_quaternion();
+  EXPECT_MAT_NEAR(q.times_near_identity(f).scalar_first(), (q * f).scalar_first(), 8 * eps);
+}
+
 INSTANTIATE_TEST_SUITE_P(Elements, S3Property, ::testing::ValuesIn(elements()),
                          [](const auto& info) { return info.param.name; });
 
@@ -160,6 +169,35 @@ TEST(S3, SmallAngleSeriesAreContinuousAtTheirThresholds) {
   // The jacobian varies by O(|xi| d|xi|) ~ 1e-11 across the 0.2% gap.
   EXPECT_MAT_NEAR(lgvi::exp_imaginary_jacobian<double>(below, c1, s1),
                   lgvi::exp_imaginary_jacobian<double>(above, c2, s2), 1e-10);
+}
+
+TEST(S3, RepeatedStepOfASteadySpinKeepsTheNormAtRoundOff) {
+  // A steady spin repeats one relative rotation f, so the rounding of q f is
+  // not random from step to step: f's scalar part is within |f_v|^2 of 1,
+  // where its stored value carries an absolute error of up to eps/4, the
+  // same every step. With q <- q f, |q| - 1 then grows linearly (1e-16 per
+  // step measured in a Lennard-Jones gas). q + q (f - e) lets that error enter
+  // only times |f_v|, and leaves the rounding of the sum, which varies with q
+  // and random-walks. Over 16 random steady spins of 1e5 steps each, |q| - 1
+  // stays within 4 eps sqrt(n) (the walk of eps per step, with margin), where
+  // the plain product exceeds that bound (the test tells the two apart).
+  const int n = 100000;
+  const double walk = 4 * eps * std::sqrt(static_cast<double>(n));
+  double worst = 0, worst_plain = 0;
+  for (int spin = 0; spin < 16; ++spin) {
+    const S3d f = S3d::exp(lgvi::test::random_vector(1e-2));
+    S3d q_plain = lgvi::test::random_unit_quaternion(), q = q_plain;
+    for (int k = 0; k < n; ++k) {
+      q_plain = q_plain * f;
+      q = q.times_near_identity(f);
+      worst = std::max(worst, std::abs(q.norm_error()));
+    }
+    worst_plain = std::max(worst_plain, std::abs(q_plain.norm_error()));
+  }
+  EXPECT_LE(worst, walk);
+  EXPECT_GE(worst_plain, walk);
+  std::printf("[ lgvi     ] 16 steady spins, 1e5 steps: max |q| - 1 %.2g (bound %.2g), plain product %.2g\n", worst,
+              walk, worst_plain);
 }
 
 TEST(S3, LogOfMinusIdentityAndPureRotationByPi) {

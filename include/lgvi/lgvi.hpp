@@ -5,7 +5,7 @@
 // are independent and run on the stepper's threads, and the potential is
 // evaluated once per step at the new configuration of all bodies:
 //   per body a: x_a1 = x_a0 + (h/m_a)(p_a0 + (h/2) F_a0); solve g_a(f_a) = (h/4)(w_a0 + h M_a0);
-//               q_a1 = q_a0 f_a;
+//               q_a1 = q_a0 f_a (formed as q_a0 + q_a0 (f_a - e): S3::times_near_identity);
 //   one evaluation of the system at (x_1, q_1);
 //   per body a: p_a1 = p_a0 + (h/2)(F_a0 + F_a1); w_a1 = pi(f_a)^T (w_a0 + h M_a0) + h M_a1.
 // A single body is N = 1 (single_body.hpp gives it the RigidBodyState API).
@@ -193,7 +193,7 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
       solvers_[a].solve((0.25 * h) * w_half_[a], f, this->reports_[a]);
       predictor.push(f);
       this->drift(s, a, h);
-      s.q[a] = s.q[a] * f;
+      s.q[a] = s.q[a].times_near_identity(f);
       f_[a] = f;
     });
     this->evaluate_at(s);
@@ -301,7 +301,7 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
       x_prev_[a] = x_next_[a];
       q_prev_[a] = q_next_[a];
       x_next_[a] = x2;
-      q_next_[a] = q_next_[a] * f;
+      q_next_[a] = q_next_[a].times_near_identity(f);
     });
     this->finish_step(s);
   }
@@ -338,7 +338,7 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
       solvers_[a].solve(b, f, this->reports_[a]);
       this->predictor(a).reset(f);
       x_next_[a] = s.x[a] + (h / body.mass()) * (s.p[a] + (0.5 * h) * this->eval_.force[a]);
-      q_next_[a] = s.q[a] * f;
+      q_next_[a] = s.q[a].times_near_identity(f);
     });
     h_ = h;
     phase_ = Phase::Running;
