@@ -399,10 +399,16 @@ TEST(NBodyLgvi, LennardJonesClusterConservesMomentaAndBoundsEnergy) {
   // (the aim of 1e-12 is not met; README, "Many bodies").
   EXPECT_LE(r.quat, 1e-13);
   EXPECT_LE(r.angular, 2e-11);
-  std::printf("[ lgvi     ] Lennard-Jones cluster, 1e5 steps: |q| - 1 = %.3g, angular momentum %.3g, linear %.3g\n",
-              r.quat, r.angular, r.linear);
-  // Bounded energy: no drift from the first to the last tenth.
-  EXPECT_LE(r.energy_last, 2.0 * r.energy_first);
+  std::printf("[ lgvi     ] Lennard-Jones cluster, 1e5 steps: |q| - 1 = %.3g, angular momentum %.3g, linear %.3g, "
+              "max energy error first tenth %.3g, last tenth %.3g\n",
+              r.quat, r.angular, r.linear, r.energy_first, r.energy_last);
+  // No energy drift. The force jumps at the cutoff (the energy is shifted,
+  // the force is not), so every pair crossing r_c adds an energy error of
+  // random sign: besides the step's bounded oscillation, the error
+  // random-walks, and its maximum over the last tenth may exceed that over
+  // the first by sqrt(10) = 3.2 (measured 0.59 to 2.64 over seeds 1..8 and
+  // 20261121), where a drift linear in t would make it 10: bound 4.
+  EXPECT_LE(r.energy_last, 4.0 * r.energy_first);
 }
 
 // --- threads --------------------------------------------------------------------
