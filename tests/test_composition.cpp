@@ -396,8 +396,9 @@ TEST(ComposedSolver, ResumeFromInternalStateIsBitIdentical) {
     internal = stepper.internal_state();
     return 0;
   });
-  // 9 stages of 13 numbers each: count and 4 vectors of history.
-  EXPECT_EQ(internal.size(), 9u * 13u);
+  // 9 stages of 13 numbers each (count and 4 vectors of history), then the
+  // body's position carry (3).
+  EXPECT_EQ(internal.size(), 9u * 13u + 3u);
   lgvi::app::with_stepper(sc, potential, lgvi::Parallelism{}, [&](auto& stepper) {
     stepper.resume(half, 20 * h, internal);
     lgvi::integrate_range(stepper, half, 0.0, h, 20, 40, [](const lgvi::SystemStepInfo&) {});
