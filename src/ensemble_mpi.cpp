@@ -6,13 +6,22 @@
 // thread), runs members. The rows do not depend on K: each member's numbers
 // come from (seed, index) and each run is deterministic.
 //
-// Messages: a worker keeps two REQUESTs outstanding, each carrying its last
-// row (empty at first); rank 0 answers each with WORK (a member index) or
-// STOP. So each member costs two messages, and rank 0's work per member is
+// Messages: a worker keeps REQUESTs outstanding (about 10 ms of members in
+// reserve, worker_loop), each carrying its last row (or nothing); rank 0
+// answers each with WORK (a member index) or STOP. So each member costs two
+// messages (a few more while a worker fills its reserve), and rank 0's work per member is
 // one receive, one send and one append (~10 us): one coordinator keeps up
 // with K ranks while a member takes more than K x 10 us (a member of 1e4
 // paper-orbit steps takes 2.2 ms: ~200 ranks; beyond, members should be made
 // longer or handed out in blocks).
+//
+// Every send is non-blocking (Outbox). Open MPI's blocking MPI_Send of a
+// small message was seen (gdb samples of a worker) waiting in
+// ompi_sync_wait_mt, spinning, until the receiver next entered MPI: a worker
+// sending its row waited for rank 0's coordinator, which sleeps between polls
+// and shares a core with rank 0's member runs (so it is woken late); rank 0
+// replying waited for a worker busy in a member. Those spins took ~11 % of
+// the worker's core (perf, 4096 members of 1e4 steps, mpirun -n 2).
 #include "ensemble.hpp"
 
 #include <lgvi/error.hpp>
@@ -21,11 +30,14 @@
 
 #include <mpi.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <deque>
 #include <iostream>
+#include <list>
 #include <mutex>
 #include <thread>
 
@@ -36,10 +48,55 @@ namespace {
 
 enum Tag : int { kRequest = 1, kWork = 2, kStop = 3, kAbort = 4, kResult = 5, kDone = 6 };
 
+/// Sends without waiting for the receiver: each message's bytes are kept
+/// until MPI reports the send complete (checked at every post, and by
+/// flush()). Messages between two ranks arrive in the order posted (MPI's
+/// non-overtaking rule holds for non-blocking sends as for blocking ones).
+class Outbox {
+ public:
+  Outbox() = default;
+  Outbox(const Outbox&) = delete;
+  Outbox& operator=(const Outbox&) = delete;
+  ~Outbox() { flush(); }
+
+  /// Text (a row, a message), received as MPI_CHAR.
+  void post(std::string text, int dest, int tag) {
+    Pending& m = add();
+    m.text = std::move(text);
+    MPI_Isend(m.text.data(), static_cast<int>(m.text.size()), MPI_CHAR, dest, tag, MPI_COMM_WORLD, &m.request);
+  }
+  /// A member index, received as one MPI_INT64_T.
+  void post_index(std::int64_t index, int dest, int tag) {
+    Pending& m = add();
+    m.index = index;
+    MPI_Isend(&m.index, 1, MPI_INT64_T, dest, tag, MPI_COMM_WORLD, &m.request);
+  }
+  /// Waits until every message posted has been sent (before MPI_Finalize).
+  void flush() {
+    for (Pending& m : pending_) MPI_Wait(&m.request, MPI_STATUS_IGNORE);
+    pending_.clear();
+  }
+
+ private:
+  struct Pending {
+    std::string text;
+    std::int64_t index = 0;
+    MPI_Request request = MPI_REQUEST_NULL;
+  };
+  /// Drops the messages already sent; a slot for the next.
+  Pending& add() {
+    for (auto it = pending_.begin(); it != pending_.end();) {
+      int done = 0;
+      MPI_Test(&it->request, &done, MPI_STATUS_IGNORE);
+      it = done ? pending_.erase(it) : std::next(it);
+    }
+    return pending_.emplace_back();
+  }
+  std::list<Pending> pending_;  // a list: each message's bytes stay where MPI was told they are
+};
+
 /// One message of text to rank 0 (a row, or a failure's message).
-void send_text(const std::string& text, int tag) {
-  MPI_Send(text.data(), static_cast<int>(text.size()), MPI_CHAR, 0, tag, MPI_COMM_WORLD);
-}
+void send_text(Outbox& out, const std::string& text, int tag) { out.post(text, 0, tag); }
 
 std::string receive_text(const MPI_Status& status) {
   int count = 0;
@@ -49,18 +106,37 @@ std::string receive_text(const MPI_Status& status) {
   return text;
 }
 
-/// Ranks 1..K-1. Two requests stay outstanding, so the next member's index
-/// is already here when a member ends (no round trip between members, and
-/// no wait in a blocking receive, which Open MPI spins). A request carries
-/// the last member's row; each is answered WORK (an index) or STOP. After a
-/// STOP, rows go back as RESULT; DONE ends the rank.
-int worker_loop(const EnsemblePlan& plan, const std::string& dir) {
+/// Ranks 1..K-1. A worker keeps a reserve of members asked for (received
+/// or still on their way) besides the one it runs, so that the next index is
+/// already here when a member ends (no round trip between members, and no
+/// wait in a blocking receive, which Open MPI spins). The reserve covers
+/// kReserveTime of work at the mean duration of the members run so far
+/// (at least 1, at most kMaxReserve members): rank 0's coordinator answers
+/// within its polling interval plus the wait for a core it shares with a
+/// member run (a few ms), while a worker holding more than that would only
+/// leave the last members unevenly spread. A request carries the last
+/// member's row (or nothing); each is answered WORK (an index) or STOP.
+/// After a STOP, rows go back as RESULT; DONE ends the rank.
+int worker_loop(const EnsemblePlan& plan, const std::string& dir, Outbox& out) {
+  constexpr double kReserveTime = 0.010;  // seconds
+  constexpr std::size_t kMaxReserve = 8;
   std::deque<std::int64_t> queue;
-  int outstanding = 0;
+  std::size_t outstanding = 0;
   bool stopped = false;
+  double run_seconds = 0.0;
+  std::int64_t runs = 0;
   auto request = [&](const std::string& row) {
-    send_text(row, kRequest);
+    send_text(out, row, kRequest);
     ++outstanding;
+  };
+  auto top_up = [&] {
+    std::size_t reserve = 1;
+    if (runs > 0) {
+      const double mean = run_seconds / static_cast<double>(runs);
+      reserve = static_cast<std::size_t>(std::clamp(std::ceil(kReserveTime / std::max(mean, 1e-9)), 1.0,
+                                                    static_cast<double>(kMaxReserve)));
+    }
+    while (!stopped && queue.size() + outstanding < reserve) request("");
   };
   request("");
   request("");
@@ -86,22 +162,26 @@ int worker_loop(const EnsemblePlan& plan, const std::string& dir) {
     const std::int64_t index = queue.front();
     queue.pop_front();
     std::string row;
+    const auto start = std::chrono::steady_clock::now();
     try {
       row = run_member(plan, index, 1, ensemble_detail::trajectory_dir(dir, plan, index));
     } catch (const std::exception& e) {
-      send_text(e.what(), kAbort);
+      send_text(out, e.what(), kAbort);
       return 1;
     }
+    run_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    ++runs;
     if (row.empty()) {  // stopped by a signal within the member: not a result
       stopped = true;
       queue.clear();
     } else if (!stopped) {
       request(row);
+      top_up();
     } else {
-      send_text(row, kResult);
+      send_text(out, row, kResult);
     }
   }
-  send_text("", kDone);
+  send_text(out, "", kDone);
   return 0;
 }
 }  // namespace
@@ -116,6 +196,7 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
   struct Finalize {
     ~Finalize() { MPI_Finalize(); }
   } finalize;
+  Outbox out;  // after finalize: destroyed (flushed) before MPI_Finalize
   Signals signals;
 
   // Rank 0 prepares the folder; the others read the plan from its copies.
@@ -144,10 +225,10 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
     try {
       plan = plan_of_folder(dir);
     } catch (const std::exception& e) {
-      send_text(e.what(), kAbort);
+      send_text(out, e.what(), kAbort);
       return 2;
     }
-    return worker_loop(plan, dir);
+    return worker_loop(plan, dir, out);
   }
 
   // Rank 0: the pending members, handed out in index order to whoever asks.
@@ -202,8 +283,10 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
     MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &status);
     if (!flag) {
       // Open MPI's blocking receive spins a core, which rank 0 shares with its member runs.
-      // Workers keep a request in reserve, so a reply 0.5 ms late costs them nothing.
-      std::this_thread::sleep_for(std::chrono::microseconds(500));
+      // Workers keep ~10 ms of members in reserve (worker_loop), so a reply a few ms late costs
+      // them nothing; polling more often took CPU from rank 0's member runs (500/s here, against
+      // 2000/s at 0.5 ms: 4096 members of 1e4 steps, 663 -> 684 members/s).
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
       continue;
     }
     const std::string text = receive_text(status);
@@ -220,7 +303,7 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
         if (!text.empty()) record(text);
         std::int64_t i = -1;
         const bool work = take(i);
-        MPI_Send(&i, 1, MPI_INT64_T, status.MPI_SOURCE, work ? kWork : kStop, MPI_COMM_WORLD);
+        out.post_index(i, status.MPI_SOURCE, work ? kWork : kStop);
       }
     }
   }
