@@ -47,7 +47,12 @@ def variants(path):
 
 def scenario_text(text, method, solver, fmt):
     step = float(re.search(r"^step = ([0-9.eE+-]+)", text, re.M).group(1))
-    text = re.sub(r'^method = "[^"]*"', f'method = "{method}"', text, flags=re.M)
+    # Every variant names its method: replaced where the scenario has a method line, added to
+    # [integrator] where it has none (the default, lgvi, would otherwise run under every name).
+    if re.search(r'^method = "[^"]*"', text, flags=re.M):
+        text = re.sub(r'^method = "[^"]*"', f'method = "{method}"', text, flags=re.M)
+    else:
+        text = text.replace("[integrator]\n", f'[integrator]\nmethod = "{method}"\n', 1)
     text = re.sub(r"^duration = [0-9.eE+-]+", f"duration = {2000 * step!r}", text, flags=re.M)
     text = re.sub(r'^solver = "[^"]*"\n', "", text, flags=re.M)
     if solver:
