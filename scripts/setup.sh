@@ -10,7 +10,7 @@ packages=(g++ make cmake libeigen3-dev libcli11-dev libtomlplusplus-dev libfmt-d
           libgtest-dev libgmock-dev libbenchmark-dev
           python3 python3-numpy python3-matplotlib python3-pytest pybind11-dev python3-dev
           libhdf5-dev python3-h5py clang clang-tidy libclang-rt-14-dev time libboost-dev git zlib1g-dev nlohmann-json3-dev libomp-dev
-          openmpi-bin libopenmpi-dev python3-mpi4py python3-distributed python3-vtk9
+          openmpi-bin libopenmpi-dev python3-mpi4py python3-distributed python3-vtk9 python3-ipykernel python3-jupyter-client
           chromium ffmpeg nodejs)
 missing=()
 for p in "${packages[@]}"; do

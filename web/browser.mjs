@@ -11,8 +11,10 @@ export async function launch() {
   return puppeteer.launch({ executablePath: CHROMIUM, headless: true, args: FLAGS });
 }
 
-/** Opens file://HTML_PATH at width x height; resolves to { page, problems } once window.lgviView.ready. */
-export async function openView(browser, htmlPath, width, height, timeoutMs = 120000) {
+/** Opens file://HTML_PATH at width x height; resolves to { page, view, problems } once window.lgviView.ready.
+ *  `view` is where the view runs: the page itself, or with `inFrame` the page's first iframe (a page that embeds
+ *  the view, as a Jupyter notebook's output does). */
+export async function openView(browser, htmlPath, width, height, timeoutMs = 120000, inFrame = false) {
   const page = await browser.newPage();
   const problems = [];
   page.on('console', (m) => { if (m.type() === 'error' || m.type() === 'assert') problems.push(`console ${m.type()}: ${m.text()}`); });
@@ -24,10 +26,18 @@ export async function openView(browser, htmlPath, width, height, timeoutMs = 120
   });
   await page.setViewport({ width, height, deviceScaleFactor: 1 });
   await page.goto('file://' + htmlPath, { waitUntil: 'load', timeout: timeoutMs });
+  let view = page;
+  if (inFrame) {
+    view = page.frames().find((f) => f !== page.mainFrame());
+    if (!view) {
+      problems.push('the page has no iframe');
+      return { page, view: page, problems };
+    }
+  }
   try {
-    await page.waitForFunction(() => window.lgviView && window.lgviView.ready, { timeout: timeoutMs });
+    await view.waitForFunction(() => window.lgviView && window.lgviView.ready, { timeout: timeoutMs });
   } catch (e) {
     problems.push(`window.lgviView never became ready: ${e.message}`);
   }
-  return { page, problems };
+  return { page, view, problems };
 }

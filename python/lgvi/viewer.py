@@ -320,13 +320,16 @@ def view(source, out=None, max_frames=MAX_FRAMES, display=True):
     """Write the interactive 3-D view of a run (folder, trajectory file or Result) and return its path.
 
     In Jupyter (IPython importable and a kernel running) the page is also
-    displayed inline in an iframe, if ``display``.
+    displayed inline in an iframe, if ``display``: one output whose text/html
+    is the iframe and whose text/plain (for frontends without HTML) names the
+    file. It is published as a raw MIME bundle: IPython's HTML object warns
+    on every HTML that starts with an iframe.
     """
     path = write_view(source, out, max_frames)
     if display:
         try:
             from IPython import get_ipython
-            from IPython.display import HTML, display as show
+            from IPython.display import display as show
         except ImportError:
             return path
         shell = get_ipython()
@@ -334,7 +337,8 @@ def view(source, out=None, max_frames=MAX_FRAMES, display=True):
             import html as html_escape
             with open(path, encoding="utf-8") as f:
                 srcdoc = html_escape.escape(f.read(), quote=True)
-            show(HTML(f'<iframe srcdoc="{srcdoc}" style="width:100%;height:640px;border:0"></iframe>'))
+            show({"text/html": f'<iframe srcdoc="{srcdoc}" style="width:100%;height:640px;border:0"></iframe>',
+                  "text/plain": f"lgvi view: {path}"}, raw=True)
     return path
 
 

@@ -196,10 +196,11 @@ def test_python_view_of_a_result_in_memory(tmp_path, tmp_path_factory):
 
 
 def test_inline_display_in_jupyter(monkeypatch, tmp_path, tmp_path_factory):
-    """Debian's python3 here has no IPython (python3-ipython is not installed), so a stand-in with IPython's names
-    (get_ipython, IPython.display.HTML and display) checks lgvi.view's inline path: in a Jupyter kernel (its shell
-    is a ZMQInteractiveShell) it displays one HTML object, an iframe whose srcdoc is the page written; in a
-    terminal IPython it displays nothing; either way it returns the path."""
+    """A stand-in with IPython's names (get_ipython, IPython.display.display) checks lgvi.view's inline path
+    without a kernel: in a Jupyter kernel (its shell is a ZMQInteractiveShell) it displays one raw MIME bundle,
+    an iframe whose srcdoc is the page written (text/html) and the path (text/plain); in a terminal IPython it
+    displays nothing; either way it returns the path. test_inline_display_in_a_real_jupyter_kernel runs the same
+    call in a real kernel."""
     import html as html_module
     import sys
     import types
@@ -207,14 +208,15 @@ def test_inline_display_in_jupyter(monkeypatch, tmp_path, tmp_path_factory):
     shown, shell_class = [], {"name": "ZMQInteractiveShell"}
     ipython, display = types.ModuleType("IPython"), types.ModuleType("IPython.display")
     ipython.get_ipython = lambda: type(shell_class["name"], (), {})()
-    display.HTML = type("HTML", (), {"__init__": lambda self, data: setattr(self, "data", data)})
-    display.display = shown.append
+    display.display = lambda obj, raw=False: shown.append((obj, raw))
     monkeypatch.setitem(sys.modules, "IPython", ipython)
     monkeypatch.setitem(sys.modules, "IPython.display", display)
     run = make_run(tmp_path_factory, "heavy-top.toml", "inline")
     path = lgvi.view(run)
     assert path == os.path.join(run, "view.html") and len(shown) == 1
-    frame = shown[0].data
+    bundle, raw = shown[0]
+    assert raw and bundle["text/plain"] == f"lgvi view: {path}"
+    frame = bundle["text/html"]
     assert frame.startswith('<iframe srcdoc="') and frame.endswith('" style="width:100%;height:640px;border:0"></iframe>')
     with open(path, encoding="utf-8") as f:
         assert html_module.unescape(frame[len('<iframe srcdoc="'):frame.index('" style=')]) == f.read()
@@ -301,6 +303,81 @@ def test_paper_orbit_in_the_browser(orbit, tmp_path):
            if all(np.hypot(xx - b["x"], yy - b["y"]) > 1.5 * b["radius"] for b in balls)]
     assert len(far) > 200
     assert not any(is_colour_of(img[yy, xx], colour, tol=0.1) for yy, xx in far)
+
+
+def _jupyter_missing():
+    try:
+        import ipykernel  # noqa: F401
+        import jupyter_client  # noqa: F401
+    except ImportError as e:
+        return f"{e.name} (apt-get install python3-ipykernel python3-jupyter-client; scripts/setup.sh installs them)"
+    return ""
+
+
+@needs_browser
+@pytest.mark.skipif(bool(_jupyter_missing()), reason=f"missing {_jupyter_missing()}")
+def test_inline_display_in_a_real_jupyter_kernel(orbit, tmp_path):
+    """lgvi.view in a real Jupyter kernel (Debian's ipykernel, driven through jupyter_client as a notebook
+    frontend does): the kernel publishes one display_data whose text/html is an iframe holding the page written,
+    and the call's value is the path. That output, placed in a page as a notebook places it, runs the view
+    inside the iframe in chromium: the displayed states equal the trajectory's rows, the balls are drawn at
+    their projected positions, with no console error and no network request."""
+    import html as html_module
+    import sys
+
+    import jupyter_client
+
+    out = str(tmp_path / "inline.html")
+    # The kernel is this interpreter (the one that imports lgvi), as a kernelspec of its own.
+    spec = tmp_path / "kernels" / "lgvi-test"
+    spec.mkdir(parents=True)
+    (spec / "kernel.json").write_text(json.dumps({
+        "argv": [sys.executable, "-Xfrozen_modules=off", "-m", "ipykernel_launcher", "-f", "{connection_file}"],
+        "display_name": "lgvi test", "language": "python"}))
+    env = dict(os.environ, JUPYTER_PATH=str(tmp_path), PYTHONPATH=os.pathsep.join(sys.path))
+    km = jupyter_client.KernelManager(kernel_name="lgvi-test")
+    km.kernel_spec_manager.kernel_dirs = [str(tmp_path / "kernels")]
+    km.start_kernel(env=env)
+    try:
+        kc = km.client()
+        kc.start_channels()
+        kc.wait_for_ready(timeout=120)
+        outputs = []
+        reply = kc.execute_interactive(f"import lgvi\nlgvi.view({orbit!r}, out={out!r})", timeout=300,
+                                       output_hook=outputs.append)
+        kc.stop_channels()
+    finally:
+        km.shutdown_kernel(now=True)
+    assert reply["content"]["status"] == "ok", reply["content"]
+    kinds = [m["header"]["msg_type"] for m in outputs if m["header"]["msg_type"] != "status"]
+    # Nothing else: no stream (a warning on stderr would be one; IPython's HTML object gave one for an iframe).
+    assert kinds == ["execute_input", "display_data", "execute_result"], outputs
+    shown = next(m for m in outputs if m["header"]["msg_type"] == "display_data")["content"]["data"]
+    value = next(m for m in outputs if m["header"]["msg_type"] == "execute_result")["content"]["data"]
+    assert value["text/plain"] == repr(out) and shown["text/plain"] == f"lgvi view: {out}"
+    frame = shown["text/html"]
+    assert frame.startswith('<iframe srcdoc="') and frame.endswith('" style="width:100%;height:640px;border:0"></iframe>')
+    with open(out, encoding="utf-8") as f:
+        assert html_module.unescape(frame[len('<iframe srcdoc="'):frame.index('" style=')]) == f.read()
+
+    # The output in a page, as a notebook shows it (an output area of the page's width, no margin).
+    notebook = tmp_path / "notebook.html"
+    notebook.write_text('<!DOCTYPE html><html><head><meta charset="utf-8"></head><body style="margin:0">'
+                        f'<div class="output_html">{frame}</div></body></html>', encoding="utf-8")
+    r = lgvi.load(orbit)
+    t, x, q = r.t, r.x[:, None, :], r.q[:, None, :]
+    asked = [t[0], t[3000], t[3000] + 0.017, t[-1]]
+    report = drive(str(notebook), tmp_path, {"times": asked, "seek": t[3000], "inFrame": True, "height": 640,
+                                             "set": {"follow": 0, "distance": 3.0, "trails": True}})
+    assert report["rows"] == 10001 and report["frames"] == 1668
+    check_states(report, t, x, q)
+    # The iframe fills the page's top 960 x 640 pixels, so the view's projected positions are page pixels.
+    img = screenshot(tmp_path)
+    balls = report["projection"]["parts"]
+    assert len(balls) == 3
+    for ball in balls:
+        assert ball["radius"] > 10
+        assert is_colour_of(img[round(ball["y"]), round(ball["x"])], report["colours"][0]), ball
 
 
 @needs_browser
