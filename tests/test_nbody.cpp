@@ -23,6 +23,8 @@
 #include <cstdio>
 #include <cstring>
 #include <numbers>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace {
@@ -449,6 +451,34 @@ TEST(Threads, ResultsAreBitIdenticalForOneAndTwoThreads) {
                             run_with_threads<lgvi::RattleQuaternionIntegrator>(sys, lj, s, 2, 50)));
   EXPECT_TRUE(bitwise_equal(run_with_threads<lgvi::Rk4NormalizedIntegrator>(sys, lj, s, 1, 50),
                             run_with_threads<lgvi::Rk4NormalizedIntegrator>(sys, lj, s, 2, 50)));
+}
+
+TEST(Threads, BalancedRangesSplitTheRunningCostAtItsFractions) {
+  // Item i costs i: running cost prefix(i) = i (i - 1) / 2, total 4950 over
+  // 100 items. Two threads: range 1 starts at the first i with prefix(i) >=
+  // 2475, i = 71 (prefix 2485; prefix(70) = 2415). Three: 1650 -> 58
+  // (prefix 1653; prefix(57) = 1596) and 3300 -> 82 (prefix 3321; prefix(81) = 3240).
+  auto prefix = [](std::size_t i) { return static_cast<double>(i * (i - 1) / 2); };
+  auto prefix_from_zero = [&](std::size_t i) { return i == 0 ? 0.0 : prefix(i); };
+  EXPECT_EQ(lgvi::balanced_ranges(100, 2, prefix_from_zero), (std::vector<std::size_t>{0, 71, 100}));
+  EXPECT_EQ(lgvi::balanced_ranges(100, 3, prefix_from_zero), (std::vector<std::size_t>{0, 58, 82, 100}));
+  EXPECT_EQ(lgvi::balanced_ranges(100, 1, prefix_from_zero), (std::vector<std::size_t>{0, 100}));
+}
+
+TEST(Threads, RangesVisitEveryItemOnceAndRethrowTheLowestIndexException) {
+  const std::vector<std::size_t> bounds{0, 40, 100};
+  std::vector<int> visits(100, 0);
+  lgvi::parallel_ranges(bounds, [&](std::size_t i) { ++visits[i]; });
+  EXPECT_EQ(visits, std::vector<int>(100, 1));
+  // Failures in both ranges: the one a serial loop meets first (20) is rethrown.
+  try {
+    lgvi::parallel_ranges(bounds, [&](std::size_t i) {
+      if (i == 70 || i == 20 || i == 30) throw std::runtime_error(std::to_string(i));
+    });
+    ADD_FAILURE() << "no exception";
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(), "20");
+  }
 }
 
 TEST(NBodyMethods, EveryMethodConservesLinearMomentumOfAnIsolatedSystem) {

@@ -65,7 +65,7 @@ class LennardJones {
     const double rc2 = cutoff_ * cutoff_;
     pair_force_.resize(pairs_.size());
     pair_energy_.resize(pairs_.size());
-    parallel_for(pairs_.size(), par_, [&](std::size_t k) {
+    parallel_ranges(pair_ranges_, [&](std::size_t k) {
       const auto [i, j] = pairs_[k];
       const Vector3<double> d = position_[j] - position_[i];
       const double r2 = d.squaredNorm();
@@ -85,7 +85,7 @@ class LennardJones {
     // Pass 2, per body on one thread: each site's neighbours in the list's
     // order (by site index), so the sums do not depend on the threads.
     energy_.assign(n, 0.0);
-    parallel_for(n, par_, [&](std::size_t a) {
+    parallel_ranges(body_ranges_, [&](std::size_t a) {
       Vector3<double> force = Vector3<double>::Zero(), torque = Vector3<double>::Zero();
       double energy = 0.0;
       for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
@@ -239,6 +239,17 @@ class LennardJones {
         pair_of_[k] = pair_of_[static_cast<std::size_t>(std::lower_bound(begin, end, i) - neighbours_.begin())];
       }
     });
+    // How passes 1 and 2 split their work between threads: the bodies into
+    // consecutive ranges of about equal list entries (pass 2's cost; a gas
+    // that clusters makes halves by count uneven), and the pairs at the same
+    // bodies' first sites, so that each thread computes the pair forces its
+    // own bodies sum next (they stay in its cache). Results do not depend on it.
+    const std::size_t n = sys_.size();
+    const int threads = par_.threads_for(n);
+    body_ranges_ = balanced_ranges(n, threads, [&](std::size_t a) { return list_start_[a < n ? sites_.begin(a) : m]; });
+    pair_ranges_.resize(body_ranges_.size());
+    for (std::size_t t = 0; t < body_ranges_.size(); ++t)
+      pair_ranges_[t] = pair_start_[body_ranges_[t] < n ? sites_.begin(body_ranges_[t]) : m];
     built_at_ = position_;
   }
 
@@ -256,6 +267,7 @@ class LennardJones {
   mutable std::vector<std::size_t> cell_index_, cell_start_, fill_, sorted_, list_start_, neighbours_, pair_of_,
       pair_start_;
   mutable std::vector<std::vector<std::size_t>> chunk_lists_;
+  mutable std::vector<std::size_t> body_ranges_, pair_ranges_;  ///< per thread t: [r[t], r[t + 1]) (build_lists)
   mutable std::vector<std::pair<std::size_t, std::size_t>> pairs_;
   mutable std::vector<Vector3<double>> pair_force_;
   mutable std::vector<double> pair_energy_;

@@ -4,7 +4,8 @@
 // Determinism: every iteration writes only its own body's entries, in an
 // order fixed by the iteration alone, and every sum over bodies is taken
 // afterwards on one thread in body order. So the floating-point results are
-// bit-identical for 1, 2 or any number of threads (tests/test_system.cpp).
+// bit-identical for 1, 2 or any number of threads (tests/test_nbody.cpp,
+// Threads.ResultsAreBitIdenticalForOneAndTwoThreads).
 //
 // Exceptions: an exception may not leave an OpenMP region. Each iteration's
 // exception is caught; after the loop the one of the lowest index is
@@ -20,6 +21,11 @@
 #include <exception>
 #include <limits>
 #include <thread>
+#include <vector>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 namespace lgvi {
 
@@ -64,6 +70,62 @@ void parallel_for(std::size_t n, const Parallelism& par, F&& f) {
       if (i < first_index) {
         first_index = i;
         first = std::current_exception();
+      }
+    }
+  }
+  if (first) std::rethrow_exception(first);
+}
+
+/// Splits 0..n-1 into `threads` consecutive ranges of about equal cost:
+/// `prefix(i)` is the running cost (prefix(0) = 0, prefix(i + 1) - prefix(i)
+/// the cost of item i, for i up to n). Range t is [bounds[t], bounds[t + 1]),
+/// its first item the first whose running cost reaches t / threads of the
+/// total. Depends on the costs only.
+template <class Prefix>
+std::vector<std::size_t> balanced_ranges(std::size_t n, int threads, const Prefix& prefix) {
+  std::vector<std::size_t> bounds(static_cast<std::size_t>(threads) + 1, n);
+  bounds[0] = 0;
+  const double total = static_cast<double>(prefix(n));
+  std::size_t i = 0;
+  for (int t = 1; t < threads; ++t) {
+    const double target = total * t / threads;
+    while (i < n && static_cast<double>(prefix(i)) < target) ++i;
+    bounds[static_cast<std::size_t>(t)] = i;
+  }
+  return bounds;
+}
+
+/// Calls f(i) for i in [bounds[t], bounds[t + 1]) on thread t of
+/// bounds.size() - 1 threads: each thread its own consecutive range, so that
+/// loops split alike touch the same data on the same thread (its cache).
+/// f must write only what belongs to i; exceptions as in parallel_for.
+template <class F>
+void parallel_ranges(const std::vector<std::size_t>& bounds, F&& f) {
+  const int threads = static_cast<int>(bounds.size()) - 1;
+  if (threads <= 1) {
+    for (std::size_t i = bounds.front(); i < bounds.back(); ++i) f(i);
+    return;
+  }
+  std::exception_ptr first;
+  std::size_t first_index = std::numeric_limits<std::size_t>::max();
+#pragma omp parallel num_threads(threads)
+  {
+#ifdef _OPENMP
+    const auto t = static_cast<std::size_t>(omp_get_thread_num());
+    const std::size_t from = bounds[t], to = bounds[t + 1];
+#else
+    const std::size_t from = bounds.front(), to = bounds.back();
+#endif
+    for (std::size_t i = from; i < to; ++i) {
+      try {
+        f(i);
+      } catch (...) {
+#pragma omp critical(lgvi_parallel_for_exception)
+        if (i < first_index) {
+          first_index = i;
+          first = std::current_exception();
+        }
+        break;
       }
     }
   }
