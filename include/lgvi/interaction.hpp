@@ -27,6 +27,7 @@
 #include <limits>
 #include <cstddef>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -67,6 +68,16 @@ class ExternalField {
       e.energy = pe.energy;
       e.force[0] = pe.force;
       e.torque[0] = pe.torque;
+      return;
+    }
+    if constexpr (std::is_same_v<P, NoPotential>) {
+      // No field: zeros, written on this thread (a parallel region here cost
+      // more than the writes; a many-body run without a field, such as a
+      // Lennard-Jones gas, goes through this every step). The same values as
+      // the loop below: every term is 0.
+      std::fill(e.force.begin(), e.force.end(), Vector3<double>::Zero());
+      std::fill(e.torque.begin(), e.torque.end(), Vector3<double>::Zero());
+      e.energy = 0.0;
       return;
     }
     energies_.resize(n);
