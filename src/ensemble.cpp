@@ -564,6 +564,19 @@ std::vector<std::string> read_journal(const std::string& dir, std::int64_t membe
   return rows;
 }
 
+void cut_torn_line(const std::string& dir) {
+  const fs::path path = fs::path(dir) / "journal.csv";
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return;
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  in.close();
+  if (text.empty() || text.back() == '\n') return;
+  const std::size_t keep = text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1;
+  std::error_code ec;
+  fs::resize_file(path, keep, ec);
+  if (ec) throw InvalidInput(path.string() + ": cannot cut its torn last line (" + ec.message() + ")");
+}
+
 void append_journal(const std::string& dir, const std::string& row) {
   const std::string path = (fs::path(dir) / "journal.csv").string();
   std::FILE* f = std::fopen(path.c_str(), "ab");
@@ -656,6 +669,7 @@ Prepared prepare(const std::string& sweep_path, const EnsembleOptions& opt) {
   p.dir = opt.out_dir;
   if (opt.resume) {
     p.plan = plan_of_folder(p.dir);
+    cut_torn_line(p.dir);
   } else {
     p.plan = read_ensemble(sweep_path);
     if (p.dir.empty()) p.dir = fs::path(sweep_path).stem().string();
@@ -673,6 +687,26 @@ Prepared prepare(const std::string& sweep_path, const EnsembleOptions& opt) {
   }
   p.rows = read_journal(p.dir, p.plan.members());
   return p;
+}
+
+EnsembleProgress::EnsembleProgress(const EnsembleOptions& options, std::int64_t total, std::int64_t done)
+    : enabled_(!options.quiet && (options.progress || isatty(2) != 0)), total_(total), start_done_(done),
+      start_(clock::now()) {}
+
+void EnsembleProgress::operator()(std::int64_t done, std::int64_t failed) {
+  if (!enabled_) return;
+  const double s = std::chrono::duration<double>(clock::now() - start_).count();
+  const double rate = s > 0 ? static_cast<double>(done - start_done_) / s : 0.0;
+  const double left = rate > 0 ? static_cast<double>(total_ - done) / rate : 0.0;
+  std::fprintf(stderr, "\rlgvi ensemble: %lld/%lld members, %lld failed, %.3g members/s, ~%.0f s left   ",
+               static_cast<long long>(done), static_cast<long long>(total_), static_cast<long long>(failed), rate,
+               left);
+  std::fflush(stderr);
+  shown_ = true;
+}
+
+EnsembleProgress::~EnsembleProgress() {
+  if (shown_) std::fprintf(stderr, "\n");
 }
 
 int finish(const Prepared& p, std::int64_t done, std::int64_t failed, const EnsembleOptions& opt) {
@@ -710,33 +744,6 @@ bool launched_as_mpi_rank() {
 namespace {
 
 /// Members done / total, failures, rate and time left, on one terminal line.
-class EnsembleProgress {
- public:
-  EnsembleProgress(bool enabled, std::int64_t total, std::int64_t done)
-      : enabled_(enabled && isatty(2) != 0), total_(total), start_done_(done), start_(clock::now()) {}
-  void operator()(std::int64_t done, std::int64_t failed) {
-    if (!enabled_) return;
-    const double s = std::chrono::duration<double>(clock::now() - start_).count();
-    const double rate = s > 0 ? static_cast<double>(done - start_done_) / s : 0.0;
-    const double left = rate > 0 ? static_cast<double>(total_ - done) / rate : 0.0;
-    std::fprintf(stderr, "\rlgvi ensemble: %lld/%lld members, %lld failed, %.3g members/s, ~%.0f s left   ",
-                 static_cast<long long>(done), static_cast<long long>(total_), static_cast<long long>(failed), rate,
-                 left);
-    shown_ = true;
-  }
-  ~EnsembleProgress() {
-    if (shown_) std::fprintf(stderr, "\n");
-  }
-  EnsembleProgress(const EnsembleProgress&) = delete;
-  EnsembleProgress& operator=(const EnsembleProgress&) = delete;
-
- private:
-  using clock = std::chrono::steady_clock;
-  bool enabled_;
-  std::int64_t total_, start_done_;
-  clock::time_point start_;
-  bool shown_ = false;
-};
 
 }  // namespace
 
@@ -832,7 +839,7 @@ int run_ensemble(const std::string& sweep_path, const EnsembleOptions& opt) {
   const int cores = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   const int threads =
       std::max(1, std::min<int>(opt.threads > 0 ? opt.threads : cores, static_cast<int>(std::max<std::size_t>(pending.size(), 1))));
-  EnsembleProgress progress(!opt.quiet, p.plan.members(), done);
+  ensemble_detail::EnsembleProgress progress(opt, p.plan.members(), done);
   std::mutex mutex;
   std::size_t next = 0;
   std::exception_ptr error;

@@ -20,6 +20,7 @@
 
 #include "scenario.hpp"
 
+#include <chrono>
 #include <cstdint>
 #include <ostream>
 #include <string>
@@ -90,6 +91,9 @@ struct EnsembleOptions {
   bool resume = false;
   bool quiet = false;
   bool figures = true;  ///< draw the figures (lgvi.plot) when the ensemble is complete
+  /// Show the progress line even when stderr is not a terminal (under
+  /// mpirun, a rank's stderr is a pipe to mpirun, which passes it on).
+  bool progress = false;
 };
 
 /// `lgvi ensemble SWEEP --out DIR` / `lgvi ensemble --resume DIR`: runs the
@@ -118,6 +122,27 @@ Prepared prepare(const std::string& sweep_path, const EnsembleOptions& options);
 EnsemblePlan plan_of_folder(const std::string& dir);
 /// Appends a row to the journal and flushes it (what rank 0 has is on disk).
 void append_journal(const std::string& dir, const std::string& row);
+/// Cuts the journal's last line if it is torn (no newline: the process died
+/// while writing it), so that the next row appended starts a line of its own.
+void cut_torn_line(const std::string& dir);
+/// The progress line on a terminal (stderr): members done / total, failures,
+/// rate and time left. Shown unless quiet, when stderr is a terminal or when
+/// asked for (--progress).
+class EnsembleProgress {
+ public:
+  EnsembleProgress(const EnsembleOptions& options, std::int64_t total, std::int64_t done);
+  void operator()(std::int64_t done, std::int64_t failed);
+  ~EnsembleProgress();
+  EnsembleProgress(const EnsembleProgress&) = delete;
+  EnsembleProgress& operator=(const EnsembleProgress&) = delete;
+
+ private:
+  using clock = std::chrono::steady_clock;
+  bool enabled_;
+  std::int64_t total_, start_done_;
+  clock::time_point start_;
+  bool shown_ = false;
+};
 /// members.csv: the header and every row present, in member order; and,
 /// when the base scenario's [output] format is npz or hdf5, members.npz or
 /// members.h5 with the same columns (one array each: int64 index, completed

@@ -198,6 +198,12 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
   } finalize;
   Outbox out;  // after finalize: destroyed (flushed) before MPI_Finalize
   Signals signals;
+  if (opt.threads > 1) {  // not built: a rank runs one member at a time (one line, from rank 0 only)
+    if (rank == 0)
+      throw InvalidInput("--threads: under mpirun each rank runs one member at a time; start one rank per core "
+                         "instead (mpirun -n K), or run on threads without mpirun");
+    return 2;
+  }
 
   // Rank 0 prepares the folder; the others read the plan from its copies.
   Prepared p;
@@ -242,6 +248,7 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
       failed += row_failed(p.rows[static_cast<std::size_t>(i)], p.plan) ? 1 : 0;
     }
   }
+  EnsembleProgress progress(opt, p.plan.members(), done);
   std::mutex mutex;
   std::size_t next = 0;
   std::string abort_message;
@@ -258,6 +265,7 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
     p.rows[i] = row;
     ++done;
     failed += row_failed(row, p.plan) ? 1 : 0;
+    progress(done, failed);
   };
   // Rank 0's own member runs, on a second thread (MPI stays on this one).
   std::atomic<bool> local_done{false};

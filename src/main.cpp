@@ -101,6 +101,8 @@ int run_cli(int argc, char** argv) {
   ensemble->add_option("--threads", ensemble_options.threads, "Members run at once (default: all cores)")
       ->check(CLI::Range(1, 1024));
   ensemble->add_flag("-q,--quiet", ensemble_options.quiet, "Print nothing on success");
+  ensemble->add_flag("--progress", ensemble_options.progress,
+                     "Show the progress line even where stderr is not a terminal (under mpirun: a pipe)");
   bool ensemble_no_figures = false;
   ensemble->add_flag("--no-figures", ensemble_no_figures,
                      "Do not draw error_distribution.png and error_vs_varied.png");

@@ -225,6 +225,74 @@ def test_sigterm_then_resume_gives_the_uninterrupted_bytes(tmp_path):
 
 
 @needs_mpi
+def test_threads_under_mpirun_are_refused_in_one_line(tmp_path):
+    """A rank runs one member at a time: --threads under mpirun is an error from rank 0 (one line), not ignored."""
+    path = sweep(tmp_path, members=4)
+    proc = ensemble(path, "--out", tmp_path / "out", "--threads", "2", mpi=2)
+    assert proc.returncode != 0
+    lines = [line for line in proc.stderr.splitlines() if line.startswith("lgvi: error:")]
+    assert lines == ["lgvi: error: --threads: under mpirun each rank runs one member at a time; start one rank per "
+                     "core instead (mpirun -n K), or run on threads without mpirun"], proc.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_resume_after_a_torn_journal_line_gives_the_uninterrupted_bytes(tmp_path):
+    """A process killed while appending leaves a last line without its newline. --resume cuts it, so the next
+    row appended starts a line of its own; before, that row was glued onto the fragment and the journal held a
+    line with the fragment's index and too many fields (a second interruption would have kept it)."""
+    path = sweep(tmp_path, members=12)
+    whole = ensemble(path, "--out", tmp_path / "whole", "--threads", "2")
+    assert whole.returncode == 0, whole.stderr
+    rows = (tmp_path / "whole" / "journal.csv").read_text().splitlines()
+    cut = tmp_path / "cut"
+    cut.mkdir()
+    for name in ("sweep.toml", "scenario.toml"):
+        (cut / name).write_bytes((tmp_path / "whole" / name).read_bytes())
+    # Five whole rows, then half of a sixth.
+    (cut / "journal.csv").write_text("\n".join(rows[:5]) + "\n" + rows[5][: len(rows[5]) // 2])
+    resumed = ensemble("--resume", cut, "--threads", "2")
+    assert resumed.returncode == 0, resumed.stderr
+    assert (cut / "members.csv").read_bytes() == (tmp_path / "whole" / "members.csv").read_bytes()
+    fields = len(rows[0].split(","))
+    journal = (cut / "journal.csv").read_text()
+    assert journal.endswith("\n") and all(len(line.split(",")) == fields for line in journal.splitlines())
+    assert sorted(journal.splitlines()) == sorted(rows)
+
+
+@pytest.mark.parametrize("mpi", [0, pytest.param(2, marks=needs_mpi)])
+def test_progress_on_a_terminal(tmp_path, mpi):
+    """On a terminal (a pseudo-terminal here) the runner shows members done / total, failures, rate and time
+    left, on threads and under mpirun (rank 0 draws it; a rank's stderr is a pipe to mpirun, so there it takes
+    --progress); the last state shown is the whole ensemble."""
+    import pty
+    import re as regex
+
+    path = sweep(tmp_path, members=16)
+    cmd = ([MPIRUN, "-n", str(mpi), "--oversubscribe"] if mpi else []) + [
+        BINARY, "ensemble", str(path), "--out", str(tmp_path / "out"), "--no-figures"] + (
+        ["--progress"] if mpi else ["--threads", "2"])
+    leader, follower = pty.openpty()
+    proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=follower, env=MPI_ENV)
+    os.close(follower)
+    shown = b""
+    while True:
+        try:
+            chunk = os.read(leader, 4096)
+        except OSError:  # the terminal closed: every writer has exited
+            break
+        if not chunk:
+            break
+        shown += chunk
+    os.close(leader)
+    assert proc.wait(timeout=120) == 0, shown
+    states = regex.findall(rb"lgvi ensemble: (\d+)/16 members, (\d+) failed, \S+ members/s, ~\d+ s left", shown)
+    assert states, shown
+    assert states[-1] == (b"16", b"0")
+    done = [int(d) for d, _ in states]
+    assert done == sorted(done)
+
+
+@needs_mpi
 def test_a_killed_rank_loses_no_finished_member_and_resume_completes(tmp_path):
     path = sweep(tmp_path, members=60, duration=200.0)
     whole = ensemble(path, "--out", tmp_path / "whole", "--threads", "1")
