@@ -352,8 +352,10 @@ std::string EnsemblePlan::member_toml(std::int64_t i) const {
   return write_toml(doc);
 }
 
+/// With check_members false, only member 0's scenario is read (for the
+/// columns and the format): for a plan whose members were checked already.
 static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std::string& name, const std::string& base_dir,
-                                 const std::string* scenario_text) {
+                                 const std::string* scenario_text, bool check_members = true) {
   const SweepReader r(name);
   toml::table root;
   try {
@@ -454,7 +456,7 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
   // Every member's scenario, read as `lgvi run` reads it, before any runs.
   std::size_t bodies = 0;
   std::vector<std::string> state_cols;
-  for (std::int64_t m = 0; m < members; ++m) {
+  for (std::int64_t m = 0; m < (check_members ? members : 1); ++m) {
     Scenario sc;
     try {
       sc = parse_scenario(plan.member_toml(m), plan.scenario_name);
@@ -656,12 +658,13 @@ Signals::~Signals() {
   delete saved_;
 }
 
-EnsemblePlan plan_of_folder(const std::string& dir) {
+EnsemblePlan plan_of_folder(const std::string& dir, bool check_members) {
   const fs::path d(dir);
   if (!fs::exists(d / "sweep.toml"))
     throw InvalidInput(dir + ": not an ensemble folder (no sweep.toml); give the folder written by lgvi ensemble");
   const std::string base = read_text(d / "scenario.toml", "base scenario copy");
-  return parse_ensemble_with(read_text(d / "sweep.toml", "sweep copy"), (d / "sweep.toml").string(), dir, &base);
+  return parse_ensemble_with(read_text(d / "sweep.toml", "sweep copy"), (d / "sweep.toml").string(), dir, &base,
+                             check_members);
 }
 
 Prepared prepare(const std::string& sweep_path, const EnsembleOptions& opt) {
@@ -792,7 +795,7 @@ void show_ensemble(const std::string& dir, std::ostream& out) {
   // The planned size from the folder's sweep copy; members.csv alone: what it holds.
   std::int64_t planned = 0;
   try {
-    planned = ensemble_detail::plan_of_folder(dir).members();
+    planned = ensemble_detail::plan_of_folder(dir, false).members();
   } catch (const std::exception&) {
     planned = rows;
   }

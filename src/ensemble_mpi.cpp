@@ -229,7 +229,7 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
   if (rank != 0) {
     EnsemblePlan plan;
     try {
-      plan = plan_of_folder(dir);
+      plan = plan_of_folder(dir, false);  // rank 0 has checked every member
     } catch (const std::exception& e) {
       send_text(out, e.what(), kAbort);
       return 2;
