@@ -567,25 +567,40 @@ std::vector<std::string> read_journal(const std::string& dir, std::int64_t membe
 }
 
 void cut_torn_line(const std::string& dir) {
-  const fs::path path = fs::path(dir) / "journal.csv";
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return;
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  in.close();
-  if (text.empty() || text.back() == '\n') return;
-  const std::size_t keep = text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1;
-  std::error_code ec;
-  fs::resize_file(path, keep, ec);
-  if (ec) throw InvalidInput(path.string() + ": cannot cut its torn last line (" + ec.message() + ")");
+  for (const char* name : {"journal.csv", "timings.csv"}) {
+    const fs::path path = fs::path(dir) / name;
+    std::ifstream in(path, std::ios::binary);
+    if (!in) continue;
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    in.close();
+    if (text.empty() || text.back() == '\n') continue;
+    const std::size_t keep = text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1;
+    std::error_code ec;
+    fs::resize_file(path, keep, ec);
+    if (ec) throw InvalidInput(path.string() + ": cannot cut its torn last line (" + ec.message() + ")");
+  }
 }
 
-void append_journal(const std::string& dir, const std::string& row) {
-  const std::string path = (fs::path(dir) / "journal.csv").string();
+namespace {
+void append_line(const std::string& path, const std::string& line) {
   std::FILE* f = std::fopen(path.c_str(), "ab");
   if (!f) throw std::runtime_error(path + ": cannot append");
-  const std::string line = row + "\n";
   const bool ok = std::fwrite(line.data(), 1, line.size(), f) == line.size();
   if (std::fclose(f) != 0 || !ok) throw std::runtime_error(path + ": write failed");
+}
+}  // namespace
+
+void append_journal(const std::string& dir, const std::string& row) {
+  append_line((fs::path(dir) / "journal.csv").string(), row + "\n");
+}
+
+void append_timing(const std::string& dir, std::int64_t index, double seconds, int rank) {
+  const fs::path path = fs::path(dir) / "timings.csv";
+  std::string line;
+  std::error_code ec;
+  if (!fs::exists(path, ec) || fs::file_size(path, ec) == 0) line = "index,wall_seconds,rank\n";
+  line += fmt::format("{},{:.6g},{}\n", index, seconds, rank);
+  append_line(path.string(), line);
 }
 
 void write_members(const std::string& dir, const EnsemblePlan& plan, const std::vector<std::string>& rows) {
@@ -857,10 +872,13 @@ int run_ensemble(const std::string& sweep_path, const EnsembleOptions& opt) {
           i = pending[next++];
         }
         try {
+          const auto start = std::chrono::steady_clock::now();
           const std::string row = run_member(p.plan, i, 1, trajectory_dir(p.dir, p.plan, i));
+          const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
           if (row.empty()) return;  // stopped within the member
           std::lock_guard<std::mutex> lock(mutex);
           append_journal(p.dir, row);
+          append_timing(p.dir, i, seconds, 0);
           p.rows[static_cast<std::size_t>(i)] = row;
           ++done;
           failed += row_failed(row, p.plan) ? 1 : 0;

@@ -125,8 +125,14 @@ Prepared prepare(const std::string& sweep_path, const EnsembleOptions& options);
 EnsemblePlan plan_of_folder(const std::string& dir, bool check_members = true);
 /// Appends a row to the journal and flushes it (what rank 0 has is on disk).
 void append_journal(const std::string& dir, const std::string& row);
+/// Appends member `index`'s wall time (seconds: reading its scenario and
+/// running it) and the rank that ran it (0 on threads) to DIR/timings.csv,
+/// in the order members finish; writes its header first if the file is new.
+/// Kept apart from members.csv, which must not depend on the run's timing.
+void append_timing(const std::string& dir, std::int64_t index, double seconds, int rank);
 /// Cuts the journal's last line if it is torn (no newline: the process died
 /// while writing it), so that the next row appended starts a line of its own.
+/// The same for timings.csv.
 void cut_torn_line(const std::string& dir);
 /// The progress line on a terminal (stderr): members done / total, failures,
 /// rate and time left. Shown unless quiet, when stderr is a terminal or when

@@ -35,8 +35,10 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <cstdlib>
 #include <deque>
 #include <iostream>
+#include <iterator>
 #include <list>
 #include <mutex>
 #include <thread>
@@ -169,12 +171,17 @@ int worker_loop(const EnsemblePlan& plan, const std::string& dir, Outbox& out) {
       send_text(out, e.what(), kAbort);
       return 1;
     }
-    run_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    run_seconds += seconds;
     ++runs;
     if (row.empty()) {  // stopped by a signal within the member: not a result
       stopped = true;
       queue.clear();
-    } else if (!stopped) {
+      continue;
+    }
+    row.push_back('\n');  // a row has no newline: the wall time follows one
+    fmt::format_to(std::back_inserter(row), "{:.17g}", seconds);
+    if (!stopped) {
       request(row);
       top_up();
     } else {
@@ -258,14 +265,21 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
     i = pending[next++];
     return true;
   };
-  auto record = [&](const std::string& row) {
+  // A row and the wall time of its run, from the rank that ran it.
+  auto record = [&](const std::string& row, double seconds, int from) {
     std::lock_guard<std::mutex> lock(mutex);
     const auto i = static_cast<std::size_t>(std::stoll(row.substr(0, row.find(','))));
     append_journal(dir, row);
+    append_timing(dir, static_cast<std::int64_t>(i), seconds, from);
     p.rows[i] = row;
     ++done;
     failed += row_failed(row, p.plan) ? 1 : 0;
     progress(done, failed);
+  };
+  // A worker's message: its row, a newline, the run's wall time.
+  auto record_message = [&](const std::string& text, int from) {
+    const std::size_t cut = text.rfind('\n');
+    record(text.substr(0, cut), std::strtod(text.c_str() + cut + 1, nullptr), from);
   };
   // Rank 0's own member runs, on a second thread (MPI stays on this one).
   std::atomic<bool> local_done{false};
@@ -273,9 +287,10 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
     std::int64_t i = 0;
     while (take(i)) {
       try {
+        const auto start = std::chrono::steady_clock::now();
         const std::string row = run_member(p.plan, i, 1, trajectory_dir(dir, p.plan, i));
         if (row.empty()) break;
-        record(row);
+        record(row, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 0);
       } catch (const std::exception& e) {
         std::lock_guard<std::mutex> lock(mutex);
         abort_message = e.what();
@@ -306,9 +321,9 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
         break;
       }
       case kDone: --active; break;
-      case kResult: record(text); break;
+      case kResult: record_message(text, status.MPI_SOURCE); break;
       default: {  // kRequest, with the last row
-        if (!text.empty()) record(text);
+        if (!text.empty()) record_message(text, status.MPI_SOURCE);
         std::int64_t i = -1;
         const bool work = take(i);
         out.post_index(i, status.MPI_SOURCE, work ? kWork : kStop);

@@ -224,6 +224,23 @@ def test_sigterm_then_resume_gives_the_uninterrupted_bytes(tmp_path):
     assert (tmp_path / "cut" / "members.csv").read_bytes() == (tmp_path / "whole" / "members.csv").read_bytes()
 
 
+@pytest.mark.parametrize("mpi", [0, pytest.param(2, marks=needs_mpi)])
+def test_timings_has_each_members_wall_time_and_rank(tmp_path, mpi):
+    """timings.csv (kept apart from members.csv, which must not depend on timing): one line per member, in the
+    order they finished, with its wall time and the rank that ran it; under mpirun -n 2 both ranks ran members
+    (rank 0 on its second thread, rank 1 by hand-out)."""
+    path = sweep(tmp_path, members=24, duration=200.0)
+    proc = ensemble(path, "--out", tmp_path / "out", *([] if mpi else ["--threads", "2"]), mpi=mpi)
+    assert proc.returncode == 0, proc.stderr
+    lines = (tmp_path / "out" / "timings.csv").read_text().splitlines()
+    assert lines[0] == "index,wall_seconds,rank"
+    rows = [line.split(",") for line in lines[1:]]
+    assert sorted(int(r[0]) for r in rows) == list(range(24))
+    # 20000 steps of the paper orbit take milliseconds; a wall time outside (0, 10 s) is not a measurement.
+    assert all(0.0 < float(r[1]) < 10.0 for r in rows)
+    assert {int(r[2]) for r in rows} == ({0, 1} if mpi else {0})
+
+
 @needs_mpi
 def test_threads_under_mpirun_are_refused_in_one_line(tmp_path):
     """A rank runs one member at a time: --threads under mpirun is an error from rank 0 (one line), not ignored."""
