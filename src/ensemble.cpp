@@ -779,9 +779,23 @@ double quantile(const std::vector<double>& sorted, double q) {
 }  // namespace
 
 void show_ensemble(const std::string& dir, std::ostream& out) {
-  const fs::path file = fs::path(dir) / "members.csv";
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw InvalidInput(file.string() + ": no members here; is '" + dir + "' a folder of lgvi ensemble?");
+  fs::path file = fs::path(dir) / "members.csv";
+  std::istringstream in;
+  bool from_journal = false;
+  if (fs::exists(file)) {
+    in.str(read_text(file, "members table"));
+  } else {
+    // Running, or stopped without a table (kill -9): the journal's whole
+    // lines under the header of the folder's plan.
+    file = fs::path(dir) / "journal.csv";
+    if (!fs::exists(file))
+      throw InvalidInput((fs::path(dir) / "members.csv").string() + ": no members here; is '" + dir +
+                         "' a folder of lgvi ensemble?");
+    std::string text = read_text(file, "journal");
+    text.erase(text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1);  // a torn last line
+    in.str(ensemble_detail::plan_of_folder(dir, false).header + "\n" + text);
+    from_journal = true;
+  }
   std::string line;
   std::getline(in, line);
   const std::vector<std::string> header = csv_fields(line);
@@ -816,6 +830,9 @@ void show_ensemble(const std::string& dir, std::ostream& out) {
   }
   auto row = [&](const std::string& name, const std::string& value) { out << fmt::format("{:<26} {}\n", name, value); };
   row("ensemble", fmt::format("{} ({} of {} members{})", dir, rows, planned, rows < planned ? ", NOT complete" : ""));
+  if (from_journal)
+    row("", fmt::format("from journal.csv: no members.csv yet (running, or stopped by kill -9); "
+                        "lgvi ensemble --resume {} completes it", dir));
   row("failed", fmt::format("{}", failed));
   for (const auto& [message, count] : messages) row("  " + std::to_string(count) + " x", message);
   row("quantiles (completed)", "min / median / 90% / max");

@@ -172,7 +172,8 @@ int run_cli(int argc, char** argv) {
     }
     if (view->parsed()) return lgvi::app::write_view(view_dir, view_options);
     if (show->parsed()) {
-      if (std::filesystem::exists(std::filesystem::path(show_dir) / "members.csv"))
+      if (std::filesystem::exists(std::filesystem::path(show_dir) / "members.csv") ||
+          std::filesystem::exists(std::filesystem::path(show_dir) / "journal.csv"))
         lgvi::app::show_ensemble(show_dir, std::cout);
       else
         lgvi::app::show_run(show_dir, std::cout);

@@ -331,10 +331,18 @@ def _draw_ensemble(plt, e, out_dir, written):
     _save(fig, out_dir, "error_distribution.png", written)
     varied = e.header[1:e.header.index("completed")]
     if varied:
-        shown = varied[:6]
-        fig, axes = plt.subplots(1, len(shown), figsize=(3.6 * len(shown), 3.6), squeeze=False)
+        # Every varied value (a vector key varies each component), four panels a row; past 24 the
+        # figure would be unreadable: the first 24, and the title says so.
+        shown = varied[:24]
+        ncols = min(4, len(shown))
+        nrows = (len(shown) + ncols - 1) // ncols
+        fig, axes = plt.subplots(nrows, ncols, figsize=(3.6 * ncols, 3.2 * nrows), squeeze=False)
+        for ax in axes.flat[len(shown):]:
+            ax.set_visible(False)
+        if len(shown) < len(varied):
+            fig.suptitle(f"the first {len(shown)} of {len(varied)} varied values", fontsize=9)
         energy = np.asarray(e.columns["max_abs_energy_error"])
-        for ax, name in zip(axes[0], shown):
+        for ax, name in zip(axes.flat, shown):
             x = np.asarray(e.columns[name])
             ax.semilogy(x[ok], np.maximum(energy[ok], np.finfo(float).tiny), ".", ms=4, label="completed")
             if (~ok).any():

@@ -241,6 +241,83 @@ def test_timings_has_each_members_wall_time_and_rank(tmp_path, mpi):
     assert {int(r[2]) for r in rows} == ({0, 1} if mpi else {0})
 
 
+def test_a_body_by_name_and_trajectories_all(tmp_path):
+    """A key of one body by its name (bodies.secondary.omega) varies that body only; trajectories = "all" keeps
+    each member's run folder, whose scenario holds the member's value and whose summary's final state is the
+    member's row in members.csv, digit for digit."""
+    import json
+    import tomllib
+
+    text = (SOURCE / "scenarios" / "binary-asteroid.toml").read_text().replace("duration = 400.0", "duration = 2.0")
+    assert "duration = 2.0" in text
+    (tmp_path / "binary.toml").write_text(text)
+    (tmp_path / "sweep.toml").write_text('[ensemble]\nscenario = "binary.toml"\ntrajectories = "all"\n'
+                                         '[[vary]]\nkey = "bodies.secondary.omega"\n'
+                                         'values = [[0.0, 0.0, 0.1], [0.0, 0.0, 0.3]]\n')
+    proc = ensemble(tmp_path / "sweep.toml", "--out", tmp_path / "out", "--threads", "2")
+    assert proc.returncode == 0, proc.stderr
+    table = (tmp_path / "out" / "members.csv").read_text().splitlines()
+    header = table[0].split(",")
+    assert header[:4] == ["index"] + [f"bodies.secondary.omega[{k}]" for k in range(3)]
+    for m, omega in enumerate(([0.0, 0.0, 0.1], [0.0, 0.0, 0.3])):
+        run = tmp_path / "out" / "members" / f"{m:06d}"
+        scenario = tomllib.loads((run / "scenario.toml").read_text())
+        assert [b["name"] for b in scenario["bodies"]] == ["primary", "secondary"]
+        assert scenario["bodies"][1]["omega"] == omega and scenario["bodies"][0]["omega"] == [0.0, 0.0, 0.6]
+        row = dict(zip(header, table[1 + m].split(",")))
+        final = json.loads((run / "summary.json").read_text())["final_bodies"][1]
+        assert final["name"] == "secondary"
+        for k, axis in enumerate("xyz"):
+            assert float(row[f"secondary.{axis}"]) == final["position"][k]
+
+
+def test_show_prints_the_quantiles_of_members_csv_and_reads_a_journal_alone(tmp_path):
+    """lgvi show DIR: the count, failures and min / median / 90 % / max of each error over the completed
+    members, equal (to the 4 digits printed) to numpy's linear quantiles of members.csv; with members.csv gone
+    (a run killed by kill -9 leaves only the journal) the same from journal.csv, saying so."""
+    import numpy as np
+
+    path = sweep(tmp_path, members=24)
+    proc = ensemble(path, "--out", tmp_path / "out", "--threads", "2")
+    assert proc.returncode == 0, proc.stderr
+    table = np.genfromtxt(tmp_path / "out" / "members.csv", delimiter=",", names=True)
+
+    def shown():
+        p = subprocess.run([BINARY, "show", str(tmp_path / "out")], capture_output=True, text=True)
+        assert p.returncode == 0, p.stderr
+        return p.stdout
+
+    for text in (shown(), None):
+        if text is None:
+            (tmp_path / "out" / "members.csv").unlink()
+            text = shown()
+            assert "from journal.csv" in text and "--resume" in text
+        assert "(24 of 24 members)" in text and "\nfailed                     0\n" in text
+        for name in ("max_abs_energy_error", "max_abs_quat_norm_error", "max_momentum_error"):
+            line = next(line for line in text.splitlines() if line.strip().startswith(name))
+            printed = [float(v) for v in line.split(None, 1)[1].split(" / ")]
+            expected = np.quantile(table[name], [0.0, 0.5, 0.9, 1.0])
+            np.testing.assert_allclose(printed, expected, rtol=5e-4)  # printed with 4 significant digits
+
+
+def test_figures_of_an_ensemble(tmp_path):
+    """Without --no-figures, a completed ensemble draws error_distribution.png and error_vs_varied.png (lgvi.plot).
+    This sweep varies 7 values (w: 3, the quaternion: 4), all of them panels, four a row: a 2 x 4 grid, whose
+    size in pixels is 4 x 3.6 by 2 x 3.2 inches at the plotting path's DPI."""
+    import matplotlib.image
+
+    from lgvi import plot
+
+    path = sweep(tmp_path, members=8)
+    proc = subprocess.run([BINARY, "ensemble", str(path), "--out", str(tmp_path / "out"), "-q", "--threads", "2"],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    for name in ("error_distribution.png", "error_vs_varied.png"):
+        assert (tmp_path / "out" / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    height, width = matplotlib.image.imread(tmp_path / "out" / "error_vs_varied.png").shape[:2]
+    assert (width, height) == (round(4 * 3.6 * plot.DPI), round(2 * 3.2 * plot.DPI))
+
+
 @needs_mpi
 def test_threads_under_mpirun_are_refused_in_one_line(tmp_path):
     """A rank runs one member at a time: --threads under mpirun is an error from rank 0 (one line), not ignored."""
