@@ -569,11 +569,13 @@ std::vector<std::string> read_journal(const std::string& dir, std::int64_t membe
 void cut_torn_line(const std::string& dir) {
   for (const char* name : {"journal.csv", "timings.csv"}) {
     const fs::path path = fs::path(dir) / name;
-    std::ifstream in(path, std::ios::binary);
-    if (!in) continue;
+    std::ifstream in(path, std::ios::binary | std::ios::ate);
+    if (!in || in.tellg() <= 0) continue;
+    in.seekg(-1, std::ios::end);
+    if (in.get() == '\n') continue;  // whole lines: the usual case, read no further
+    in.seekg(0);
     const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     in.close();
-    if (text.empty() || text.back() == '\n') continue;
     const std::size_t keep = text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1;
     std::error_code ec;
     fs::resize_file(path, keep, ec);
@@ -673,6 +675,14 @@ Signals::~Signals() {
   delete saved_;
 }
 
+TimedRow run_member_timed(const EnsemblePlan& plan, std::int64_t i, const std::string& dir) {
+  const auto start = std::chrono::steady_clock::now();
+  TimedRow r;
+  r.row = run_member(plan, i, 1, trajectory_dir(dir, plan, i));
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
 EnsemblePlan plan_of_folder(const std::string& dir, bool check_members) {
   const fs::path d(dir);
   if (!fs::exists(d / "sweep.toml"))
@@ -761,12 +771,6 @@ bool launched_as_mpi_rank() {
 
 namespace {
 
-/// Members done / total, failures, rate and time left, on one terminal line.
-
-}  // namespace
-
-namespace {
-
 /// The q-quantile of sorted values (linear interpolation).
 double quantile(const std::vector<double>& sorted, double q) {
   if (sorted.empty()) return std::nan("");
@@ -791,9 +795,11 @@ void show_ensemble(const std::string& dir, std::ostream& out) {
     if (!fs::exists(file))
       throw InvalidInput((fs::path(dir) / "members.csv").string() + ": no members here; is '" + dir +
                          "' a folder of lgvi ensemble?");
-    std::string text = read_text(file, "journal");
-    text.erase(text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1);  // a torn last line
-    in.str(ensemble_detail::plan_of_folder(dir, false).header + "\n" + text);
+    const EnsemblePlan plan = ensemble_detail::plan_of_folder(dir, false);
+    std::string text = plan.header + "\n";
+    for (const std::string& r : ensemble_detail::read_journal(dir, plan.members()))
+      if (!r.empty()) text += r + "\n";
+    in.str(text);
     from_journal = true;
   }
   std::string line;
@@ -889,9 +895,7 @@ int run_ensemble(const std::string& sweep_path, const EnsembleOptions& opt) {
           i = pending[next++];
         }
         try {
-          const auto start = std::chrono::steady_clock::now();
-          const std::string row = run_member(p.plan, i, 1, trajectory_dir(p.dir, p.plan, i));
-          const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+          const auto [row, seconds] = run_member_timed(p.plan, i, p.dir);
           if (row.empty()) return;  // stopped within the member
           std::lock_guard<std::mutex> lock(mutex);
           append_journal(p.dir, row);

@@ -162,6 +162,14 @@ void write_members(const std::string& dir, const EnsemblePlan& plan, const std::
 bool row_failed(const std::string& row, const EnsemblePlan& plan);
 /// Where member i's run folder goes ("" unless trajectories = "all").
 std::string trajectory_dir(const std::string& dir, const EnsemblePlan& plan, std::int64_t i);
+/// Member i's row (run_member on one thread, its run folder under `dir`)
+/// and the wall time of reading its scenario and running it, in seconds
+/// (what timings.csv records).
+struct TimedRow {
+  std::string row;  ///< "" if stopped by a signal within the member
+  double seconds = 0.0;
+};
+TimedRow run_member_timed(const EnsemblePlan& plan, std::int64_t i, const std::string& dir);
 /// The stop request of SIGINT/SIGTERM (0: none), checked between members and steps.
 int stop_signal();
 /// Installs the SIGINT/SIGTERM handlers for its lifetime.

@@ -163,15 +163,15 @@ int worker_loop(const EnsemblePlan& plan, const std::string& dir, Outbox& out) {
     }
     const std::int64_t index = queue.front();
     queue.pop_front();
-    std::string row;
-    const auto start = std::chrono::steady_clock::now();
+    ensemble_detail::TimedRow run;
     try {
-      row = run_member(plan, index, 1, ensemble_detail::trajectory_dir(dir, plan, index));
+      run = ensemble_detail::run_member_timed(plan, index, dir);
     } catch (const std::exception& e) {
       send_text(out, e.what(), kAbort);
       return 1;
     }
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::string& row = run.row;
+    const double seconds = run.seconds;
     run_seconds += seconds;
     ++runs;
     if (row.empty()) {  // stopped by a signal within the member: not a result
@@ -287,10 +287,9 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
     std::int64_t i = 0;
     while (take(i)) {
       try {
-        const auto start = std::chrono::steady_clock::now();
-        const std::string row = run_member(p.plan, i, 1, trajectory_dir(dir, p.plan, i));
+        const auto [row, seconds] = run_member_timed(p.plan, i, dir);
         if (row.empty()) break;
-        record(row, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 0);
+        record(row, seconds, 0);
       } catch (const std::exception& e) {
         std::lock_guard<std::mutex> lock(mutex);
         abort_message = e.what();
