@@ -268,6 +268,121 @@ TEST(MutualInteractions, CollisionIsReportedNamingTheBodies) {
   }
 }
 
+TEST(LennardJonesPairs, VectorizedTermsAreTheScalarFormulaBitForBit) {
+  // detail::lennard_jones_terms runs 2 or 4 entries at a time (SSE2, or its
+  // AVX2 clone where the processor has one). Each term is one correctly
+  // rounded IEEE operation in the same order as the scalar formula below, and
+  // no multiply-add is fused, so the results must be equal bit for bit:
+  // that is what keeps a run's output independent of the processor.
+  const double sigma = 1.1, eps = 0.7, cutoff = 2.5 * sigma;
+  const double sr6c = std::pow(sigma * sigma / (cutoff * cutoff), 3), shift = 4.0 * eps * (sr6c * sr6c - sr6c);
+  const lgvi::detail::LennardJonesConstants c{sigma * sigma, -24.0 * eps, 4.0 * eps, shift, cutoff * cutoff};
+  std::vector<double> dx, dy, dz;
+  for (int k = 0; k < 203; ++k) {  // odd: the vector loop's remainder too
+    const V3 d = t::random_vector(3.2);  // |d| from 0 to 5.5: inside and beyond r_c
+    dx.push_back(d(0));
+    dy.push_back(d(1));
+    dz.push_back(d(2));
+  }
+  dx.push_back(cutoff);  // r = r_c exactly: beyond (r < r_c is the rule)
+  dy.push_back(0.0);
+  dz.push_back(0.0);
+  std::vector<double> coef(dx.size()), energy(dx.size());
+  ASSERT_TRUE(lgvi::detail::lennard_jones_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), coef.data(),
+                                                energy.data()));
+  int inside = 0;
+  for (std::size_t k = 0; k < dx.size(); ++k) {
+    const double r2 = (dx[k] * dx[k] + dy[k] * dy[k]) + dz[k] * dz[k];
+    const double sr2 = sigma * sigma / r2, sr6 = sr2 * sr2 * sr2, sr12 = sr6 * sr6;
+    const bool in = r2 < cutoff * cutoff;
+    inside += in ? 1 : 0;
+    EXPECT_EQ(coef[k], in ? -24.0 * eps * (2.0 * sr12 - sr6) / r2 : 0.0) << k;
+    EXPECT_EQ(energy[k], in ? 4.0 * eps * (sr12 - sr6) - shift : 0.0) << k;
+  }
+  EXPECT_GT(inside, 20);
+  EXPECT_LT(inside, 200);
+  // A separation of zero (two sites on top of each other) is reported.
+  dx[7] = dy[7] = dz[7] = 0.0;
+  EXPECT_FALSE(lgvi::detail::lennard_jones_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), coef.data(),
+                                                 energy.data()));
+}
+
+TEST(LennardJonesPairs, ForcesTorquesAndEnergyEqualADirectSumOverAllPairs) {
+  // The neighbour lists against the O(S^2) double loop they replace: every
+  // pair of balls of different molecules within r_c, at three states - the
+  // first (lists built), one moved less than skin/2 (the same lists), and one
+  // moved further (rebuilt). The sums run in another order, so they agree to
+  // round-off: each of the ~100 terms of a sum is rounded once (relative
+  // eps), and the sum may cancel down to a small fraction of the largest
+  // term; 1e-12 of the sum of the terms' magnitudes allows for that.
+  const System sys = molecules(64);
+  SystemState s = lattice_state(64, 1.7, 0.0);
+  const LennardJones lj(sys, 1.0, 1.0, 2.5);
+  const lgvi::InteractionSites sites(sys);
+  auto direct = [&](const SystemState& st, std::vector<V3>& force, std::vector<V3>& torque,
+                    std::vector<double>& scale, double& energy) {
+    std::vector<V3> pos(sites.size()), arm(sites.size());
+    sites.place(st, Parallelism{}, pos, arm);
+    force.assign(st.size(), V3::Zero());
+    torque.assign(st.size(), V3::Zero());
+    scale.assign(st.size(), 0.0);
+    energy = 0.0;
+    const double sr6c = std::pow(1.0 / 6.25, 3), shift = 4.0 * (sr6c * sr6c - sr6c);
+    for (std::size_t i = 0; i < sites.size(); ++i)
+      for (std::size_t j = 0; j < sites.size(); ++j) {
+        const std::size_t a = sites.body_of(i);
+        if (a == sites.body_of(j)) continue;
+        const V3 d = pos[j] - pos[i];
+        const double r2 = d.squaredNorm();
+        if (r2 >= 6.25) continue;
+        const double sr6 = std::pow(1.0 / r2, 3);
+        const V3 f = -24.0 * (2.0 * sr6 * sr6 - sr6) / r2 * d;
+        force[a] += f;
+        torque[a] += st.q[a].inverse().act(arm[i].cross(f));
+        scale[a] += f.norm() * (1.0 + arm[i].norm());
+        if (i < j) energy += 4.0 * (sr6 * sr6 - sr6) - shift;
+      }
+  };
+  std::int64_t builds_before = 0;
+  for (const double move : {0.0, 0.05, 0.4}) {  // skin 0.3: 0.05 < skin/2 < 0.4
+    SystemState moved = s;
+    for (V3& x : moved.x) x += t::random_vector(move);
+    SystemEvaluation e(s.size());
+    lj.add(moved, e);
+    std::vector<V3> force, torque;
+    std::vector<double> scale;
+    double energy = 0.0;
+    direct(moved, force, torque, scale, energy);
+    for (std::size_t a = 0; a < s.size(); ++a) {
+      EXPECT_LE((e.force[a] - force[a]).norm(), 1e-12 * scale[a]) << "body " << a << ", move " << move;
+      EXPECT_LE((e.torque[a] - torque[a]).norm(), 1e-12 * scale[a]) << "body " << a << ", move " << move;
+    }
+    EXPECT_NEAR(e.energy, energy, 1e-12 * std::abs(energy) + 1e-12) << "move " << move;
+    // The three states: built once at the first, kept at the second, rebuilt at the third.
+    EXPECT_EQ(lj.list_builds() - builds_before, move == 0.05 ? 0 : 1) << "move " << move;
+    builds_before = lj.list_builds();
+  }
+}
+
+TEST(LennardJonesPairs, TwoSitesOnTopOfEachOtherStopTheRunNamingBoth) {
+  // Three bodies given by mass and inertia: one site each, at the centre of
+  // mass (rho = 0, so X = x + R 0 = x exactly); body 2 placed on body 0.
+  // (Sites merely close, say 1e-16 apart, give a huge but finite force:
+  // r^-14 overflows only below ~1e-22.)
+  const RigidBody sphere(1.0, 0.1 * lgvi::Matrix3<double>::Identity());
+  const System sys({sphere, sphere, sphere});
+  SystemState s(3);
+  s.x = {V3(0.0, 0.0, 0.0), V3(1.2, 0.0, 0.0), V3(0.0, 0.0, 0.0)};
+  SystemEvaluation e(3);
+  try {
+    LennardJones(sys, 1.0, 1.0, 2.5).add(s, e);
+    FAIL() << "no StepFailure";
+  } catch (const lgvi::StepFailure& f) {
+    EXPECT_NE(std::string(f.what()).find("between body 0 (\"body0\") and body 2 (\"body2\")"), std::string::npos)
+        << f.what();
+  }
+}
+
 // --- the N-body LGVI ----------------------------------------------------------
 
 using GravitySystem = Coupled<ExternalField<NoPotential>, MutualGravityBalls>;

@@ -11,21 +11,27 @@
 //
 // Neighbours by Verlet lists, as in LAMMPS and HOOMD: each site keeps the
 // sites of other bodies within r_c + skin, found with a cell list (cubic cells
-// of side >= r_c + skin over the sites' bounding box, at most ~2 per site, so
-// a dilute system gets larger cells instead of a huge empty grid; counting
-// sort, O(S)). The lists are rebuilt when some site has moved more than
-// skin/2 since the last build (then no pair can have crossed into r_c
+// of side >= (r_c + skin) / 2 over the sites' bounding box, at most ~2 per
+// site, so a dilute system gets larger cells instead of a huge empty grid;
+// counting sort, O(S)). The lists are rebuilt when some site has moved more
+// than skin/2 since the last build (then no pair can have crossed into r_c
 // unseen), so the cost grows like the number of sites, not its square.
 //
-// Each pair is computed once (a half list, as LAMMPS's newton on): the force
-// of j on i, f_ij, is kept per pair, and j takes -f_ij, exactly. Then every
-// body sums its sites' pair forces.
+// Each site sums the forces of all its list's pairs (a full list, as LAMMPS
+// with newton off and HOOMD): every pair is computed twice, once from each
+// side, and the two results are exact negatives (d = X_j - X_i on one side,
+// X_i - X_j = -d exactly on the other, the same r^2). A half list (each pair
+// once, its force added to i and subtracted from j) does half the pair terms
+// but cannot give the same sums on several threads: a site's sum would take
+// terms from whichever thread owns its partners. The pair terms are
+// vectorized (detail::lennard_jones_terms).
 //
 // Determinism: each site's list is sorted by site index, so the sum over a
 // site's neighbours runs in an order that depends on the current positions
-// only, not on when the lists were built; each body's force and torque are
-// summed by one thread. Results are bit-identical for any number of threads
-// and after a checkpoint and resume (which rebuilds the lists).
+// only, not on when or how the lists were built (pairs beyond r_c add exact
+// zeros); each body's force, torque and energy are summed by one thread.
+// Results are bit-identical for any number of threads and after a checkpoint
+// and resume (which rebuilds the lists).
 #pragma once
 
 #include <lgvi/interaction.hpp>
@@ -38,6 +44,54 @@
 #include <vector>
 
 namespace lgvi {
+
+namespace detail {
+
+/// The constants of the pair terms: sigma^2, -24 eps, 4 eps, V(r_c), r_c^2.
+struct LennardJonesConstants {
+  double sigma2, minus_24_eps, four_eps, shift, cutoff2;
+};
+
+/// The pair terms of `count` list entries with separations d = (dx, dy, dz):
+/// coef = -24 eps (2 (sigma/r)^12 - (sigma/r)^6) / r^2 (the force on the
+/// list's site is coef d) and its energy 4 eps ((sigma/r)^12 - (sigma/r)^6) -
+/// V(r_c); both 0 for r >= r_c. Returns whether every coef is finite.
+/// Branch-free, so that the compiler vectorizes
+/// it (GCC does only without trapping math, which changes no result: it only
+/// stops treating the compare as a possible floating-point trap); a clone for
+/// AVX2 (4 doubles at a time) is picked at run time where the processor has
+/// it. Every term is the same IEEE operation in the same order in either
+/// clone (no fused multiply-add: AVX2 does not include FMA), so the results
+/// are bit-identical on any x86-64 processor.
+#if defined(__GNUC__) && !defined(__clang__)
+__attribute__((optimize("no-trapping-math")))
+#endif
+#if defined(__GNUC__) && defined(__x86_64__)
+__attribute__((target_clones("avx2", "default")))
+#endif
+inline bool lennard_jones_terms(std::size_t count, const LennardJonesConstants& c, const double* __restrict dx,
+                                const double* __restrict dy, const double* __restrict dz, double* __restrict coef,
+                                double* __restrict energy) {
+  const double sigma2 = c.sigma2, minus_24_eps = c.minus_24_eps, four_eps = c.four_eps, shift = c.shift,
+               cutoff2 = c.cutoff2;
+  double bad = 0.0;  // (a double, not a bool: this form GCC vectorizes)
+  for (std::size_t k = 0; k < count; ++k) {
+    const double r2 = (dx[k] * dx[k] + dy[k] * dy[k]) + dz[k] * dz[k];
+    const bool inside = r2 < cutoff2;
+    const double sr2 = sigma2 / r2;
+    const double sr6 = sr2 * sr2 * sr2;
+    const double sr12 = sr6 * sr6;
+    const double force_term = minus_24_eps * (2.0 * sr12 - sr6) / r2;  // computed for every entry: no branch
+    const double energy_term = four_eps * (sr12 - sr6) - shift;
+    const double term = inside ? force_term : 0.0;
+    coef[k] = term;
+    energy[k] = inside ? energy_term : 0.0;
+    bad = term - term == 0.0 ? bad : 1.0;  // x - x is NaN for an infinite or NaN x
+  }
+  return bad == 0.0;
+}
+
+}  // namespace detail
 
 class LennardJones {
  public:
@@ -60,45 +114,63 @@ class LennardJones {
     const std::size_t n = s.size();
     sites_.place(s, par_, position_, arm_);
     if (needs_rebuild()) build_lists();
-    // Pass 1, once per pair of sites (i < j) within r_c + skin: the force on
-    // i, f_ij = coef d with d = X_j - X_i; the force on j is -f_ij exactly.
-    const double rc2 = cutoff_ * cutoff_;
-    pair_force_.resize(pairs_.size());
-    pair_energy_.resize(pairs_.size());
-    parallel_ranges(pair_ranges_, [&](std::size_t k) {
-      const auto [i, j] = pairs_[k];
-      const Vector3<double> d = position_[j] - position_[i];
-      const double r2 = d.squaredNorm();
-      if (r2 >= rc2) {
-        pair_force_[k].setZero();
-        pair_energy_[k] = 0.0;
-        return;
-      }
-      const double sr2 = sigma2_ / r2;
-      const double sr6 = sr2 * sr2 * sr2;
-      const double sr12 = sr6 * sr6;
-      const double coef = -24.0 * eps_ * (2.0 * sr12 - sr6) / r2;
-      if (!std::isfinite(coef)) detail::close_approach(sys_, sites_, i, j, std::sqrt(r2));
-      pair_force_[k] = coef * d;
-      pair_energy_[k] = 4.0 * eps_ * (sr12 - sr6) - shift_;
-    });
-    // Pass 2, per body on one thread: each site's neighbours in the list's
-    // order (by site index), so the sums do not depend on the threads.
+    // Per body on one thread: each site's pairs in its list's order (by site
+    // index), so the sums do not depend on the threads. Every pair is computed
+    // twice, once for each of its sites (a full list, LAMMPS's newton off):
+    // with d = X_j - X_i for site i and X_i - X_j = -d exactly for site j, the
+    // two forces are exact negatives, and no pass has to gather each pair's
+    // force back to its second site. The energy of a pair goes to the body of
+    // lower index.
+    //
+    // Three loops per body: gather d for all its list entries; the pair terms
+    // of all of them at once (detail::lennard_jones_terms, vectorized); then
+    // the sums, in list order.
+    const Constants c{sigma2_, -24.0 * eps_, 4.0 * eps_, shift_, cutoff_ * cutoff_};
     energy_.assign(n, 0.0);
     parallel_ranges(body_ranges_, [&](std::size_t a) {
+      thread_local Scratch scratch;
+      const std::size_t past_body = sites_.end(a);  // sites of other bodies above a: index >= past_body
+      const std::size_t first = list_start_[sites_.begin(a)], count = list_start_[past_body] - first;
+      scratch.resize(count);
+      for (std::size_t i = sites_.begin(a); i < past_body; ++i) {
+        const Vector3<double> xi = position_[i];
+        for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
+          const Vector3<double>& xj = position_[neighbours_[k]];
+          scratch.dx[k - first] = xj(0) - xi(0);
+          scratch.dy[k - first] = xj(1) - xi(1);
+          scratch.dz[k - first] = xj(2) - xi(2);
+        }
+      }
+      const bool finite = detail::lennard_jones_terms(count, c, scratch.dx.data(), scratch.dy.data(), scratch.dz.data(),
+                                  scratch.coef.data(), scratch.energy.data());
+      // A force that is not finite (two sites on top of each other) stops the
+      // run, naming the first pair in list order, as a loop that checked each
+      // term would.
+      if (!finite)
+        for (std::size_t i = sites_.begin(a); i < past_body; ++i)
+          for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k)
+            if (!std::isfinite(scratch.coef[k - first])) {
+              const std::size_t j = neighbours_[k], q = k - first;
+              const double r2 = (scratch.dx[q] * scratch.dx[q] + scratch.dy[q] * scratch.dy[q]) + scratch.dz[q] * scratch.dz[q];
+              detail::close_approach(sys_, sites_, std::min(i, j), std::max(i, j), std::sqrt(r2));
+            }
+      // Each site's force in its list's order, and the energy of its pairs
+      // with the sites of bodies above a (the end of its sorted list). Beyond
+      // r_c, coef and the energy are 0 and add nothing: x + 0 = x (no sum here
+      // is ever -0).
       Vector3<double> force = Vector3<double>::Zero(), torque = Vector3<double>::Zero();
       double energy = 0.0;
-      for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
-        Vector3<double> fi = Vector3<double>::Zero();
+      for (std::size_t i = sites_.begin(a); i < past_body; ++i) {
+        double fx = 0.0, fy = 0.0, fz = 0.0;
         for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
-          const std::size_t pair = pair_of_[k];
-          if (pairs_[pair].first == i) {
-            fi += pair_force_[pair];
-          } else {
-            fi -= pair_force_[pair];
-          }
-          if (sites_.body_of(neighbours_[k]) > a) energy += pair_energy_[pair];
+          const std::size_t q = k - first;
+          const double coef = scratch.coef[q];
+          fx += coef * scratch.dx[q];
+          fy += coef * scratch.dy[q];
+          fz += coef * scratch.dz[q];
+          if (neighbours_[k] >= past_body) energy += scratch.energy[q];
         }
+        const Vector3<double> fi(fx, fy, fz);
         force += fi;
         torque += arm_[i].cross(fi);
       }
@@ -117,6 +189,17 @@ class LennardJones {
   double cutoff() const { return cutoff_; }
 
  private:
+  using Constants = detail::LennardJonesConstants;
+  /// One thread's buffers for a body's list entries (see add).
+  struct Scratch {
+    std::vector<double> dx, dy, dz, coef, energy;
+    void resize(std::size_t count) {
+      if (dx.size() >= count) return;
+      for (std::vector<double>* v : {&dx, &dy, &dz, &coef, &energy}) v->resize(count);
+    }
+
+  };
+
   /// Whether some site moved more than skin/2 since the lists were built.
   bool needs_rebuild() const {
     if (built_at_.size() != position_.size()) return true;
@@ -152,9 +235,9 @@ class LennardJones {
     std::size_t cells = 1;
     for (int k = 0; k < 3; ++k) {
       const double extent = hi(k) - lo(k);
-      const double count = std::clamp(std::floor(extent / reach), 1.0, budget);
+      const double count = std::clamp(std::floor(extent * cells_per_reach / reach), 1.0, budget);
       dims_[static_cast<std::size_t>(k)] = static_cast<std::int64_t>(count);
-      inv_cell_(k) = count / std::max(extent, reach);
+      inv_cell_(k) = count / std::max(extent, reach / cells_per_reach);
       cells *= static_cast<std::size_t>(count);
     }
     cell_index_.resize(m);
@@ -168,13 +251,27 @@ class LennardJones {
     fill_.assign(cell_start_.begin(), cell_start_.end() - 1);
     sorted_.resize(m);
     for (std::size_t i = 0; i < m; ++i) sorted_[fill_[cell_index_[i]]++] = i;
+    // The sites' positions and bodies in cell order: a row of three
+    // neighbouring cells along x is one contiguous run of these arrays.
+    cell_x_.resize(m);
+    cell_y_.resize(m);
+    cell_z_.resize(m);
+    cell_body_.resize(m);
+    for (std::size_t k = 0; k < m; ++k) {
+      const Vector3<double>& x = position_[sorted_[k]];
+      cell_x_[k] = x(0);
+      cell_y_[k] = x(1);
+      cell_z_[k] = x(2);
+      cell_body_[k] = sites_.body_of(sorted_[k]);
+    }
     // The lists, one site after the other. Each site's list is its own: the
-    // sites of other bodies within r_c + skin in the 27 cells around it, then
-    // sorted by index (the cells are visited in space order). So the lists do
-    // not depend on who builds them: the sites are cut into fixed chunks, each
-    // chunk's lists built on some thread into the chunk's buffer, and the
-    // buffers joined in site order.
+    // sites of other bodies within r_c + skin in the 27 cells around it (9
+    // runs of 3 cells), then sorted by index. So the lists do not depend on
+    // who builds them: the sites are cut into fixed chunks, each chunk's
+    // lists built on some thread into the chunk's buffer, and the buffers
+    // joined in site order.
     const double reach2 = reach * reach;
+    constexpr auto span = static_cast<std::int64_t>(cells_per_reach);  // cells each way that reach can cross
     const std::size_t chunks = std::min<std::size_t>(m, list_chunks);
     chunk_lists_.resize(chunks);
     list_start_.assign(m + 1, 0);
@@ -183,26 +280,41 @@ class LennardJones {
       out.clear();
       for (std::size_t i = chunk * m / chunks; i < (chunk + 1) * m / chunks; ++i) {
         const std::size_t a = sites_.body_of(i);
+        const double xi = position_[i](0), yi = position_[i](1), zi = position_[i](2);
         const std::array<std::int64_t, 3> c = cell_of(position_[i]);
-        const std::size_t first = out.size();
-        for (std::int64_t dz = -1; dz <= 1; ++dz) {
-          const std::int64_t z = c[2] + dz;
-          if (z < 0 || z >= dims_[2]) continue;
-          for (std::int64_t dy = -1; dy <= 1; ++dy) {
-            const std::int64_t y = c[1] + dy;
-            if (y < 0 || y >= dims_[1]) continue;
-            for (std::int64_t dx = -1; dx <= 1; ++dx) {
-              const std::int64_t x = c[0] + dx;
-              if (x < 0 || x >= dims_[0]) continue;
-              const auto cell = static_cast<std::size_t>((z * dims_[1] + y) * dims_[0] + x);
-              for (std::size_t k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) {
-                const std::size_t j = sorted_[k];
-                if (sites_.body_of(j) != a && (position_[j] - position_[i]).squaredNorm() < reach2) out.push_back(j);
-              }
-            }
+        const auto row_first = static_cast<std::size_t>(std::max<std::int64_t>(c[0] - span, 0));
+        const auto row_last = static_cast<std::size_t>(std::min<std::int64_t>(c[0] + span, dims_[0] - 1));
+        // The runs of cells to search: one per row (dz, dy), of cells
+        // c[0] - span ... c[0] + span along x.
+        std::array<std::pair<std::size_t, std::size_t>, (2 * span + 1) * (2 * span + 1)> runs{};
+        std::size_t run_count = 0, candidates = 0;
+        for (std::int64_t z = std::max<std::int64_t>(c[2] - span, 0); z <= std::min(c[2] + span, dims_[2] - 1); ++z)
+          for (std::int64_t y = std::max<std::int64_t>(c[1] - span, 0); y <= std::min(c[1] + span, dims_[1] - 1); ++y) {
+            const auto row = static_cast<std::size_t>((z * dims_[1] + y) * dims_[0]);
+            runs[run_count] = {cell_start_[row + row_first], cell_start_[row + row_last + 1]};
+            candidates += runs[run_count].second - runs[run_count].first;
+            ++run_count;
           }
+        // Every candidate written, the count advanced only for those kept: no
+        // branch to mispredict on the distance test.
+        const std::size_t first = out.size();
+        out.resize(first + candidates);
+        std::size_t* const list = out.data();
+        std::size_t kept = first;
+        for (std::size_t r = 0; r < run_count; ++r)
+          for (std::size_t k = runs[r].first; k < runs[r].second; ++k) {
+            const double dx = cell_x_[k] - xi, dy = cell_y_[k] - yi, dz = cell_z_[k] - zi;
+            list[kept] = sorted_[k];
+            kept += static_cast<std::size_t>((dx * dx + dy * dy + dz * dz < reach2) & (cell_body_[k] != a));
+          }
+        out.resize(kept);
+        // By index; a list is short (tens of sites), where insertion sort is fastest.
+        for (std::size_t k = first + 1; k < out.size(); ++k) {
+          const std::size_t j = out[k];
+          std::size_t slot = k;
+          for (; slot > first && out[slot - 1] > j; --slot) out[slot] = out[slot - 1];
+          out[slot] = j;
         }
-        std::sort(out.begin() + static_cast<std::ptrdiff_t>(first), out.end());
         list_start_[i + 1] = out.size() - first;  // the count; summed below
       }
     });
@@ -212,44 +324,12 @@ class LennardJones {
       std::copy(chunk_lists_[chunk].begin(), chunk_lists_[chunk].end(),
                 neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[chunk * m / chunks]));
     });
-    // The unordered pairs (i < j), numbered in the order of i and then of j
-    // (the entries j > i are the end of i's sorted list); an entry (i, j)
-    // with j < i finds its pair in j's list.
-    pair_start_.assign(m + 1, 0);
-    parallel_for(m, par_, [&](std::size_t i) {
-      const auto end = neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[i + 1]);
-      pair_start_[i + 1] = static_cast<std::size_t>(
-          end - std::upper_bound(neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[i]), end, i));
-    });
-    for (std::size_t i = 0; i < m; ++i) pair_start_[i + 1] += pair_start_[i];
-    pairs_.resize(pair_start_[m]);
-    pair_of_.resize(neighbours_.size());
-    parallel_for(m, par_, [&](std::size_t i) {
-      const std::size_t above = list_start_[i + 1] - (pair_start_[i + 1] - pair_start_[i]);
-      for (std::size_t k = above; k < list_start_[i + 1]; ++k) {
-        pair_of_[k] = pair_start_[i] + (k - above);
-        pairs_[pair_of_[k]] = {i, neighbours_[k]};
-      }
-    });
-    parallel_for(m, par_, [&](std::size_t i) {
-      for (std::size_t k = list_start_[i]; k < list_start_[i + 1] && neighbours_[k] < i; ++k) {
-        const std::size_t j = neighbours_[k];
-        const auto begin = neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[j]);
-        const auto end = neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[j + 1]);
-        pair_of_[k] = pair_of_[static_cast<std::size_t>(std::lower_bound(begin, end, i) - neighbours_.begin())];
-      }
-    });
-    // How passes 1 and 2 split their work between threads: the bodies into
-    // consecutive ranges of about equal list entries (pass 2's cost; a gas
-    // that clusters makes halves by count uneven), and the pairs at the same
-    // bodies' first sites, so that each thread computes the pair forces its
-    // own bodies sum next (they stay in its cache). Results do not depend on it.
+    // How the evaluation splits its work between threads: the bodies into
+    // consecutive ranges of about equal list entries (a gas that clusters
+    // makes halves by count uneven). Results do not depend on it.
     const std::size_t n = sys_.size();
     const int threads = par_.threads_for(n);
     body_ranges_ = balanced_ranges(n, threads, [&](std::size_t a) { return list_start_[a < n ? sites_.begin(a) : m]; });
-    pair_ranges_.resize(body_ranges_.size());
-    for (std::size_t t = 0; t < body_ranges_.size(); ++t)
-      pair_ranges_[t] = pair_start_[body_ranges_[t] < n ? sites_.begin(body_ranges_[t]) : m];
     built_at_ = position_;
   }
 
@@ -264,13 +344,16 @@ class LennardJones {
   /// The lists are built in this many chunks of sites (fixed, so that the
   /// work split does not depend on the threads; enough for load balance).
   static constexpr std::size_t list_chunks = 64;
-  mutable std::vector<std::size_t> cell_index_, cell_start_, fill_, sorted_, list_start_, neighbours_, pair_of_,
-      pair_start_;
+  /// Cells are at least reach / cells_per_reach wide (reach = r_c + skin), and
+  /// a site's candidates are in the (2 cells_per_reach + 1)^3 cells around
+  /// it: with 2, a volume of (5/2)^3 = 15.6 reach^3 is searched, against 27
+  /// reach^3 with cells of side reach.
+  static constexpr double cells_per_reach = 2.0;
+  mutable std::vector<std::size_t> cell_index_, cell_start_, fill_, sorted_, list_start_, neighbours_;
+  mutable std::vector<double> cell_x_, cell_y_, cell_z_;  ///< the sites' positions in cell order
+  mutable std::vector<std::size_t> cell_body_;            ///< and their bodies
   mutable std::vector<std::vector<std::size_t>> chunk_lists_;
-  mutable std::vector<std::size_t> body_ranges_, pair_ranges_;  ///< per thread t: [r[t], r[t + 1]) (build_lists)
-  mutable std::vector<std::pair<std::size_t, std::size_t>> pairs_;
-  mutable std::vector<Vector3<double>> pair_force_;
-  mutable std::vector<double> pair_energy_;
+  mutable std::vector<std::size_t> body_ranges_;  ///< per thread t: [r[t], r[t + 1]) (build_lists)
   mutable std::vector<Vector3<double>> built_at_;
   mutable std::int64_t builds_ = 0;
 };
