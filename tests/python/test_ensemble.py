@@ -6,6 +6,7 @@ the Python function on a process pool, mpi4py and Dask, equal to the CLI's bytes
 
 Run by ctest with LGVI_BINARY set. mpirun as root needs OMPI_ALLOW_RUN_AS_ROOT (set here).
 """
+import csv
 import os
 import pathlib
 import shutil
@@ -162,6 +163,28 @@ def test_grid_is_the_product_last_key_fastest_and_a_failing_member_is_recorded(t
     assert show.returncode == 0 and "failed                     3" in show.stdout
 
 
+@pytest.mark.parametrize("mpi", [0, pytest.param(2, marks=needs_mpi)])
+def test_a_member_failing_at_its_first_step_is_recorded(tmp_path, mpi):
+    """A ball placed on the central field's source (with stop_at_contact) is not something the scenario reader
+    rejects: the member's run fails at step 0, which is recorded with its message while the other members
+    complete; the table is the same on threads and on ranks."""
+    base_scenario(tmp_path, duration=5.0, contact=True)
+    (tmp_path / "sweep.toml").write_text(
+        '[ensemble]\nscenario = "paper-orbit.toml"\n[[vary]]\nkey = "initial.position"\n'
+        # the body's centre of mass at (1/2, sqrt(3)/6, 0) of its triangle puts ball 0 on the source
+        'values = [[8.0, 0.0, 0.0], [0.5, 0.28867513459481287, 0.0], [0.0, 8.0, 0.0]]\n')
+    threads = ensemble(tmp_path / "sweep.toml", "--out", tmp_path / "threads", "--threads", "2")
+    assert threads.returncode == 0, threads.stderr
+    rows = list(csv.DictReader((tmp_path / "threads" / "members.csv").open()))
+    assert [r["completed"] for r in rows] == ["1", "0", "1"]
+    assert rows[1]["error"].startswith("step 0 (from t = 0) failed: ball 0 reached the centre of the central field")
+    assert rows[1]["steps"] == "0" and rows[0]["steps"] == rows[2]["steps"] == "500"
+    if mpi:
+        ranks = ensemble(tmp_path / "sweep.toml", "--out", tmp_path / "ranks", mpi=mpi)
+        assert ranks.returncode == 0, ranks.stderr
+        assert (tmp_path / "ranks" / "members.csv").read_bytes() == (tmp_path / "threads" / "members.csv").read_bytes()
+
+
 @pytest.mark.parametrize("text, expected", [
     (SWEEP.format(members=4).replace('rotation = "uniform"', 'normal = { mean = [1.0, 0.0, 0.0, 0.0], '
                                      'std = [0.1, 0.1, 0.1, 0.1] }'),
@@ -204,17 +227,18 @@ def wait_for_rows(journal, rows, timeout=60):
     raise AssertionError("the ensemble wrote no rows")
 
 
-def test_sigterm_then_resume_gives_the_uninterrupted_bytes(tmp_path):
-    # 60 members of 20000 steps (~5 ms each).
+@pytest.mark.parametrize("sig, status", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_a_signal_then_resume_gives_the_uninterrupted_bytes(tmp_path, sig, status):
+    # 60 members of 20000 steps (~5 ms each). The exit status is 128 + the signal's number, as a shell reports.
     path = sweep(tmp_path, members=60, duration=200.0)
     whole = ensemble(path, "--out", tmp_path / "whole", "--threads", "2")
     assert whole.returncode == 0, whole.stderr
     proc = subprocess.Popen([BINARY, "ensemble", path, "--out", tmp_path / "cut", "--threads", "2", "-q"],
                             stderr=subprocess.PIPE, text=True)
     wait_for_rows(tmp_path / "cut" / "journal.csv", 5)
-    proc.send_signal(signal.SIGTERM)
+    proc.send_signal(sig)
     _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 143, err
+    assert proc.returncode == status, err
     partial = (tmp_path / "cut" / "members.csv").read_text().splitlines()
     assert 5 <= len(partial) - 1 < 60 and "--resume" in err
     indices = [int(line.split(",")[0]) for line in partial[1:]]
