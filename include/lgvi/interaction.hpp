@@ -156,9 +156,12 @@ class InteractionSites {
   std::size_t local_index(std::size_t i) const { return i - offset_[body_[i]]; }
 
   /// Inertial positions of every site at `s`, X_i = x_a + R_a rho_i, and the
-  /// arms R_a rho_i, computed per body (in parallel).
+  /// arms R_a rho_i, computed per body (in parallel); then `after(a)`, on the
+  /// thread that placed body a's sites (work on them while they are in its
+  /// cache, without a loop of its own).
+  template <class AfterBody = void (*)(std::size_t)>
   void place(const SystemState& s, const Parallelism& par, std::vector<Vector3<double>>& position,
-             std::vector<Vector3<double>>& arm) const {
+             std::vector<Vector3<double>>& arm, AfterBody&& after = [](std::size_t) {}) const {
     position.resize(size());
     arm.resize(size());
     parallel_for(bodies(), par, [&](std::size_t a) {
@@ -167,6 +170,7 @@ class InteractionSites {
         arm[i] = r * rho_[i];
         position[i] = s.x[a] + arm[i];
       }
+      after(a);
     });
   }
 

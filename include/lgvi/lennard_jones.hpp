@@ -112,8 +112,19 @@ class LennardJones {
 
   void add(const SystemState& s, SystemEvaluation& e) const {
     const std::size_t n = s.size();
-    sites_.place(s, par_, position_, arm_);
-    if (needs_rebuild()) build_lists();
+    // The sites, and whether any moved more than skin/2 since the lists were
+    // built (then no pair can have crossed into r_c unseen), per body on the
+    // thread that placed it.
+    const bool have_lists = built_at_.size() == sites_.size();
+    const double limit = 0.25 * skin_ * skin_;
+    moved_.resize(n);
+    sites_.place(s, par_, position_, arm_, [&](std::size_t a) {
+      bool moved = !have_lists;
+      for (std::size_t i = sites_.begin(a); i < sites_.end(a) && !moved; ++i)
+        moved = !((position_[i] - built_at_[i]).squaredNorm() <= limit);  // also true for NaN
+      moved_[a] = moved ? 1 : 0;
+    });
+    if (std::find(moved_.begin(), moved_.end(), 1) != moved_.end()) build_lists();
     // Per body on one thread: each site's pairs in its list's order (by site
     // index), so the sums do not depend on the threads. Every pair is computed
     // twice, once for each of its sites (a full list, LAMMPS's newton off):
@@ -199,15 +210,6 @@ class LennardJones {
     }
 
   };
-
-  /// Whether some site moved more than skin/2 since the lists were built.
-  bool needs_rebuild() const {
-    if (built_at_.size() != position_.size()) return true;
-    const double limit = 0.25 * skin_ * skin_;
-    for (std::size_t i = 0; i < position_.size(); ++i)
-      if (!((position_[i] - built_at_[i]).squaredNorm() <= limit)) return true;  // also true for NaN
-    return false;
-  }
 
   std::array<std::int64_t, 3> cell_of(const Vector3<double>& x) const {
     std::array<std::int64_t, 3> c{};
@@ -339,6 +341,7 @@ class LennardJones {
   Parallelism par_;
   mutable std::vector<Vector3<double>> position_, arm_;
   mutable std::vector<double> energy_;
+  mutable std::vector<char> moved_;  ///< per body: a site moved more than skin/2 since the build
   mutable Vector3<double> origin_ = Vector3<double>::Zero(), inv_cell_ = Vector3<double>::Ones();
   mutable std::array<std::int64_t, 3> dims_{1, 1, 1};
   /// The lists are built in this many chunks of sites (fixed, so that the
