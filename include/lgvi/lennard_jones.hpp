@@ -125,15 +125,9 @@ class LennardJones {
       moved_[a] = moved ? 1 : 0;
     });
     if (std::find(moved_.begin(), moved_.end(), 1) != moved_.end()) build_lists();
-    // Per body on one thread: each site's pairs in its list's order (by site
-    // index), so the sums do not depend on the threads. Every pair is computed
-    // twice, once for each of its sites (a full list, LAMMPS's newton off):
-    // with d = X_j - X_i for site i and X_i - X_j = -d exactly for site j, the
-    // two forces are exact negatives, and no pass has to gather each pair's
-    // force back to its second site. The energy of a pair goes to the body of
-    // lower index.
-    //
-    // Three loops per body: gather d for all its list entries; the pair terms
+    // Per body on one thread, each site's whole list in its order (the full
+    // list of the header comment); the energy of a pair goes to the body of
+    // lower index. Three loops per body: gather d for all its list entries; the pair terms
     // of all of them at once (detail::lennard_jones_terms, vectorized); then
     // the sums, in list order.
     const Constants c{sigma2_, -24.0 * eps_, 4.0 * eps_, shift_, cutoff_ * cutoff_};
@@ -161,9 +155,8 @@ class LennardJones {
         for (std::size_t i = sites_.begin(a); i < past_body; ++i)
           for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k)
             if (!std::isfinite(scratch.coef[k - first])) {
-              const std::size_t j = neighbours_[k], q = k - first;
-              const double r2 = (scratch.dx[q] * scratch.dx[q] + scratch.dy[q] * scratch.dy[q]) + scratch.dz[q] * scratch.dz[q];
-              detail::close_approach(sys_, sites_, std::min(i, j), std::max(i, j), std::sqrt(r2));
+              const std::size_t j = neighbours_[k];
+              detail::close_approach(sys_, sites_, std::min(i, j), std::max(i, j), (position_[j] - position_[i]).norm());
             }
       // Each site's force in its list's order, and the energy of its pairs
       // with the sites of bodies above a (the end of its sorted list). Beyond
@@ -208,7 +201,6 @@ class LennardJones {
       if (dx.size() >= count) return;
       for (std::vector<double>* v : {&dx, &dy, &dz, &coef, &energy}) v->resize(count);
     }
-
   };
 
   std::array<std::int64_t, 3> cell_of(const Vector3<double>& x) const {
@@ -253,8 +245,8 @@ class LennardJones {
     fill_.assign(cell_start_.begin(), cell_start_.end() - 1);
     sorted_.resize(m);
     for (std::size_t i = 0; i < m; ++i) sorted_[fill_[cell_index_[i]]++] = i;
-    // The sites' positions and bodies in cell order: a row of three
-    // neighbouring cells along x is one contiguous run of these arrays.
+    // The sites' positions and bodies in cell order: a row of neighbouring
+    // cells along x is one contiguous run of these arrays.
     cell_x_.resize(m);
     cell_y_.resize(m);
     cell_z_.resize(m);
@@ -267,8 +259,8 @@ class LennardJones {
       cell_body_[k] = sites_.body_of(sorted_[k]);
     }
     // The lists, one site after the other. Each site's list is its own: the
-    // sites of other bodies within r_c + skin in the 27 cells around it (9
-    // runs of 3 cells), then sorted by index. So the lists do not depend on
+    // sites of other bodies within r_c + skin in the (2 span + 1)^3 cells
+    // around it ((2 span + 1)^2 runs along x), then sorted by index. So the lists do not depend on
     // who builds them: the sites are cut into fixed chunks, each chunk's
     // lists built on some thread into the chunk's buffer, and the buffers
     // joined in site order.
