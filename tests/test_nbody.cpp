@@ -287,24 +287,27 @@ TEST(LennardJonesPairs, VectorizedTermsAreTheScalarFormulaBitForBit) {
   dx.push_back(cutoff);  // r = r_c exactly: beyond (r < r_c is the rule)
   dy.push_back(0.0);
   dz.push_back(0.0);
-  std::vector<double> coef(dx.size()), energy(dx.size());
-  ASSERT_TRUE(lgvi::detail::lennard_jones_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), coef.data(),
-                                                energy.data()));
+  std::vector<double> fx(dx.size()), fy(dx.size()), fz(dx.size()), energy(dx.size());
+  ASSERT_TRUE(lgvi::detail::lennard_jones_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), fx.data(), fy.data(),
+                                                fz.data(), energy.data()));
   int inside = 0;
   for (std::size_t k = 0; k < dx.size(); ++k) {
     const double r2 = (dx[k] * dx[k] + dy[k] * dy[k]) + dz[k] * dz[k];
     const double sr2 = sigma * sigma / r2, sr6 = sr2 * sr2 * sr2, sr12 = sr6 * sr6;
     const bool in = r2 < cutoff * cutoff;
     inside += in ? 1 : 0;
-    EXPECT_EQ(coef[k], in ? -24.0 * eps * (2.0 * sr12 - sr6) / r2 : 0.0) << k;
+    const double coef = in ? -24.0 * eps * (2.0 * sr12 - sr6) / r2 : 0.0;
+    EXPECT_EQ(fx[k], coef * dx[k]) << k;
+    EXPECT_EQ(fy[k], coef * dy[k]) << k;
+    EXPECT_EQ(fz[k], coef * dz[k]) << k;
     EXPECT_EQ(energy[k], in ? 4.0 * eps * (sr12 - sr6) - shift : 0.0) << k;
   }
   EXPECT_GT(inside, 20);
   EXPECT_LT(inside, 200);
   // A separation of zero (two sites on top of each other) is reported.
   dx[7] = dy[7] = dz[7] = 0.0;
-  EXPECT_FALSE(lgvi::detail::lennard_jones_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), coef.data(),
-                                                 energy.data()));
+  EXPECT_FALSE(lgvi::detail::lennard_jones_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), fx.data(), fy.data(),
+                                                 fz.data(), energy.data()));
 }
 
 TEST(LennardJonesPairs, ForcesTorquesAndEnergyEqualADirectSumOverAllPairs) {
@@ -362,6 +365,61 @@ TEST(LennardJonesPairs, ForcesTorquesAndEnergyEqualADirectSumOverAllPairs) {
     EXPECT_EQ(lj.list_builds() - builds_before, move == 0.05 ? 0 : 1) << "move " << move;
     builds_before = lj.list_builds();
   }
+}
+
+TEST(LennardJonesPairs, EachSiteSumsItsWholeNeighbourhoodInIndexOrderBitForBit) {
+  // The half lists compute each pair once, for its lower site, and give the
+  // upper site the negated force. That must be exactly what the upper site
+  // would have computed itself (d -> -d exactly, the same r^2 and coef), so
+  // each site's force is, bit for bit, the sum in index order over every site
+  // of another body within r_c of coef d with d = X_j - X_i - the documented
+  // order that makes runs independent of threads and list builds. Here that
+  // sum is written out as an O(S^2) loop with the kernel's formula (scalar),
+  // and compared with EXPECT_EQ, at a fresh build and after a move within the
+  // skin (lists kept). Energy: per body, its sites' pairs with sites of higher
+  // bodies in index order, then the bodies' sums in body order.
+  const System sys = molecules(64);
+  SystemState s = lattice_state(64, 1.7, 0.4);
+  const double eps = 1.0, sigma = 1.0, cutoff = 2.5;
+  const LennardJones lj(sys, eps, sigma, cutoff);
+  const lgvi::InteractionSites sites(sys);
+  const double sr6c = std::pow(sigma * sigma / (cutoff * cutoff), 3), shift = 4.0 * eps * (sr6c * sr6c - sr6c);
+  for (const double move : {0.0, 0.05}) {
+    SystemState moved = s;
+    for (V3& x : moved.x) x += t::random_vector(move);
+    SystemEvaluation e(s.size());
+    lj.add(moved, e);
+    std::vector<V3> pos, arm;
+    sites.place(moved, Parallelism{}, pos, arm);
+    double total = 0.0;
+    for (std::size_t a = 0; a < s.size(); ++a) {
+      V3 force = V3::Zero(), torque = V3::Zero();
+      double energy = 0.0;
+      for (std::size_t i = sites.begin(a); i < sites.end(a); ++i) {
+        double fx = 0.0, fy = 0.0, fz = 0.0;
+        for (std::size_t j = 0; j < sites.size(); ++j) {
+          if (sites.body_of(j) == a) continue;
+          const double dx = pos[j](0) - pos[i](0), dy = pos[j](1) - pos[i](1), dz = pos[j](2) - pos[i](2);
+          const double r2 = (dx * dx + dy * dy) + dz * dz;
+          if (!(r2 < cutoff * cutoff)) continue;
+          const double sr2 = sigma * sigma / r2, sr6 = sr2 * sr2 * sr2, sr12 = sr6 * sr6;
+          const double coef = -24.0 * eps * (2.0 * sr12 - sr6) / r2;
+          fx += coef * dx;
+          fy += coef * dy;
+          fz += coef * dz;
+          if (j > i) energy += 4.0 * eps * (sr12 - sr6) - shift;
+        }
+        const V3 fi(fx, fy, fz);
+        force += fi;
+        torque += arm[i].cross(fi);
+      }
+      EXPECT_EQ(e.force[a], force) << "body " << a << ", move " << move;
+      EXPECT_EQ(e.torque[a], moved.q[a].inverse().act(torque)) << "body " << a << ", move " << move;
+      total += energy;
+    }
+    EXPECT_EQ(e.energy, total) << "move " << move;
+  }
+  EXPECT_EQ(lj.list_builds(), 1);  // the second state used the first's lists
 }
 
 TEST(LennardJonesPairs, TwoSitesOnTopOfEachOtherStopTheRunNamingBoth) {
@@ -593,6 +651,41 @@ TEST(Threads, RangesVisitEveryItemOnceAndRethrowTheLowestIndexException) {
     ADD_FAILURE() << "no exception";
   } catch (const std::runtime_error& e) {
     EXPECT_STREQ(e.what(), "20");
+  }
+}
+
+TEST(Threads, TwoPassRangesRunTheSecondPassAfterTheWholeFirst) {
+  // The second pass reads what the first wrote for every item, on the other
+  // thread too: item i of the second pass sums first-pass values of items
+  // across both first-pass ranges (the ranges of the two passes differ).
+  const std::vector<std::size_t> first{0, 40, 100}, second{0, 70, 100};
+  for (int round = 0; round < 20; ++round) {  // a missing barrier would show in some round
+    std::vector<int> value(100, 0), seen(100, -1);
+    lgvi::parallel_ranges(
+        first, [&](std::size_t i) { value[i] = static_cast<int>(i) + 1; }, second,
+        [&](std::size_t i) { seen[i] = value[99 - i] + value[(i + 50) % 100]; });
+    for (std::size_t i = 0; i < 100; ++i)
+      EXPECT_EQ(seen[i], static_cast<int>(100 - i) + static_cast<int>((i + 50) % 100) + 1) << i;
+  }
+  // A failure in the first pass: the lowest index's exception, and no item of
+  // the second pass runs. A failure in the second pass only: its lowest.
+  std::vector<int> second_visits(100, 0);
+  try {
+    lgvi::parallel_ranges(
+        first, [&](std::size_t i) { if (i == 60 || i == 10) throw std::runtime_error(std::to_string(i)); }, second,
+        [&](std::size_t i) { ++second_visits[i]; });
+    ADD_FAILURE() << "no exception";
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(), "10");
+  }
+  EXPECT_EQ(second_visits, std::vector<int>(100, 0));
+  try {
+    lgvi::parallel_ranges(
+        first, [](std::size_t) {}, second,
+        [&](std::size_t i) { if (i == 75 || i == 65) throw std::runtime_error(std::to_string(i)); });
+    ADD_FAILURE() << "no exception";
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(), "65");
   }
 }
 

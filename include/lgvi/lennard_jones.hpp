@@ -17,19 +17,24 @@
 // than skin/2 since the last build (then no pair can have crossed into r_c
 // unseen), so the cost grows like the number of sites, not its square.
 //
-// Each site sums the forces of all its list's pairs (a full list, as LAMMPS
-// with newton off and HOOMD): every pair is computed twice, once from each
-// side, and the two results are exact negatives (d = X_j - X_i on one side,
-// X_i - X_j = -d exactly on the other, the same r^2). A half list (each pair
-// once, its force added to i and subtracted from j) does half the pair terms
-// but cannot give the same sums on several threads: a site's sum would take
-// terms from whichever thread owns its partners. The pair terms are
-// vectorized (detail::lennard_jones_terms).
+// Half lists (as LAMMPS with newton on): each pair is in the list of its
+// lower site only (the sites of higher bodies within r_c + skin), and its
+// force is computed once, vectorized (detail::lennard_jones_terms), in a first
+// pass over the bodies. A second pass sums each site's force over its whole
+// neighbourhood: the forces of its pairs with lower sites, found through the
+// lists' transpose, negated - the exact force that site would have computed
+// itself (d = X_j - X_i on one side, X_i - X_j = -d exactly on the other, the
+// same r^2, so the same coef, and (-coef d) is exact) - then its own pairs'.
+// Every sum is taken by one thread over one site, so the passes split between
+// threads like any per-body loop. (Adding each pair's force to both of its
+// sites as it is computed, LAMMPS's way, would make a site's sum take terms
+// from whichever thread owns its partners, in an order that depends on them.)
 //
-// Determinism: each site's list is sorted by site index, so the sum over a
-// site's neighbours runs in an order that depends on the current positions
-// only, not on when or how the lists were built (pairs beyond r_c add exact
-// zeros); each body's force, torque and energy are summed by one thread.
+// Determinism: each site's lists are sorted by site index, so the sum over a
+// site's neighbours (in index order: its lower partners, then its own list)
+// runs in an order that depends on the current positions only, not on when
+// or how the lists were built (pairs beyond r_c add exact zeros); each body's
+// force, torque and energy are summed by one thread.
 // Results are bit-identical for any number of threads and after a checkpoint
 // and resume (which rebuilds the lists).
 #pragma once
@@ -53,16 +58,17 @@ struct LennardJonesConstants {
 };
 
 /// The pair terms of `count` list entries with separations d = (dx, dy, dz):
-/// coef = -24 eps (2 (sigma/r)^12 - (sigma/r)^6) / r^2 (the force on the
-/// list's site is coef d) and its energy 4 eps ((sigma/r)^12 - (sigma/r)^6) -
-/// V(r_c); both 0 for r >= r_c. Returns whether every coef is finite.
-/// Branch-free, so that the compiler vectorizes
-/// it (GCC does only without trapping math, which changes no result: it only
-/// stops treating the compare as a possible floating-point trap); a clone for
-/// AVX2 (4 doubles at a time) is picked at run time where the processor has
-/// it. Every term is the same IEEE operation in the same order in either
-/// clone (no fused multiply-add: AVX2 does not include FMA), so the results
-/// are bit-identical on any x86-64 processor.
+/// the force on the list's site, f = coef d with coef = -24 eps (2 (sigma/r)^12
+/// - (sigma/r)^6) / r^2, into (fx, fy, fz), and the pair's energy 4 eps
+/// ((sigma/r)^12 - (sigma/r)^6) - V(r_c) into `energy`; all 0 for r >= r_c.
+/// Returns true if every force is finite (false may also mean a sum of
+/// components overflowed: the caller looks). Branch-free, so that the compiler
+/// vectorizes it (GCC does only without trapping math, which changes no
+/// result: it only stops treating the compare as a possible floating-point
+/// trap); a clone for AVX2 (4 doubles at a time) is picked at run time where
+/// the processor has it. Every term is the same IEEE operation in the same
+/// order in either clone (no fused multiply-add: AVX2 does not include FMA),
+/// so the results are bit-identical on any x86-64 processor.
 #if defined(__GNUC__) && !defined(__clang__)
 __attribute__((optimize("no-trapping-math")))
 #endif
@@ -70,8 +76,8 @@ __attribute__((optimize("no-trapping-math")))
 __attribute__((target_clones("avx2", "default")))
 #endif
 inline bool lennard_jones_terms(std::size_t count, const LennardJonesConstants& c, const double* __restrict dx,
-                                const double* __restrict dy, const double* __restrict dz, double* __restrict coef,
-                                double* __restrict energy) {
+                                const double* __restrict dy, const double* __restrict dz, double* __restrict fx,
+                                double* __restrict fy, double* __restrict fz, double* __restrict energy) {
   const double sigma2 = c.sigma2, minus_24_eps = c.minus_24_eps, four_eps = c.four_eps, shift = c.shift,
                cutoff2 = c.cutoff2;
   double bad = 0.0;  // (a double, not a bool: this form GCC vectorizes)
@@ -83,10 +89,13 @@ inline bool lennard_jones_terms(std::size_t count, const LennardJonesConstants& 
     const double sr12 = sr6 * sr6;
     const double force_term = minus_24_eps * (2.0 * sr12 - sr6) / r2;  // computed for every entry: no branch
     const double energy_term = four_eps * (sr12 - sr6) - shift;
-    const double term = inside ? force_term : 0.0;
-    coef[k] = term;
+    const double coef = inside ? force_term : 0.0;
+    fx[k] = coef * dx[k];
+    fy[k] = coef * dy[k];
+    fz[k] = coef * dz[k];
     energy[k] = inside ? energy_term : 0.0;
-    bad = term - term == 0.0 ? bad : 1.0;  // x - x is NaN for an infinite or NaN x
+    const double sum = (fx[k] + fy[k]) + fz[k];  // not finite if a component is not (or, rarely, if it overflows)
+    bad = sum - sum == 0.0 ? bad : 1.0;          // x - x is NaN for an infinite or NaN x
   }
   return bad == 0.0;
 }
@@ -125,19 +134,22 @@ class LennardJones {
       moved_[a] = moved ? 1 : 0;
     });
     if (std::find(moved_.begin(), moved_.end(), 1) != moved_.end()) build_lists();
-    // Per body on one thread, each site's whole list in its order (the full
-    // list of the header comment); the energy of a pair goes to the body of
-    // lower index. Three loops per body: gather d for all its list entries; the pair terms
-    // of all of them at once (detail::lennard_jones_terms, vectorized); then
-    // the sums, in list order.
+    // Two passes over the bodies, each split between the threads (the
+    // header's half lists). First, per body, its sites' pairs with sites of
+    // bodies above it: gather d, the pair terms of all of them at once
+    // (detail::lennard_jones_terms, vectorized) into the pair arrays, and the
+    // energy of those pairs in list order. Then, per body, each site's force
+    // over its whole neighbourhood in index order: minus the forces of its
+    // pairs with lower sites (computed in the first pass from the other side),
+    // then its own pairs' forces.
     const Constants c{sigma2_, -24.0 * eps_, 4.0 * eps_, shift_, cutoff_ * cutoff_};
     energy_.assign(n, 0.0);
-    parallel_ranges(body_ranges_, [&](std::size_t a) {
+    finite_.assign(n, 1);
+    auto pair_terms = [&](std::size_t a) {
       thread_local Scratch scratch;
-      const std::size_t past_body = sites_.end(a);  // sites of other bodies above a: index >= past_body
-      const std::size_t first = list_start_[sites_.begin(a)], count = list_start_[past_body] - first;
+      const std::size_t first = list_start_[sites_.begin(a)], count = list_start_[sites_.end(a)] - first;
       scratch.resize(count);
-      for (std::size_t i = sites_.begin(a); i < past_body; ++i) {
+      for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
         const Vector3<double> xi = position_[i];
         for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
           const Vector3<double>& xj = position_[neighbours_[k]];
@@ -146,33 +158,35 @@ class LennardJones {
           scratch.dz[k - first] = xj(2) - xi(2);
         }
       }
-      const bool finite = detail::lennard_jones_terms(count, c, scratch.dx.data(), scratch.dy.data(), scratch.dz.data(),
-                                  scratch.coef.data(), scratch.energy.data());
-      // A force that is not finite (two sites on top of each other) stops the
-      // run, naming the first pair in list order, as a loop that checked each
-      // term would.
-      if (!finite)
-        for (std::size_t i = sites_.begin(a); i < past_body; ++i)
-          for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k)
-            if (!std::isfinite(scratch.coef[k - first])) {
-              const std::size_t j = neighbours_[k];
-              detail::close_approach(sys_, sites_, std::min(i, j), std::max(i, j), (position_[j] - position_[i]).norm());
-            }
-      // Each site's force in its list's order, and the energy of its pairs
-      // with the sites of bodies above a (the end of its sorted list). Beyond
-      // r_c, coef and the energy are 0 and add nothing: x + 0 = x (no sum here
-      // is ever -0).
-      Vector3<double> force = Vector3<double>::Zero(), torque = Vector3<double>::Zero();
+      finite_[a] = detail::lennard_jones_terms(count, c, scratch.dx.data(), scratch.dy.data(), scratch.dz.data(),
+                                               pair_fx_.data() + first, pair_fy_.data() + first,
+                                               pair_fz_.data() + first, scratch.energy.data())
+                       ? 1
+                       : 0;
+      // Beyond r_c the energy is 0 and adds nothing: x + 0 = x (no sum here is
+      // ever -0).
       double energy = 0.0;
-      for (std::size_t i = sites_.begin(a); i < past_body; ++i) {
+      for (std::size_t q = 0; q < count; ++q) energy += scratch.energy[q];
+      energy_[a] = energy;
+    };
+    // Each site's force in index order of its neighbours: the pairs with lower
+    // sites first, each the exact negative of the force its partner felt
+    // (d -> -d, the same r^2, so the same coef: (-c d) is exact), then its
+    // own. The sums are those of the whole sorted list, bit for bit.
+    auto site_sums = [&](std::size_t a) {
+      Vector3<double> force = Vector3<double>::Zero(), torque = Vector3<double>::Zero();
+      for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
         double fx = 0.0, fy = 0.0, fz = 0.0;
+        for (std::size_t l = lower_start_[i]; l < lower_start_[i + 1]; ++l) {
+          const std::size_t k = lower_pair_[l];
+          fx -= pair_fx_[k];
+          fy -= pair_fy_[k];
+          fz -= pair_fz_[k];
+        }
         for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
-          const std::size_t q = k - first;
-          const double coef = scratch.coef[q];
-          fx += coef * scratch.dx[q];
-          fy += coef * scratch.dy[q];
-          fz += coef * scratch.dz[q];
-          if (neighbours_[k] >= past_body) energy += scratch.energy[q];
+          fx += pair_fx_[k];
+          fy += pair_fy_[k];
+          fz += pair_fz_[k];
         }
         const Vector3<double> fi(fx, fy, fz);
         force += fi;
@@ -180,8 +194,25 @@ class LennardJones {
       }
       e.force[a] += force;
       e.torque[a] += s.q[a].inverse().act(torque);
-      energy_[a] = energy;
-    });
+    };
+    // The sums read the pair terms of lower bodies: both passes in one
+    // parallel region, the sums after every thread's pair terms.
+    parallel_ranges(pair_ranges_, pair_terms, site_ranges_, site_sums);
+    // A force that is not finite (two sites on top of each other) stops the
+    // run, naming the first such pair of the lowest body in list order, as a
+    // serial loop over the bodies' whole neighbourhoods would. (A pair is in
+    // the list of its lower site, so the lowest body with a non-finite pair
+    // in its sites' whole neighbourhoods is the lowest with one in its own
+    // lists.)
+    for (std::size_t a = 0; a < n; ++a) {
+      if (finite_[a] != 0) continue;
+      for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i)
+        for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k)
+          if (!(std::isfinite(pair_fx_[k]) && std::isfinite(pair_fy_[k]) && std::isfinite(pair_fz_[k]))) {
+            const std::size_t j = neighbours_[k];
+            detail::close_approach(sys_, sites_, i, j, (position_[j] - position_[i]).norm());
+          }
+    }
     for (std::size_t a = 0; a < n; ++a) e.energy += energy_[a];
   }
 
@@ -196,10 +227,10 @@ class LennardJones {
   using Constants = detail::LennardJonesConstants;
   /// One thread's buffers for a body's list entries (see add).
   struct Scratch {
-    std::vector<double> dx, dy, dz, coef, energy;
+    std::vector<double> dx, dy, dz, energy;
     void resize(std::size_t count) {
       if (dx.size() >= count) return;
-      for (std::vector<double>* v : {&dx, &dy, &dz, &coef, &energy}) v->resize(count);
+      for (std::vector<double>* v : {&dx, &dy, &dz, &energy}) v->resize(count);
     }
   };
 
@@ -299,7 +330,7 @@ class LennardJones {
           for (std::size_t k = runs[r].first; k < runs[r].second; ++k) {
             const double dx = cell_x_[k] - xi, dy = cell_y_[k] - yi, dz = cell_z_[k] - zi;
             list[kept] = sorted_[k];
-            kept += static_cast<std::size_t>((dx * dx + dy * dy + dz * dz < reach2) & (cell_body_[k] != a));
+            kept += static_cast<std::size_t>((dx * dx + dy * dy + dz * dz < reach2) & (cell_body_[k] > a));
           }
         out.resize(kept);
         // By index; a list is short (tens of sites), where insertion sort is fastest.
@@ -318,12 +349,29 @@ class LennardJones {
       std::copy(chunk_lists_[chunk].begin(), chunk_lists_[chunk].end(),
                 neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[chunk * m / chunks]));
     });
+    // Each site's pairs with lower sites (the lists' transpose): the indices
+    // of the pairs (i, j) with j this site, by increasing i, which is the
+    // order a counting sort over the pairs in list order leaves them in.
+    lower_start_.assign(m + 1, 0);
+    for (const std::size_t j : neighbours_) ++lower_start_[j + 1];
+    for (std::size_t i = 0; i < m; ++i) lower_start_[i + 1] += lower_start_[i];
+    fill_.assign(lower_start_.begin(), lower_start_.end() - 1);
+    lower_pair_.resize(neighbours_.size());
+    for (std::size_t k = 0; k < neighbours_.size(); ++k) lower_pair_[fill_[neighbours_[k]]++] = k;
+    pair_fx_.resize(neighbours_.size());
+    pair_fy_.resize(neighbours_.size());
+    pair_fz_.resize(neighbours_.size());
     // How the evaluation splits its work between threads: the bodies into
-    // consecutive ranges of about equal list entries (a gas that clusters
-    // makes halves by count uneven). Results do not depend on it.
+    // consecutive ranges of about equal pairs (a gas that clusters makes
+    // halves by count uneven), for the pair terms of each body's own lists
+    // and for the sums over its sites' whole neighbourhoods. Results do not
+    // depend on it.
     const std::size_t n = sys_.size();
     const int threads = par_.threads_for(n);
-    body_ranges_ = balanced_ranges(n, threads, [&](std::size_t a) { return list_start_[a < n ? sites_.begin(a) : m]; });
+    auto site_of = [&](std::size_t a) { return a < n ? sites_.begin(a) : m; };
+    pair_ranges_ = balanced_ranges(n, threads, [&](std::size_t a) { return list_start_[site_of(a)]; });
+    site_ranges_ = balanced_ranges(
+        n, threads, [&](std::size_t a) { return list_start_[site_of(a)] + lower_start_[site_of(a)]; });
     built_at_ = position_;
   }
 
@@ -333,6 +381,7 @@ class LennardJones {
   Parallelism par_;
   mutable std::vector<Vector3<double>> position_, arm_;
   mutable std::vector<double> energy_;
+  mutable std::vector<char> finite_;  ///< per body: its pairs' forces are finite
   mutable std::vector<char> moved_;  ///< per body: a site moved more than skin/2 since the build
   mutable Vector3<double> origin_ = Vector3<double>::Zero(), inv_cell_ = Vector3<double>::Ones();
   mutable std::array<std::int64_t, 3> dims_{1, 1, 1};
@@ -348,7 +397,13 @@ class LennardJones {
   mutable std::vector<double> cell_x_, cell_y_, cell_z_;  ///< the sites' positions in cell order
   mutable std::vector<std::size_t> cell_body_;            ///< and their bodies
   mutable std::vector<std::vector<std::size_t>> chunk_lists_;
-  mutable std::vector<std::size_t> body_ranges_;  ///< per thread t: [r[t], r[t + 1]) (build_lists)
+  /// Each site's pairs with lower sites: lower_pair_[lower_start_[j] ...
+  /// lower_start_[j + 1]) index the pairs (i, j), i < j, by increasing i.
+  mutable std::vector<std::size_t> lower_start_, lower_pair_;
+  mutable std::vector<double> pair_fx_, pair_fy_, pair_fz_;  ///< per pair (i, j) of the lists: the force on i
+  /// Per thread t: bodies [r[t], r[t + 1]) (build_lists), for the pair terms
+  /// and for the sums.
+  mutable std::vector<std::size_t> pair_ranges_, site_ranges_;
   mutable std::vector<Vector3<double>> built_at_;
   mutable std::int64_t builds_ = 0;
 };

@@ -132,4 +132,51 @@ void parallel_ranges(const std::vector<std::size_t>& bounds, F&& f) {
   if (first) std::rethrow_exception(first);
 }
 
+/// Two passes over 0..n-1 in one parallel region: f(i) for i in thread t's
+/// range [first[t], first[t + 1]), then, once every thread has finished its
+/// first pass, g(i) for i in [second[t], second[t + 1]) (both bounds from
+/// balanced_ranges, for the same number of threads). For a second pass that
+/// reads what the first wrote for other items, without the cost of a second
+/// region. f and g must write only what belongs to i. Exceptions as in
+/// parallel_for: the one of the lowest index of the first pass, else of the
+/// second; after an exception in the first pass no thread starts the second.
+template <class F, class G>
+void parallel_ranges(const std::vector<std::size_t>& first, F&& f, const std::vector<std::size_t>& second, G&& g) {
+  const int threads = static_cast<int>(first.size()) - 1;
+  if (threads <= 1) {
+    for (std::size_t i = first.front(); i < first.back(); ++i) f(i);
+    for (std::size_t i = second.front(); i < second.back(); ++i) g(i);
+    return;
+  }
+  std::exception_ptr failure[2];
+  std::size_t failure_index[2] = {std::numeric_limits<std::size_t>::max(), std::numeric_limits<std::size_t>::max()};
+  auto run = [&](int pass, const std::vector<std::size_t>& bounds, std::size_t t, auto& body) {
+    for (std::size_t i = bounds[t]; i < bounds[t + 1]; ++i) {
+      try {
+        body(i);
+      } catch (...) {
+#pragma omp critical(lgvi_parallel_for_exception)
+        if (i < failure_index[pass]) {
+          failure_index[pass] = i;
+          failure[pass] = std::current_exception();
+        }
+        break;
+      }
+    }
+  };
+#pragma omp parallel num_threads(threads)
+  {
+#ifdef _OPENMP
+    const auto t = static_cast<std::size_t>(omp_get_thread_num());
+#else
+    const std::size_t t = 0;
+#endif
+    run(0, first, t, f);
+#pragma omp barrier
+    if (!failure[0]) run(1, second, t, g);
+  }
+  for (const std::exception_ptr& e : failure)
+    if (e) std::rethrow_exception(e);
+}
+
 }  // namespace lgvi
