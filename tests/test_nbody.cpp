@@ -375,16 +375,20 @@ TEST(LennardJonesPairs, EachSiteSumsItsWholeNeighbourhoodInIndexOrderBitForBit) 
   // of another body within r_c of coef d with d = X_j - X_i - the documented
   // order that makes runs independent of threads and list builds. Here that
   // sum is written out as an O(S^2) loop with the kernel's formula (scalar),
-  // and compared with EXPECT_EQ, at a fresh build and after a move within the
-  // skin (lists kept). Energy: per body, its sites' pairs with sites of higher
-  // bodies in index order, then the bodies' sums in body order.
+  // and each body's force, torque and energy compared with EXPECT_EQ, at a
+  // fresh build, after a move within the skin (lists kept) and after a move
+  // beyond it (rebuilt), on 1 and on 2 threads (64 bodies: 2 threads, so
+  // the second pass reads pair forces the other thread computed). Energy:
+  // per body, its sites' pairs with sites of higher bodies in index order,
+  // then the bodies' sums in body order.
   const System sys = molecules(64);
-  SystemState s = lattice_state(64, 1.7, 0.4);
+  const SystemState s = lattice_state(64, 1.7, 0.4);
   const double eps = 1.0, sigma = 1.0, cutoff = 2.5;
-  const LennardJones lj(sys, eps, sigma, cutoff);
   const lgvi::InteractionSites sites(sys);
   const double sr6c = std::pow(sigma * sigma / (cutoff * cutoff), 3), shift = 4.0 * eps * (sr6c * sr6c - sr6c);
-  for (const double move : {0.0, 0.05}) {
+  for (const int threads : {1, 2}) {
+  const LennardJones lj(sys, eps, sigma, cutoff, Parallelism{threads});
+  for (const double move : {0.0, 0.05, 0.4}) {  // skin 0.3: 0.05 < skin/2 < 0.4
     SystemState moved = s;
     for (V3& x : moved.x) x += t::random_vector(move);
     SystemEvaluation e(s.size());
@@ -413,13 +417,15 @@ TEST(LennardJonesPairs, EachSiteSumsItsWholeNeighbourhoodInIndexOrderBitForBit) 
         force += fi;
         torque += arm[i].cross(fi);
       }
-      EXPECT_EQ(e.force[a], force) << "body " << a << ", move " << move;
-      EXPECT_EQ(e.torque[a], moved.q[a].inverse().act(torque)) << "body " << a << ", move " << move;
+      EXPECT_EQ(e.force[a], force) << "body " << a << ", move " << move << ", threads " << threads;
+      EXPECT_EQ(e.torque[a], moved.q[a].inverse().act(torque)) << "body " << a << ", move " << move << ", threads "
+                                                               << threads;
       total += energy;
     }
     EXPECT_EQ(e.energy, total) << "move " << move;
   }
-  EXPECT_EQ(lj.list_builds(), 1);  // the second state used the first's lists
+  EXPECT_EQ(lj.list_builds(), 2) << threads;  // the second state used the first's lists
+  }
 }
 
 TEST(LennardJonesPairs, TwoSitesOnTopOfEachOtherStopTheRunNamingBoth) {
@@ -438,6 +444,28 @@ TEST(LennardJonesPairs, TwoSitesOnTopOfEachOtherStopTheRunNamingBoth) {
   } catch (const lgvi::StepFailure& f) {
     EXPECT_NE(std::string(f.what()).find("between body 0 (\"body0\") and body 2 (\"body2\")"), std::string::npos)
         << f.what();
+  }
+}
+
+TEST(LennardJonesPairs, TwoCollisionsOnTwoThreadsNameThePairOfTheLowerBody) {
+  // 64 spheres on a lattice (2 threads: bodies 0-31 and 32-63 in the first
+  // pass), two of them placed on others in each thread's half: the message
+  // names the pair a serial loop over the bodies meets first, that of the
+  // lowest body (3 on 10), whichever thread finishes first.
+  const RigidBody sphere(1.0, 0.1 * lgvi::Matrix3<double>::Identity());
+  const System sys(std::vector<RigidBody>(64, sphere));
+  SystemState s = lattice_state(64, 1.5, 0.0);
+  s.x[50] = s.x[45];
+  s.x[10] = s.x[3];
+  for (const int threads : {1, 2}) {
+    SystemEvaluation e(64);
+    try {
+      LennardJones(sys, 1.0, 1.0, 2.5, Parallelism{threads}).add(s, e);
+      ADD_FAILURE() << "no StepFailure";
+    } catch (const lgvi::StepFailure& f) {
+      EXPECT_NE(std::string(f.what()).find("between body 3 (\"body3\") and body 10 (\"body10\")"), std::string::npos)
+          << f.what();
+    }
   }
 }
 
@@ -687,6 +715,26 @@ TEST(Threads, TwoPassRangesRunTheSecondPassAfterTheWholeFirst) {
   } catch (const std::runtime_error& e) {
     EXPECT_STREQ(e.what(), "65");
   }
+}
+
+TEST(Threads, RangesRunEveryItemWhenTheTeamIsSmallerThanAsked) {
+  // Inside another parallel region OpenMP gives a nested region one thread
+  // (nesting is off by default): that thread must run every range, in both
+  // the one-pass and the two-pass form, as a build without OpenMP does.
+  const std::vector<std::size_t> first{0, 40, 100}, second{0, 70, 100};
+  std::vector<int> once(100, 0), pass1(100, 0), pass2(100, 0);
+#pragma omp parallel num_threads(2)
+  {
+#pragma omp single
+    {
+      lgvi::parallel_ranges(first, [&](std::size_t i) { ++once[i]; });
+      lgvi::parallel_ranges(
+          first, [&](std::size_t i) { ++pass1[i]; }, second, [&](std::size_t i) { pass2[i] = pass1[99 - i] + 1; });
+    }
+  }
+  EXPECT_EQ(once, std::vector<int>(100, 1));
+  EXPECT_EQ(pass1, std::vector<int>(100, 1));
+  EXPECT_EQ(pass2, std::vector<int>(100, 2));
 }
 
 TEST(NBodyMethods, EveryMethodConservesLinearMomentumOfAnIsolatedSystem) {

@@ -78,6 +78,14 @@ TEST_P(S3Property, PiIsAHomomorphismIntoSO3) {
   EXPECT_MAT_NEAR(q1.inverse().matrix(), q1.matrix().transpose(), 8 * eps);
   const V3 v = lgvi::test::random_vector();
   EXPECT_MAT_NEAR(q1.act(v), q1.matrix() * v, 8 * eps);
+  // act() is Eigen's q * v written out, operation for operation: equal bit for
+  // bit (the reason it may replace it without changing any output).
+  EXPECT_EQ(q1.act(v), q1.quaternion() * v);
+  for (int k = 0; k < 100; ++k) {
+    const S3d q = lgvi::test::random_unit_quaternion();
+    const V3 w = lgvi::test::random_vector(10.0);
+    EXPECT_EQ(q.act(w), q.quaternion() * w);
+  }
 }
 
 TEST_P(S3Property, LiftOfRotationMatrixIsAPreimage) {

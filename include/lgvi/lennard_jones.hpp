@@ -10,10 +10,10 @@
 //   f_i = -24 eps (2 (sigma/r)^12 - (sigma/r)^6) d / r^2.
 //
 // Neighbours by Verlet lists, as in LAMMPS and HOOMD: each site keeps the
-// sites of other bodies within r_c + skin, found with a cell list (cubic cells
-// of side >= (r_c + skin) / 2 over the sites' bounding box, at most ~2 per
-// site, so a dilute system gets larger cells instead of a huge empty grid;
-// counting sort, O(S)). The lists are rebuilt when some site has moved more
+// sites of higher bodies within r_c + skin (half lists, below), found with a
+// cell list (cubic cells of side >= (r_c + skin) / 2 over the sites' bounding
+// box, at most ~2 per site, so a dilute system gets larger cells instead of a
+// huge empty grid; counting sort, O(S)). The lists are rebuilt when some site has moved more
 // than skin/2 since the last build (then no pair can have crossed into r_c
 // unseen), so the cost grows like the number of sites, not its square.
 //
@@ -68,7 +68,8 @@ struct LennardJonesConstants {
 /// trap); a clone for AVX2 (4 doubles at a time) is picked at run time where
 /// the processor has it. Every term is the same IEEE operation in the same
 /// order in either clone (no fused multiply-add: AVX2 does not include FMA),
-/// so the results are bit-identical on any x86-64 processor.
+/// so the results are bit-identical on any x86-64 processor (in a build that
+/// does not itself target FMA, as the project's does not).
 #if defined(__GNUC__) && !defined(__clang__)
 __attribute__((optimize("no-trapping-math")))
 #endif
@@ -243,8 +244,9 @@ class LennardJones {
     return c;
   }
 
-  /// Sorts the sites into cells of side >= r_c + skin, then lists for every
-  /// site the sites of other bodies within r_c + skin, by increasing index.
+  /// Sorts the sites into cells of side >= (r_c + skin) / 2, then lists for
+  /// every site the sites of higher bodies within r_c + skin, by increasing
+  /// index, and the lists' transpose (each site's lower partners).
   void build_lists() const {
     ++builds_;
     const std::size_t m = position_.size();
@@ -290,9 +292,9 @@ class LennardJones {
       cell_body_[k] = sites_.body_of(sorted_[k]);
     }
     // The lists, one site after the other. Each site's list is its own: the
-    // sites of other bodies within r_c + skin in the (2 span + 1)^3 cells
-    // around it ((2 span + 1)^2 runs along x), then sorted by index. So the lists do not depend on
-    // who builds them: the sites are cut into fixed chunks, each chunk's
+    // sites of higher bodies within r_c + skin in the (2 span + 1)^3 cells
+    // around it ((2 span + 1)^2 runs along x), then sorted by index. So the
+    // lists do not depend on who builds them: the sites are cut into fixed chunks, each chunk's
     // lists built on some thread into the chunk's buffer, and the buffers
     // joined in site order.
     const double reach2 = reach * reach;

@@ -16,11 +16,13 @@
 #pragma once
 
 #include <algorithm>
+#include <cassert>
 #include <cstddef>
 #include <cstdint>
 #include <exception>
 #include <limits>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #ifdef _OPENMP
@@ -95,6 +97,45 @@ std::vector<std::size_t> balanced_ranges(std::size_t n, int threads, const Prefi
   return bounds;
 }
 
+namespace detail {
+/// This thread's place in the current OpenMP team and the team's size (0 and
+/// 1 outside a parallel region or without OpenMP).
+inline std::pair<int, int> team_place() {
+#ifdef _OPENMP
+  return {omp_get_thread_num(), omp_get_num_threads()};
+#else
+  return {0, 1};
+#endif
+}
+
+/// Runs body(i) for i in ranges t, t + team size, ... of `bounds` for this
+/// thread of the team (range t on thread t when the team has as many threads
+/// as ranges; every range still runs when it has fewer: OpenMP may give
+/// fewer threads than asked, e.g. under OMP_THREAD_LIMIT or nesting, and
+/// without OpenMP one thread runs them all in order). The first exception
+/// is recorded (lowest index of all threads) and ends this thread's pass.
+template <class Body>
+void run_ranges(const std::vector<std::size_t>& bounds, Body& body, std::exception_ptr& failure,
+                std::size_t& failure_index) {
+  const auto [place, team] = team_place();
+  const int ranges = static_cast<int>(bounds.size()) - 1;
+  for (int t = place; t < ranges; t += team) {
+    for (std::size_t i = bounds[static_cast<std::size_t>(t)]; i < bounds[static_cast<std::size_t>(t) + 1]; ++i) {
+      try {
+        body(i);
+      } catch (...) {
+#pragma omp critical(lgvi_parallel_for_exception)
+        if (i < failure_index) {
+          failure_index = i;
+          failure = std::current_exception();
+        }
+        return;
+      }
+    }
+  }
+}
+}  // namespace detail
+
 /// Calls f(i) for i in [bounds[t], bounds[t + 1]) on thread t of
 /// bounds.size() - 1 threads: each thread its own consecutive range, so that
 /// loops split alike touch the same data on the same thread (its cache).
@@ -106,30 +147,11 @@ void parallel_ranges(const std::vector<std::size_t>& bounds, F&& f) {
     for (std::size_t i = bounds.front(); i < bounds.back(); ++i) f(i);
     return;
   }
-  std::exception_ptr first;
-  std::size_t first_index = std::numeric_limits<std::size_t>::max();
+  std::exception_ptr failure;
+  std::size_t failure_index = std::numeric_limits<std::size_t>::max();
 #pragma omp parallel num_threads(threads)
-  {
-#ifdef _OPENMP
-    const auto t = static_cast<std::size_t>(omp_get_thread_num());
-    const std::size_t from = bounds[t], to = bounds[t + 1];
-#else
-    const std::size_t from = bounds.front(), to = bounds.back();
-#endif
-    for (std::size_t i = from; i < to; ++i) {
-      try {
-        f(i);
-      } catch (...) {
-#pragma omp critical(lgvi_parallel_for_exception)
-        if (i < first_index) {
-          first_index = i;
-          first = std::current_exception();
-        }
-        break;
-      }
-    }
-  }
-  if (first) std::rethrow_exception(first);
+  detail::run_ranges(bounds, f, failure, failure_index);
+  if (failure) std::rethrow_exception(failure);
 }
 
 /// Two passes over 0..n-1 in one parallel region: f(i) for i in thread t's
@@ -142,6 +164,7 @@ void parallel_ranges(const std::vector<std::size_t>& bounds, F&& f) {
 /// second; after an exception in the first pass no thread starts the second.
 template <class F, class G>
 void parallel_ranges(const std::vector<std::size_t>& first, F&& f, const std::vector<std::size_t>& second, G&& g) {
+  assert(first.size() == second.size());
   const int threads = static_cast<int>(first.size()) - 1;
   if (threads <= 1) {
     for (std::size_t i = first.front(); i < first.back(); ++i) f(i);
@@ -150,30 +173,11 @@ void parallel_ranges(const std::vector<std::size_t>& first, F&& f, const std::ve
   }
   std::exception_ptr failure[2];
   std::size_t failure_index[2] = {std::numeric_limits<std::size_t>::max(), std::numeric_limits<std::size_t>::max()};
-  auto run = [&](int pass, const std::vector<std::size_t>& bounds, std::size_t t, auto& body) {
-    for (std::size_t i = bounds[t]; i < bounds[t + 1]; ++i) {
-      try {
-        body(i);
-      } catch (...) {
-#pragma omp critical(lgvi_parallel_for_exception)
-        if (i < failure_index[pass]) {
-          failure_index[pass] = i;
-          failure[pass] = std::current_exception();
-        }
-        break;
-      }
-    }
-  };
 #pragma omp parallel num_threads(threads)
   {
-#ifdef _OPENMP
-    const auto t = static_cast<std::size_t>(omp_get_thread_num());
-#else
-    const std::size_t t = 0;
-#endif
-    run(0, first, t, f);
+    detail::run_ranges(first, f, failure[0], failure_index[0]);
 #pragma omp barrier
-    if (!failure[0]) run(1, second, t, g);
+    if (!failure[0]) detail::run_ranges(second, g, failure[1], failure_index[1]);
   }
   for (const std::exception_ptr& e : failure)
     if (e) std::rethrow_exception(e);

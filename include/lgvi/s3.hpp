@@ -181,17 +181,23 @@ class S3 {
   /// Rotates a vector: pi(q) v = q (0, v) q^*, evaluated as
   ///   u = 2 q_v x v,  pi(q) v = v + q_s u + q_v x u
   /// (30 flops). These are the operations of Eigen's q * v in its order, so
-  /// the results are the same bit for bit; written out because GCC does not
-  /// inline Eigen's, and in a many-body step the call cost as much as the
-  /// arithmetic.
+  /// the results are the same bit for bit (tests/test_s3.cpp); written out
+  /// because GCC does not inline Eigen's, and in a many-body step the call
+  /// cost as much as the arithmetic. Each cross-product component is one
+  /// expression, as in Eigen's cross(), and the products q_s u separate
+  /// statements, as Eigen's functors are: a compiler that fuses multiply-adds
+  /// only within an expression (Clang's default) then fuses the same ones in
+  /// both.
   Tangent act(const Tangent& v) const {
     const Scalar qs = q_.w(), qx = q_.x(), qy = q_.y(), qz = q_.z();
     Scalar ux = qy * v.z() - qz * v.y(), uy = qz * v.x() - qx * v.z(), uz = qx * v.y() - qy * v.x();
     ux += ux;
     uy += uy;
     uz += uz;
-    return Tangent(v.x() + qs * ux + (qy * uz - qz * uy), v.y() + qs * uy + (qz * ux - qx * uz),
-                   v.z() + qs * uz + (qx * uy - qy * ux));
+    const Scalar cx = qy * uz - qz * uy, cy = qz * ux - qx * uz, cz = qx * uy - qy * ux;
+    const Scalar sx = qs * ux, sy = qs * uy, sz = qs * uz;
+    const Scalar ax = v.x() + sx, ay = v.y() + sy, az = v.z() + sz;
+    return Tangent(ax + cx, ay + cy, az + cz);
   }
 
   S3 operator*(const S3& other) const { return S3(q_ * other.q_); }
@@ -208,7 +214,7 @@ class S3 {
   /// with q and so random-walks. Nothing is normalized: f_s - 1 is the same
   /// element's coordinate, evaluated without cancellation. For f_s <= 0 (a
   /// rotation of more than pi, never a step of the integrators) it is q f.
-  /// (act() is already of this form: Eigen rotates v as v + 2 q_s (q_v x v)
+  /// (act() is already of this form: it rotates v as v + 2 q_s (q_v x v)
   /// + 2 q_v x (q_v x v), so w1 = pi(f)^T w needs no counterpart.)
   S3 times_near_identity(const S3& f) const {
     if (!(f.w() > Scalar(0))) return *this * f;
