@@ -2,8 +2,8 @@
 // as K ranks. Rank 0 prepares the output folder (or reads it back with
 // --resume), then hands out members one at a time to whichever rank asks
 // (dynamic hand-out: long and short members mix) and appends each finished
-// row to the journal as it arrives; every rank, rank 0 included (on a second
-// thread), runs members. The rows do not depend on K: each member's numbers
+// row to the journal as it arrives; every rank, rank 0 included (on threads
+// beside its coordinator), runs --threads members at once (default 1). The rows do not depend on K: each member's numbers
 // come from (seed, index) and each run is deterministic.
 //
 // Messages: a worker keeps REQUESTs outstanding (about 10 ms of members in
@@ -31,8 +31,8 @@
 #include <mpi.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cmath>
 #include <csignal>
 #include <cstdlib>
@@ -108,21 +108,61 @@ std::string receive_text(const MPI_Status& status) {
   return text;
 }
 
-/// Ranks 1..K-1. A worker keeps a reserve of members asked for (received
-/// or still on their way) besides the one it runs, so that the next index is
-/// already here when a member ends (no round trip between members, and no
-/// wait in a blocking receive, which Open MPI spins). The reserve covers
-/// kReserveTime of work at the mean duration of the members run so far
-/// (at least 1, at most kMaxReserve members): rank 0's coordinator answers
-/// within its polling interval plus the wait for a core it shares with a
-/// member run (a few ms), while a worker holding more than that would only
-/// leave the last members unevenly spread. A request carries the last
-/// member's row (or nothing); each is answered WORK (an index) or STOP.
-/// After a STOP, rows go back as RESULT; DONE ends the rank.
-int worker_loop(const EnsemblePlan& plan, const std::string& dir, Outbox& out) {
+/// Ranks 1..K-1, running `runners` members at once (--threads; one thread
+/// each, MPI only on this one: MPI_THREAD_FUNNELED). A worker keeps a reserve
+/// of members asked for (received or still on their way) besides those it
+/// runs, so that the next index is already here when a member ends (no round
+/// trip between members, and no wait in a blocking receive, which Open MPI
+/// spins). The reserve covers kReserveTime of work per runner at the mean
+/// duration of the members run so far (at least 1, at most kMaxReserve
+/// members per runner): rank 0's coordinator answers within its polling
+/// interval plus the wait for a core it shares with member runs (a few ms),
+/// while a worker holding more than that would only leave the last members
+/// unevenly spread. A request carries the last member's row (or nothing);
+/// each is answered WORK (an index) or STOP. After a STOP, the members
+/// already received still run and their rows go back as RESULT; DONE ends
+/// the rank.
+int worker_loop(const EnsemblePlan& plan, const std::string& dir, Outbox& out, int runners) {
   constexpr double kReserveTime = 0.010;  // seconds
   constexpr std::size_t kMaxReserve = 8;
+  // Shared with the runner threads, under `mutex`.
+  std::mutex mutex;
+  std::condition_variable work_ready, run_ended;
   std::deque<std::int64_t> queue;
+  std::deque<ensemble_detail::TimedRow> finished;
+  bool no_more = false;   // no index will be added to the queue: runners leave once it is empty
+  std::string abort_message;
+  int running = runners;  // runner threads not yet left
+  auto runner = [&] {
+    std::unique_lock<std::mutex> lock(mutex);
+    for (;;) {
+      work_ready.wait(lock, [&] { return !queue.empty() || no_more; });
+      if (queue.empty()) break;
+      const std::int64_t index = queue.front();
+      queue.pop_front();
+      lock.unlock();
+      ensemble_detail::TimedRow run;
+      std::string failure;
+      try {
+        run = ensemble_detail::run_member_timed(plan, index, dir);
+      } catch (const std::exception& e) {
+        failure = e.what();
+      }
+      lock.lock();
+      if (!failure.empty()) {
+        if (abort_message.empty()) abort_message = failure;
+        queue.clear();
+      } else if (run.row.empty()) {  // stopped by a signal within the member: not a result
+        queue.clear();
+      } else {
+        finished.push_back(std::move(run));
+      }
+      run_ended.notify_one();
+    }
+    --running;
+    run_ended.notify_one();
+  };
+
   std::size_t outstanding = 0;
   bool stopped = false;
   double run_seconds = 0.0;
@@ -131,62 +171,74 @@ int worker_loop(const EnsemblePlan& plan, const std::string& dir, Outbox& out) {
     send_text(out, row, kRequest);
     ++outstanding;
   };
-  auto top_up = [&] {
-    std::size_t reserve = 1;
-    if (runs > 0) {
-      const double mean = run_seconds / static_cast<double>(runs);
-      reserve = static_cast<std::size_t>(std::clamp(std::ceil(kReserveTime / std::max(mean, 1e-9)), 1.0,
-                                                    static_cast<double>(kMaxReserve)));
-    }
-    while (!stopped && queue.size() + outstanding < reserve) request("");
-  };
-  request("");
-  request("");
+  std::vector<std::thread> threads;
+  for (int t = 0; t < runners; ++t) threads.emplace_back(runner);
+  for (int t = 0; t <= runners; ++t) request("");
+  std::unique_lock<std::mutex> lock(mutex);
   for (;;) {
+    // Replies from rank 0, without blocking while there is work here.
+    lock.unlock();
+    std::size_t received = 0;
     while (outstanding > 0) {
-      int ready = 1;
+      int ready = 0;
       MPI_Status status;
-      if (!queue.empty()) MPI_Iprobe(0, MPI_ANY_TAG, MPI_COMM_WORLD, &ready, &status);
+      MPI_Iprobe(0, MPI_ANY_TAG, MPI_COMM_WORLD, &ready, &status);
       if (!ready) break;
       std::int64_t index = -1;
       MPI_Recv(&index, 1, MPI_INT64_T, 0, MPI_ANY_TAG, MPI_COMM_WORLD, &status);
       --outstanding;
-      if (status.MPI_TAG == kWork) {
+      ++received;
+      std::lock_guard<std::mutex> guard(mutex);
+      if (status.MPI_TAG == kWork && abort_message.empty() && ensemble_detail::stop_signal() == 0) {
         queue.push_back(index);
+        work_ready.notify_one();
       } else {
         stopped = true;
       }
     }
-    if (queue.empty()) {
-      if (outstanding == 0) break;
-      continue;
-    }
-    const std::int64_t index = queue.front();
-    queue.pop_front();
-    ensemble_detail::TimedRow run;
-    try {
-      run = ensemble_detail::run_member_timed(plan, index, dir);
-    } catch (const std::exception& e) {
-      send_text(out, e.what(), kAbort);
-      return 1;
-    }
-    std::string& row = run.row;
-    const double seconds = run.seconds;
-    run_seconds += seconds;
-    ++runs;
-    if (row.empty()) {  // stopped by a signal within the member: not a result
+    lock.lock();
+    if (!abort_message.empty() || ensemble_detail::stop_signal() != 0) {
       stopped = true;
       queue.clear();
-      continue;
     }
-    row.push_back('\n');  // a row has no newline: the wall time follows one
-    fmt::format_to(std::back_inserter(row), "{:.17g}", seconds);
+    // Rows of finished runs: each goes back with the next request, or as a
+    // RESULT after a STOP.
+    while (!finished.empty()) {
+      ensemble_detail::TimedRow run = std::move(finished.front());
+      finished.pop_front();
+      run_seconds += run.seconds;
+      ++runs;
+      run.row.push_back('\n');  // a row has no newline: the wall time follows one
+      fmt::format_to(std::back_inserter(run.row), "{:.17g}", run.seconds);
+      if (!stopped) {
+        request(run.row);
+      } else {
+        send_text(out, run.row, kResult);
+      }
+    }
     if (!stopped) {
-      request(row);
-      top_up();
-    } else {
-      send_text(out, row, kResult);
+      std::size_t reserve = 1;
+      if (runs > 0) {
+        const double mean = run_seconds / static_cast<double>(runs);
+        reserve = static_cast<std::size_t>(std::clamp(std::ceil(kReserveTime / std::max(mean, 1e-9)), 1.0,
+                                                      static_cast<double>(kMaxReserve)));
+      }
+      while (queue.size() + outstanding < reserve * static_cast<std::size_t>(runners)) request("");
     }
+    if (stopped && outstanding == 0 && !no_more) {
+      no_more = true;
+      work_ready.notify_all();
+    }
+    if (running == 0 && finished.empty()) break;
+    // Wait for a run to end, or poll MPI again shortly (a reply arrives by
+    // message, not by this condition).
+    if (received == 0) run_ended.wait_for(lock, std::chrono::milliseconds(outstanding > 0 ? 1 : 50));
+  }
+  lock.unlock();
+  for (std::thread& t : threads) t.join();
+  if (!abort_message.empty()) {
+    send_text(out, abort_message, kAbort);
+    return 1;
   }
   send_text(out, "", kDone);
   return 0;
@@ -205,12 +257,9 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
   } finalize;
   Outbox out;  // after finalize: destroyed (flushed) before MPI_Finalize
   Signals signals;
-  if (opt.threads > 1) {  // not built: a rank runs one member at a time (one line, from rank 0 only)
-    if (rank == 0)
-      throw InvalidInput("--threads: under mpirun each rank runs one member at a time; start one rank per core "
-                         "instead (mpirun -n K), or run on threads without mpirun");
-    return 2;
-  }
+  // Members run at once on each rank: --threads, else 1 (one rank per core
+  // is the usual launch; rank 0 runs them beside its coordinator).
+  const int runners = std::max(1, opt.threads);
 
   // Rank 0 prepares the folder; the others read the plan from its copies.
   Prepared p;
@@ -241,7 +290,7 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
       send_text(out, e.what(), kAbort);
       return 2;
     }
-    return worker_loop(plan, dir, out);
+    return worker_loop(plan, dir, out, runners);
   }
 
   // Rank 0: the pending members, handed out in index order to whoever asks.
@@ -281,9 +330,8 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
     const std::size_t cut = text.rfind('\n');
     record(text.substr(0, cut), std::strtod(text.c_str() + cut + 1, nullptr), from);
   };
-  // Rank 0's own member runs, on a second thread (MPI stays on this one).
-  std::atomic<bool> local_done{false};
-  std::thread local([&] {
+  // Rank 0's own member runs, on `runners` more threads (MPI stays on this one).
+  auto local_runs = [&] {
     std::int64_t i = 0;
     while (take(i)) {
       try {
@@ -292,12 +340,13 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
         record(row, seconds, 0);
       } catch (const std::exception& e) {
         std::lock_guard<std::mutex> lock(mutex);
-        abort_message = e.what();
+        if (abort_message.empty()) abort_message = e.what();
         break;
       }
     }
-    local_done = true;
-  });
+  };
+  std::vector<std::thread> local;
+  for (int t = 0; t < runners; ++t) local.emplace_back(local_runs);
   int active = ranks - 1;
   while (active > 0) {
     int flag = 0;
@@ -329,7 +378,7 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
       }
     }
   }
-  local.join();
+  for (std::thread& t : local) t.join();
   if (!abort_message.empty()) {
     write_members(dir, p.plan, p.rows);
     throw InvalidInput(abort_message);

@@ -98,7 +98,8 @@ int run_cli(int argc, char** argv) {
   sweep_opt->excludes(ensemble_resume_opt);
   ensemble->add_option("--out", ensemble_options.out_dir, "Output folder (default: a folder named after the sweep)")
       ->excludes(ensemble_resume_opt);
-  ensemble->add_option("--threads", ensemble_options.threads, "Members run at once (default: all cores)")
+  ensemble->add_option("--threads", ensemble_options.threads,
+                       "Members run at once (default: all cores; under mpirun, per rank, default 1)")
       ->check(CLI::Range(1, 1024));
   ensemble->add_flag("-q,--quiet", ensemble_options.quiet, "Print nothing on success");
   ensemble->add_flag("--progress", ensemble_options.progress,

@@ -1,5 +1,5 @@
-"""`lgvi ensemble` and lgvi.ensemble: members.csv identical for 1 thread, 2 threads and
-`mpirun -n 2`; the draws (reproducible, with the stated distributions) and grids; a failing
+"""`lgvi ensemble` and lgvi.ensemble: members.csv identical for 1 thread, 2 threads,
+`mpirun -n 2` and `mpirun -n 2` with 2 threads per rank; the draws (reproducible, with the stated distributions) and grids; a failing
 member recorded while the others complete; errors up front naming the member and the key;
 SIGTERM and a killed MPI rank, then --resume, byte-identical to an uninterrupted ensemble;
 the Python function on a process pool, mpi4py and Dask, equal to the CLI's bytes.
@@ -81,7 +81,7 @@ def test_members_csv_is_identical_for_one_thread_two_threads_and_two_ranks(tmp_p
     path = sweep(tmp_path)
     outs = {}
     for name, extra, mpi in (("t1", ["--threads", "1"], 0), ("t2", ["--threads", "2"], 0)) + (
-            (("mpi2", [], 2),) if MPIRUN else ()):
+            (("mpi2", [], 2), ("mpi2-threads2", ["--threads", "2"], 2)) if MPIRUN else ()):
         proc = ensemble(path, "--out", tmp_path / name, *extra, mpi=mpi)
         assert proc.returncode == 0, proc.stderr
         outs[name] = (tmp_path / name / "members.csv").read_bytes()
@@ -248,13 +248,14 @@ def test_a_signal_then_resume_gives_the_uninterrupted_bytes(tmp_path, sig, statu
     assert (tmp_path / "cut" / "members.csv").read_bytes() == (tmp_path / "whole" / "members.csv").read_bytes()
 
 
-@pytest.mark.parametrize("mpi", [0, pytest.param(2, marks=needs_mpi)])
-def test_timings_has_each_members_wall_time_and_rank(tmp_path, mpi):
+@pytest.mark.parametrize("mpi,threads", [(0, 2), pytest.param(2, 1, marks=needs_mpi),
+                                         pytest.param(2, 2, marks=needs_mpi)])
+def test_timings_has_each_members_wall_time_and_rank(tmp_path, mpi, threads):
     """timings.csv (kept apart from members.csv, which must not depend on timing): one line per member, in the
     order they finished, with its wall time and the rank that ran it; under mpirun -n 2 both ranks ran members
-    (rank 0 on its second thread, rank 1 by hand-out)."""
+    (rank 0 on threads beside its coordinator, rank 1 by hand-out), 1 or 2 at once per rank."""
     path = sweep(tmp_path, members=24, duration=200.0)
-    proc = ensemble(path, "--out", tmp_path / "out", *([] if mpi else ["--threads", "2"]), mpi=mpi)
+    proc = ensemble(path, "--out", tmp_path / "out", "--threads", str(threads), mpi=mpi)
     assert proc.returncode == 0, proc.stderr
     lines = (tmp_path / "out" / "timings.csv").read_text().splitlines()
     assert lines[0] == "index,wall_seconds,rank"
@@ -342,18 +343,6 @@ def test_figures_of_an_ensemble(tmp_path):
     assert (width, height) == (round(4 * 3.6 * plot.DPI), round(2 * 3.2 * plot.DPI))
 
 
-@needs_mpi
-def test_threads_under_mpirun_are_refused_in_one_line(tmp_path):
-    """A rank runs one member at a time: --threads under mpirun is an error from rank 0 (one line), not ignored."""
-    path = sweep(tmp_path, members=4)
-    proc = ensemble(path, "--out", tmp_path / "out", "--threads", "2", mpi=2)
-    assert proc.returncode != 0
-    lines = [line for line in proc.stderr.splitlines() if line.startswith("lgvi: error:")]
-    assert lines == ["lgvi: error: --threads: under mpirun each rank runs one member at a time; start one rank per "
-                     "core instead (mpirun -n K), or run on threads without mpirun"], proc.stderr
-    assert not (tmp_path / "out").exists()
-
-
 def test_resume_after_a_torn_journal_line_gives_the_uninterrupted_bytes(tmp_path):
     """A process killed while appending leaves a last line without its newline. --resume cuts it, so the next
     row appended starts a line of its own; before, that row was glued onto the fragment and the journal held a
@@ -411,12 +400,15 @@ def test_progress_on_a_terminal(tmp_path, mpi):
 
 
 @needs_mpi
-def test_a_killed_rank_loses_no_finished_member_and_resume_completes(tmp_path):
+@pytest.mark.parametrize("threads", [1, 2])
+def test_a_killed_rank_loses_no_finished_member_and_resume_completes(tmp_path, threads):
+    """kill -9 of rank 1 (running one member, or two on threads): what rank 0 received stays, --resume completes."""
     path = sweep(tmp_path, members=60, duration=200.0)
     whole = ensemble(path, "--out", tmp_path / "whole", "--threads", "1")
     assert whole.returncode == 0, whole.stderr
     proc = subprocess.Popen([MPIRUN, "-n", "2", "--oversubscribe", BINARY, "ensemble", path, "--out", tmp_path / "cut",
-                             "-q"], stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=MPI_ENV)
+                             "-q", "--threads", str(threads)], stderr=subprocess.PIPE, stdout=subprocess.PIPE,
+                            text=True, env=MPI_ENV)
     journal = tmp_path / "cut" / "journal.csv"
     wait_for_rows(journal, 5)
     # Rank 1: the lgvi process whose environment says OMPI_COMM_WORLD_RANK=1.
