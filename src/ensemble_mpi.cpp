@@ -172,6 +172,7 @@ int worker_loop(const EnsemblePlan& plan, const std::string& dir, Outbox& out, i
     ++outstanding;
   };
   std::vector<std::thread> threads;
+  threads.reserve(static_cast<std::size_t>(runners));
   for (int t = 0; t < runners; ++t) threads.emplace_back(runner);
   for (int t = 0; t <= runners; ++t) request("");
   std::unique_lock<std::mutex> lock(mutex);
@@ -346,6 +347,7 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
     }
   };
   std::vector<std::thread> local;
+  local.reserve(static_cast<std::size_t>(runners));
   for (int t = 0; t < runners; ++t) local.emplace_back(local_runs);
   int active = ranks - 1;
   while (active > 0) {
