@@ -29,6 +29,9 @@
 // threads like any per-body loop. (Adding each pair's force to both of its
 // sites as it is computed, LAMMPS's way, would make a site's sum take terms
 // from whichever thread owns its partners, in an order that depends on them.)
+// On one thread, though, LAMMPS's way in body order gives each site exactly
+// those sums, term by term in the same order (LennardJones::one_pass), in one
+// pass without the pair arrays; one thread takes it.
 //
 // Determinism: each site's lists are sorted by site index, so the sum over a
 // site's neighbours (in index order: its lower partners, then its own list)
@@ -135,30 +138,138 @@ class LennardJones {
       moved_[a] = moved ? 1 : 0;
     });
     if (std::find(moved_.begin(), moved_.end(), 1) != moved_.end()) build_lists();
-    // Two passes over the bodies, each split between the threads (the
-    // header's half lists). First, per body, its sites' pairs with sites of
-    // bodies above it: gather d, the pair terms of all of them at once
-    // (detail::lennard_jones_terms, vectorized) into the pair arrays, and the
-    // energy of those pairs in list order. Then, per body, each site's force
-    // over its whole neighbourhood in index order: minus the forces of its
-    // pairs with lower sites (computed in the first pass from the other side),
-    // then its own pairs' forces.
     const Constants c{sigma2_, -24.0 * eps_, 4.0 * eps_, shift_, cutoff_ * cutoff_};
     energy_.assign(n, 0.0);
     finite_.assign(n, 1);
+    if (pair_ranges_.size() <= 2)
+      one_pass(s, e, c);
+    else
+      two_passes(s, e, c);
+    for (std::size_t a = 0; a < n; ++a) e.energy += energy_[a];
+  }
+
+  /// How many times the neighbour lists were built (for tests and benchmarks).
+  std::int64_t list_builds() const { return builds_; }
+
+  double epsilon() const { return eps_; }
+  double sigma() const { return std::sqrt(sigma2_); }
+  double cutoff() const { return cutoff_; }
+
+ private:
+  using Constants = detail::LennardJonesConstants;
+  /// One thread's buffers for a body's list entries (see add); fx, fy, fz
+  /// for the pair forces of one_pass (two_passes keeps them per pair).
+  struct Scratch {
+    std::vector<double> dx, dy, dz, fx, fy, fz, energy;
+    void resize(std::size_t count) {
+      if (dx.size() >= count) return;
+      for (std::vector<double>* v : {&dx, &dy, &dz, &fx, &fy, &fz, &energy}) v->resize(count);
+    }
+  };
+
+  /// The separations d = X_j - X_i of body a's list entries into the
+  /// scratch (entry k - first of the list entries from `first`); their count.
+  std::size_t gather(std::size_t a, Scratch& scratch) const {
+    const std::size_t first = list_start_[sites_.begin(a)], count = list_start_[sites_.end(a)] - first;
+    scratch.resize(count);
+    for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
+      const Vector3<double> xi = position_[i];
+      for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
+        const Vector3<double>& xj = position_[neighbours_[k]];
+        scratch.dx[k - first] = xj(0) - xi(0);
+        scratch.dy[k - first] = xj(1) - xi(1);
+        scratch.dz[k - first] = xj(2) - xi(2);
+      }
+    }
+    return count;
+  }
+
+  /// Stops the run at the first pair of body a's lists, in list order, whose
+  /// force (fx, fy, fz)[k - first] is not finite, naming both bodies.
+  void report_collision(std::size_t a, std::size_t first, const double* fx, const double* fy,
+                        const double* fz) const {
+    for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i)
+      for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k)
+        if (!(std::isfinite(fx[k - first]) && std::isfinite(fy[k - first]) && std::isfinite(fz[k - first]))) {
+          const std::size_t j = neighbours_[k];
+          detail::close_approach(sys_, sites_, i, j, (position_[j] - position_[i]).norm());
+        }
+  }
+
+  /// Body a's force and torque from its sites' forces f_i (summed over each
+  /// site's whole neighbourhood), in site order: F_a = sum f_i, and the body
+  /// torque M_a = R_a^T sum (R_a rho_i) x f_i.
+  template <class SiteForce>
+  void add_body_wrench(const SystemState& s, SystemEvaluation& e, std::size_t a, SiteForce&& site_force) const {
+    Vector3<double> force = Vector3<double>::Zero(), torque = Vector3<double>::Zero();
+    for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
+      const Vector3<double> fi = site_force(i);
+      force += fi;
+      torque += arm_[i].cross(fi);
+    }
+    e.force[a] += force;
+    e.torque[a] += s.q[a].inverse().act(torque);
+  }
+
+  /// One thread: one pass over the bodies in order. Per body, its lists' pair
+  /// terms (vectorized, into the scratch), then per site i: its own pairs'
+  /// forces added to its sum, each negated into its partner's running sum
+  /// (LAMMPS's newton on). A site j's sum thus receives its lower partners'
+  /// terms as the bodies below it are passed, by increasing partner index,
+  /// and then its own, in list order, from 0: the sums two_passes takes, the
+  /// same operations in the same order (x - y and x + (-y) are the same IEEE
+  /// operation), so the results are bit-identical to any number of threads.
+  /// It saves the pair arrays' round trip through memory and the lists'
+  /// transpose.
+  void one_pass(const SystemState& s, SystemEvaluation& e, const Constants& c) const {
+    const std::size_t n = s.size(), m = position_.size();
+    site_fx_.assign(m, 0.0);
+    site_fy_.assign(m, 0.0);
+    site_fz_.assign(m, 0.0);
+    Scratch& scratch = one_pass_scratch_;
+    for (std::size_t a = 0; a < n; ++a) {
+      const std::size_t first = list_start_[sites_.begin(a)], count = gather(a, scratch);
+      if (!detail::lennard_jones_terms(count, c, scratch.dx.data(), scratch.dy.data(), scratch.dz.data(),
+                                       scratch.fx.data(), scratch.fy.data(), scratch.fz.data(),
+                                       scratch.energy.data()))
+        report_collision(a, first, scratch.fx.data(), scratch.fy.data(), scratch.fz.data());  // (returns if a
+                                                                                              // sum overflowed)
+      double energy = 0.0;  // in list order, as two_passes
+      for (std::size_t q = 0; q < count; ++q) energy += scratch.energy[q];
+      energy_[a] = energy;
+      for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
+        double fx = site_fx_[i], fy = site_fy_[i], fz = site_fz_[i];
+        for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
+          const std::size_t j = neighbours_[k];
+          const double gx = scratch.fx[k - first], gy = scratch.fy[k - first], gz = scratch.fz[k - first];
+          fx += gx;
+          fy += gy;
+          fz += gz;
+          site_fx_[j] -= gx;
+          site_fy_[j] -= gy;
+          site_fz_[j] -= gz;
+        }
+        site_fx_[i] = fx;
+        site_fy_[i] = fy;
+        site_fz_[i] = fz;
+      }
+      add_body_wrench(s, e, a, [&](std::size_t i) { return Vector3<double>(site_fx_[i], site_fy_[i], site_fz_[i]); });
+    }
+  }
+
+
+  /// Several threads: two passes over the bodies, each split between the
+  /// threads (the header's half lists). First, per body, its sites' pairs
+  /// with sites of bodies above it: gather d, the pair terms of all of them
+  /// at once (detail::lennard_jones_terms, vectorized) into the pair arrays,
+  /// and the energy of those pairs in list order. Then, per body, each site's
+  /// force over its whole neighbourhood in index order: minus the forces of
+  /// its pairs with lower sites (computed in the first pass from the other
+  /// side), then its own pairs' forces.
+  void two_passes(const SystemState& s, SystemEvaluation& e, const Constants& c) const {
     auto pair_terms = [&](std::size_t a) {
       thread_local Scratch scratch;
-      const std::size_t first = list_start_[sites_.begin(a)], count = list_start_[sites_.end(a)] - first;
-      scratch.resize(count);
-      for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
-        const Vector3<double> xi = position_[i];
-        for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
-          const Vector3<double>& xj = position_[neighbours_[k]];
-          scratch.dx[k - first] = xj(0) - xi(0);
-          scratch.dy[k - first] = xj(1) - xi(1);
-          scratch.dz[k - first] = xj(2) - xi(2);
-        }
-      }
+      const std::size_t first = list_start_[sites_.begin(a)], count = gather(a, scratch);
       finite_[a] = detail::lennard_jones_terms(count, c, scratch.dx.data(), scratch.dy.data(), scratch.dz.data(),
                                                pair_fx_.data() + first, pair_fy_.data() + first,
                                                pair_fz_.data() + first, scratch.energy.data())
@@ -175,8 +286,7 @@ class LennardJones {
     // (d -> -d, the same r^2, so the same coef: (-c d) is exact), then its
     // own. The sums are those of the whole sorted list, bit for bit.
     auto site_sums = [&](std::size_t a) {
-      Vector3<double> force = Vector3<double>::Zero(), torque = Vector3<double>::Zero();
-      for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
+      add_body_wrench(s, e, a, [&](std::size_t i) {
         double fx = 0.0, fy = 0.0, fz = 0.0;
         for (std::size_t l = lower_start_[i]; l < lower_start_[i + 1]; ++l) {
           const std::size_t k = lower_pair_[l];
@@ -189,12 +299,8 @@ class LennardJones {
           fy += pair_fy_[k];
           fz += pair_fz_[k];
         }
-        const Vector3<double> fi(fx, fy, fz);
-        force += fi;
-        torque += arm_[i].cross(fi);
-      }
-      e.force[a] += force;
-      e.torque[a] += s.q[a].inverse().act(torque);
+        return Vector3<double>(fx, fy, fz);
+      });
     };
     // The sums read the pair terms of lower bodies: both passes in one
     // parallel region, the sums after every thread's pair terms.
@@ -205,35 +311,12 @@ class LennardJones {
     // the list of its lower site, so the lowest body with a non-finite pair
     // in its sites' whole neighbourhoods is the lowest with one in its own
     // lists.)
-    for (std::size_t a = 0; a < n; ++a) {
+    for (std::size_t a = 0; a < s.size(); ++a) {
       if (finite_[a] != 0) continue;
-      for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i)
-        for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k)
-          if (!(std::isfinite(pair_fx_[k]) && std::isfinite(pair_fy_[k]) && std::isfinite(pair_fz_[k]))) {
-            const std::size_t j = neighbours_[k];
-            detail::close_approach(sys_, sites_, i, j, (position_[j] - position_[i]).norm());
-          }
+      const std::size_t first = list_start_[sites_.begin(a)];
+      report_collision(a, first, pair_fx_.data() + first, pair_fy_.data() + first, pair_fz_.data() + first);
     }
-    for (std::size_t a = 0; a < n; ++a) e.energy += energy_[a];
   }
-
-  /// How many times the neighbour lists were built (for tests and benchmarks).
-  std::int64_t list_builds() const { return builds_; }
-
-  double epsilon() const { return eps_; }
-  double sigma() const { return std::sqrt(sigma2_); }
-  double cutoff() const { return cutoff_; }
-
- private:
-  using Constants = detail::LennardJonesConstants;
-  /// One thread's buffers for a body's list entries (see add).
-  struct Scratch {
-    std::vector<double> dx, dy, dz, energy;
-    void resize(std::size_t count) {
-      if (dx.size() >= count) return;
-      for (std::vector<double>* v : {&dx, &dy, &dz, &energy}) v->resize(count);
-    }
-  };
 
   std::array<std::int64_t, 3> cell_of(const Vector3<double>& x) const {
     std::array<std::int64_t, 3> c{};
@@ -351,29 +434,32 @@ class LennardJones {
       std::copy(chunk_lists_[chunk].begin(), chunk_lists_[chunk].end(),
                 neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[chunk * m / chunks]));
     });
-    // Each site's pairs with lower sites (the lists' transpose): the indices
-    // of the pairs (i, j) with j this site, by increasing i, which is the
-    // order a counting sort over the pairs in list order leaves them in.
-    lower_start_.assign(m + 1, 0);
-    for (const std::size_t j : neighbours_) ++lower_start_[j + 1];
-    for (std::size_t i = 0; i < m; ++i) lower_start_[i + 1] += lower_start_[i];
-    fill_.assign(lower_start_.begin(), lower_start_.end() - 1);
-    lower_pair_.resize(neighbours_.size());
-    for (std::size_t k = 0; k < neighbours_.size(); ++k) lower_pair_[fill_[neighbours_[k]]++] = k;
-    pair_fx_.resize(neighbours_.size());
-    pair_fy_.resize(neighbours_.size());
-    pair_fz_.resize(neighbours_.size());
     // How the evaluation splits its work between threads: the bodies into
     // consecutive ranges of about equal pairs (a gas that clusters makes
     // halves by count uneven), for the pair terms of each body's own lists
     // and for the sums over its sites' whole neighbourhoods. Results do not
-    // depend on it.
+    // depend on it. One thread takes one_pass, which needs neither the pair
+    // arrays nor the lists' transpose.
     const std::size_t n = sys_.size();
     const int threads = par_.threads_for(n);
     auto site_of = [&](std::size_t a) { return a < n ? sites_.begin(a) : m; };
     pair_ranges_ = balanced_ranges(n, threads, [&](std::size_t a) { return list_start_[site_of(a)]; });
-    site_ranges_ = balanced_ranges(
-        n, threads, [&](std::size_t a) { return list_start_[site_of(a)] + lower_start_[site_of(a)]; });
+    if (threads > 1) {
+      // Each site's pairs with lower sites (the lists' transpose): the indices
+      // of the pairs (i, j) with j this site, by increasing i, which is the
+      // order a counting sort over the pairs in list order leaves them in.
+      lower_start_.assign(m + 1, 0);
+      for (const std::size_t j : neighbours_) ++lower_start_[j + 1];
+      for (std::size_t i = 0; i < m; ++i) lower_start_[i + 1] += lower_start_[i];
+      fill_.assign(lower_start_.begin(), lower_start_.end() - 1);
+      lower_pair_.resize(neighbours_.size());
+      for (std::size_t k = 0; k < neighbours_.size(); ++k) lower_pair_[fill_[neighbours_[k]]++] = k;
+      pair_fx_.resize(neighbours_.size());
+      pair_fy_.resize(neighbours_.size());
+      pair_fz_.resize(neighbours_.size());
+      site_ranges_ = balanced_ranges(
+          n, threads, [&](std::size_t a) { return list_start_[site_of(a)] + lower_start_[site_of(a)]; });
+    }
     built_at_ = position_;
   }
 
@@ -403,8 +489,11 @@ class LennardJones {
   /// lower_start_[j + 1]) index the pairs (i, j), i < j, by increasing i.
   mutable std::vector<std::size_t> lower_start_, lower_pair_;
   mutable std::vector<double> pair_fx_, pair_fy_, pair_fz_;  ///< per pair (i, j) of the lists: the force on i
+  /// one_pass: each site's running force sum, and the scratch.
+  mutable std::vector<double> site_fx_, site_fy_, site_fz_;
+  mutable Scratch one_pass_scratch_;
   /// Per thread t: bodies [r[t], r[t + 1]) (build_lists), for the pair terms
-  /// and for the sums.
+  /// and (several threads) for the sums.
   mutable std::vector<std::size_t> pair_ranges_, site_ranges_;
   mutable std::vector<Vector3<double>> built_at_;
   mutable std::int64_t builds_ = 0;

@@ -136,26 +136,10 @@ void run_ranges(const std::vector<std::size_t>& bounds, Body& body, std::excepti
 }
 }  // namespace detail
 
-/// Calls f(i) for i in [bounds[t], bounds[t + 1]) on thread t of
-/// bounds.size() - 1 threads: each thread its own consecutive range, so that
-/// loops split alike touch the same data on the same thread (its cache).
-/// f must write only what belongs to i; exceptions as in parallel_for.
-template <class F>
-void parallel_ranges(const std::vector<std::size_t>& bounds, F&& f) {
-  const int threads = static_cast<int>(bounds.size()) - 1;
-  if (threads <= 1) {
-    for (std::size_t i = bounds.front(); i < bounds.back(); ++i) f(i);
-    return;
-  }
-  std::exception_ptr failure;
-  std::size_t failure_index = std::numeric_limits<std::size_t>::max();
-#pragma omp parallel num_threads(threads)
-  detail::run_ranges(bounds, f, failure, failure_index);
-  if (failure) std::rethrow_exception(failure);
-}
-
 /// Two passes over 0..n-1 in one parallel region: f(i) for i in thread t's
-/// range [first[t], first[t + 1]), then, once every thread has finished its
+/// range [first[t], first[t + 1]) (each thread its own consecutive range, so
+/// that loops split alike touch the same data on the same thread, its cache),
+/// then, once every thread has finished its
 /// first pass, g(i) for i in [second[t], second[t + 1]) (both bounds from
 /// balanced_ranges, for the same number of threads). For a second pass that
 /// reads what the first wrote for other items, without the cost of a second
