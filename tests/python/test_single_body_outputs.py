@@ -13,7 +13,13 @@ gravity-gradient attitude), and every other method's outputs are unchanged.
 Those of lgvi, so3-lgvi and rattle-quaternion were recorded again when their
 shared drift x1 = x0 + (h/m) p_half became a compensated sum (lgvi.hpp,
 drift): over these runs the states moved by at most 2.1e-14 relative on the
-orbits and 7e-10 on the LEO attitude.
+orbits and 7e-10 on the LEO attitude. Those of lgvi-lagrangian were recorded
+again when its positions and rotations took the summed form (lgvi.hpp: the
+increment d and the relative rotation f kept instead of recomputed from
+2 x1 - x0 and q0^* q1): over these runs its states moved by 1e-11 to 2e-10
+relative (9e-8 on the LEO attitude), towards the Hamiltonian form's, which
+they now match to 5e-14 ... 2e-12 (1e-11 ... 2e-10 before; the LEO attitude
+1.1e-7, 1.7e-7 before), and every other method's outputs are unchanged.
 The only difference allowed is what
 the many-body issue added to every summary: the keys max_linear_momentum_error
 and final_bodies, and what issue 12 added (rotation, conserved), which are
