@@ -19,15 +19,14 @@ if [[ "${LGVI_QUICK:-0}" != 1 ]]; then
   cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=None "-DCMAKE_CXX_FLAGS=-O1 -g1" -DLGVI_SANITIZE=ON -DLGVI_BUILD_BENCHMARKS=OFF -DLGVI_MPI=OFF \
     -DLGVI_BUILD_PYTHON=OFF >/dev/null
   cmake --build build-asan -j"$jobs" >build-asan.log 2>&1 || { tail -40 build-asan.log; exit 1; }
-  # The Python extension and the downstream build are outside what the
-  # sanitizers instrument; the command-line paths that the pytest files drive
-  # (signals, checkpoints and resume, compare, the paper's
-  # run) are run again here against the sanitized binaries.
+  # Not under the sanitizers: the Python extension and the downstream build (outside what they
+  # instrument), and the view's browser tests (their time is chromium's: lgvi view's C++ side only
+  # assembles the arguments of `python3 -m lgvi.viewer` and runs it through run_python, which the
+  # paper run's figures exercise here). The command-line paths that the pytest files drive run
+  # against the sanitized binaries as the ctest test sanitized.cli_pytest (tests/CMakeLists.txt),
+  # beside the C++ tests.
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
-  (cd build-asan && ctest -j"$jobs" -E "^(python|downstream)" --output-on-failure)
-  LGVI_BINARY=build-asan/lgvi LGVI_GTEST=build-asan/tests/lgvi_tests LGVI_SOURCE_DIR="$PWD" PYTHONPATH="$PWD/python" \
-    /usr/bin/python3 -m pytest -q -p no:cacheprovider tests/python/test_interrupt_resume.py \
-    tests/python/test_paper_run.py tests/python/test_compare.py
+  (cd build-asan && ctest -j"$jobs" -E "^(python|downstream|view)\." --output-on-failure)
   unset ASAN_OPTIONS UBSAN_OPTIONS
 fi
 cd build
