@@ -157,19 +157,28 @@ class LennardJones {
 
  private:
   using Constants = detail::LennardJonesConstants;
-  /// One thread's buffers for a body's list entries (see add); fx, fy, fz
-  /// for the pair forces of one_pass (two_passes keeps them per pair).
+  /// One thread's buffers for a body's list entries (see add).
   struct Scratch {
-    std::vector<double> dx, dy, dz, fx, fy, fz, energy;
+    std::vector<double> dx, dy, dz, energy;
     void resize(std::size_t count) {
       if (dx.size() >= count) return;
-      for (std::vector<double>* v : {&dx, &dy, &dz, &fx, &fy, &fz, &energy}) v->resize(count);
+      for (std::vector<double>* v : {&dx, &dy, &dz, &energy}) v->resize(count);
+    }
+  };
+  /// one_pass's buffers: also the pair forces (two_passes keeps them per pair).
+  struct OnePassScratch : Scratch {
+    std::vector<double> fx, fy, fz;
+    void resize(std::size_t count) {
+      Scratch::resize(count);
+      if (fx.size() >= count) return;
+      for (std::vector<double>* v : {&fx, &fy, &fz}) v->resize(count);
     }
   };
 
   /// The separations d = X_j - X_i of body a's list entries into the
   /// scratch (entry k - first of the list entries from `first`); their count.
-  std::size_t gather(std::size_t a, Scratch& scratch) const {
+  template <class Buffers>
+  std::size_t gather(std::size_t a, Buffers& scratch) const {
     const std::size_t first = list_start_[sites_.begin(a)], count = list_start_[sites_.end(a)] - first;
     scratch.resize(count);
     for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
@@ -226,7 +235,7 @@ class LennardJones {
     site_fx_.assign(m, 0.0);
     site_fy_.assign(m, 0.0);
     site_fz_.assign(m, 0.0);
-    Scratch& scratch = one_pass_scratch_;
+    OnePassScratch& scratch = one_pass_scratch_;
     for (std::size_t a = 0; a < n; ++a) {
       const std::size_t first = list_start_[sites_.begin(a)], count = gather(a, scratch);
       if (!detail::lennard_jones_terms(count, c, scratch.dx.data(), scratch.dy.data(), scratch.dz.data(),
@@ -491,7 +500,7 @@ class LennardJones {
   mutable std::vector<double> pair_fx_, pair_fy_, pair_fz_;  ///< per pair (i, j) of the lists: the force on i
   /// one_pass: each site's running force sum, and the scratch.
   mutable std::vector<double> site_fx_, site_fy_, site_fz_;
-  mutable Scratch one_pass_scratch_;
+  mutable OnePassScratch one_pass_scratch_;
   /// Per thread t: bodies [r[t], r[t + 1]) (build_lists), for the pair terms
   /// and (several threads) for the sums.
   mutable std::vector<std::size_t> pair_ranges_, site_ranges_;

@@ -408,7 +408,10 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
   /// rotation f = q^* q_next inserted, computed as the old form computed them
   /// at each step. The resumed run
   /// then continues in summed form (not bit-identical to the old binary's
-  /// continuation: the arithmetic changed).
+  /// continuation: the arithmetic changed). (This form takes no forcing and
+  /// no composition stages, method_dispatch.hpp and scenario.hpp: forcing
+  /// data is empty and there is one stage; the layout arithmetic holds
+  /// either way.)
   std::vector<double> upgraded(const SystemState& s, const std::vector<double>& internal) const {
     const std::size_t n = s.size();
     const std::size_t predictors = this->stages() * RotationPredictor::serialized_size;
