@@ -193,6 +193,25 @@ class LennardJones {
     return count;
   }
 
+  /// Body a's pair terms: the separations gathered into the scratch, the
+  /// forces on its sites into fx, fy, fz (entry k - first of its list
+  /// entries), and the energy of its pairs summed in list order into
+  /// energy_[a]. Returns false if a force may not be finite (as
+  /// detail::lennard_jones_terms).
+  template <class Buffers>
+  bool body_pair_terms(std::size_t a, const Constants& c, Buffers& scratch, double* fx, double* fy,
+                       double* fz) const {
+    const std::size_t count = gather(a, scratch);
+    const bool finite = detail::lennard_jones_terms(count, c, scratch.dx.data(), scratch.dy.data(),
+                                                    scratch.dz.data(), fx, fy, fz, scratch.energy.data());
+    // Beyond r_c the energy is 0 and adds nothing: x + 0 = x (no sum here is
+    // ever -0).
+    double energy = 0.0;
+    for (std::size_t q = 0; q < count; ++q) energy += scratch.energy[q];
+    energy_[a] = energy;
+    return finite;
+  }
+
   /// Stops the run at the first pair of body a's lists, in list order, whose
   /// force (fx, fy, fz)[k - first] is not finite, naming both bodies.
   void report_collision(std::size_t a, std::size_t first, const double* fx, const double* fy,
@@ -237,15 +256,11 @@ class LennardJones {
     site_fz_.assign(m, 0.0);
     OnePassScratch& scratch = one_pass_scratch_;
     for (std::size_t a = 0; a < n; ++a) {
-      const std::size_t first = list_start_[sites_.begin(a)], count = gather(a, scratch);
-      if (!detail::lennard_jones_terms(count, c, scratch.dx.data(), scratch.dy.data(), scratch.dz.data(),
-                                       scratch.fx.data(), scratch.fy.data(), scratch.fz.data(),
-                                       scratch.energy.data()))
-        report_collision(a, first, scratch.fx.data(), scratch.fy.data(), scratch.fz.data());  // (returns if a
-                                                                                              // sum overflowed)
-      double energy = 0.0;  // in list order, as two_passes
-      for (std::size_t q = 0; q < count; ++q) energy += scratch.energy[q];
-      energy_[a] = energy;
+      const std::size_t first = list_start_[sites_.begin(a)];
+      scratch.resize(list_start_[sites_.end(a)] - first);  // before taking the force buffers' addresses
+      // (report_collision returns if only a sum of components overflowed.)
+      if (!body_pair_terms(a, c, scratch, scratch.fx.data(), scratch.fy.data(), scratch.fz.data()))
+        report_collision(a, first, scratch.fx.data(), scratch.fy.data(), scratch.fz.data());
       for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
         double fx = site_fx_[i], fy = site_fy_[i], fz = site_fz_[i];
         for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
@@ -266,7 +281,6 @@ class LennardJones {
     }
   }
 
-
   /// Several threads: two passes over the bodies, each split between the
   /// threads (the header's half lists). First, per body, its sites' pairs
   /// with sites of bodies above it: gather d, the pair terms of all of them
@@ -278,17 +292,11 @@ class LennardJones {
   void two_passes(const SystemState& s, SystemEvaluation& e, const Constants& c) const {
     auto pair_terms = [&](std::size_t a) {
       thread_local Scratch scratch;
-      const std::size_t first = list_start_[sites_.begin(a)], count = gather(a, scratch);
-      finite_[a] = detail::lennard_jones_terms(count, c, scratch.dx.data(), scratch.dy.data(), scratch.dz.data(),
-                                               pair_fx_.data() + first, pair_fy_.data() + first,
-                                               pair_fz_.data() + first, scratch.energy.data())
-                       ? 1
-                       : 0;
-      // Beyond r_c the energy is 0 and adds nothing: x + 0 = x (no sum here is
-      // ever -0).
-      double energy = 0.0;
-      for (std::size_t q = 0; q < count; ++q) energy += scratch.energy[q];
-      energy_[a] = energy;
+      const std::size_t first = list_start_[sites_.begin(a)];
+      finite_[a] =
+          body_pair_terms(a, c, scratch, pair_fx_.data() + first, pair_fy_.data() + first, pair_fz_.data() + first)
+              ? 1
+              : 0;
     };
     // Each site's force in index order of its neighbours: the pairs with lower
     // sites first, each the exact negative of the force its partner felt

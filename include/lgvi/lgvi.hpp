@@ -156,10 +156,15 @@ class ImplicitStepperBase : public StepperBase<I> {
   /// is added back to the next increment (checkpointed: internal_state).
   void drift(SystemState& s, std::size_t a, double h) {
     p_half_[a] = s.p[a] + (0.5 * h) * this->force(a);
-    const Vector3<double> dx = (h / this->system_.body(a).mass()) * p_half_[a] - x_carry_[a];
-    const Vector3<double> x1 = s.x[a] + dx;
-    x_carry_[a] = (x1 - s.x[a]) - dx;
-    s.x[a] = x1;
+    add_to_position(s.x[a], a, (h / this->system_.body(a).mass()) * p_half_[a]);
+  }
+  /// x += increment for body a's position x, as a compensated (Kahan) sum
+  /// with its carry (see drift).
+  void add_to_position(Vector3<double>& x, std::size_t a, const Vector3<double>& increment) {
+    const Vector3<double> dx = increment - x_carry_[a];
+    const Vector3<double> x1 = x + dx;
+    x_carry_[a] = (x1 - x) - dx;
+    x = x1;
   }
   /// p1 = p_half + (h/2) F1 for body a (after the evaluation at the new state).
   void kick(SystemState& s, std::size_t a, double h) { s.p[a] = p_half_[a] + (0.5 * h) * this->force(a); }
@@ -333,7 +338,7 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
       solvers_[a].solve(g_backward + (0.5 * h * h) * torque, f, this->reports_[a]);
       this->predictor(a).push(f);
       d_[a] += (h * h / body.mass()) * force;
-      advance_position(a);
+      this->add_to_position(x_next_[a], a, d_[a]);
       q_next_[a] = q_next_[a].times_near_identity(f);
       f_[a] = f;
     });
@@ -368,21 +373,12 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
       this->predictor(a).reset(f);
       d_[a] = (h / body.mass()) * (s.p[a] + (0.5 * h) * this->eval_.force[a]);
       x_next_[a] = s.x[a];
-      advance_position(a);
+      this->add_to_position(x_next_[a], a, d_[a]);
       q_next_[a] = s.q[a].times_near_identity(f);
       f_[a] = f;
     });
     h_ = h;
     phase_ = Phase::Running;
-  }
-
-  /// x_next += d as a compensated sum (the carry as in the base's drift:
-  /// what the last sum lost, added back to the next increment).
-  void advance_position(std::size_t a) {
-    Vector3<double>& carry = this->x_carry_[a];
-    const Vector3<double> dx = d_[a] - carry, x = x_next_[a];
-    x_next_[a] = x + dx;
-    carry = (x_next_[a] - x) - dx;
   }
 
   /// Per body: x_next, q_next (scalar first), the increment d = x_next - x
@@ -406,12 +402,11 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
   /// before the predictor, with or without the carry, which was then always
   /// 0) in today's layout: each body's increment d = x_next - x and relative
   /// rotation f = q^* q_next inserted, computed as the old form computed them
-  /// at each step. The resumed run
-  /// then continues in summed form (not bit-identical to the old binary's
-  /// continuation: the arithmetic changed). (This form takes no forcing and
-  /// no composition stages, method_dispatch.hpp and scenario.hpp: forcing
-  /// data is empty and there is one stage; the layout arithmetic holds
-  /// either way.)
+  /// at each step. The resumed run then continues in summed form (not
+  /// bit-identical to the old binary's continuation: the arithmetic
+  /// changed). (This form takes no forcing and no composition stages,
+  /// method_dispatch.hpp and scenario.hpp: forcing data is empty and there
+  /// is one stage; the layout arithmetic holds either way.)
   std::vector<double> upgraded(const SystemState& s, const std::vector<double>& internal) const {
     const std::size_t n = s.size();
     const std::size_t predictors = this->stages() * RotationPredictor::serialized_size;
