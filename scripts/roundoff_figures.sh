@@ -1,6 +1,6 @@
 #!/bin/bash
 # The round-off figures the README gives for lgvi (paper table, composition orders,
-# radial free flight, 10^7-step orbit, random attitudes, the Lennard-Jones cluster):
+# radial free flight (also in lgvi-lagrangian), 10^7-step orbit, random attitudes, the Lennard-Jones cluster):
 #   scripts/roundoff_figures.sh build/lgvi [build/tests/lgvi_tests]
 # Prints the summary maxima (q: max abs(abs(q) - 1), L: max relative momentum error, E:
 # max abs energy error) and, from the trajectory, the relative abs(L - L0) of the paper table.
@@ -16,7 +16,8 @@ print('$2 traj: q %.2g L %.2g E %.3g'%(abs(A['quat_norm_error']).max(), d.max(),
 $B run $S/paper-orbit.toml --out $W/po --no-figures -q; summ $W/po paper-orbit; traj $W/po paper-orbit
 $B run $S/paper.toml --out $W/p --no-figures -q; summ $W/p paper; traj $W/p paper
 for o in 4 6 8; do sed "s/^\[integrator\]/[integrator]\norder = $o/" $S/paper-orbit.toml > $W/c$o.toml; $B run $W/c$o.toml --out $W/c$o --no-figures -q; summ $W/c$o order$o; done
-sed -e 's/^step = 0.01/step = 1e-4/' -e 's/^duration = 1000.0/duration = 200.0/' -e 's/^every = 10/every = 10000/' $S/paper.toml > $W/r.toml; $B run $W/r.toml --out $W/r --no-figures -q; summ $W/r radial-free-flight
+sed -e 's/^step = 0.01/step = 1e-4/' -e 's/^duration = 1000.0/duration = 200.0/' -e 's/^every = 10/every = 10000/' $S/paper.toml > $W/r.toml; $B run $W/r.toml --out $W/r --no-figures -q; summ $W/r radial-free-flight; traj $W/r radial-free-flight
+sed 's/^method = .*/method = "lgvi-lagrangian"/' $W/r.toml > $W/rl.toml; $B run $W/rl.toml --out $W/rl --no-figures -q; summ $W/rl radial-free-flight-lagrangian; traj $W/rl radial-free-flight-lagrangian
 sed -e 's/^duration = .*/duration = 100000.0/' -e 's/^every = .*/every = 100000/' $S/paper-orbit.toml > $W/b.toml; $B run $W/b.toml --out $W/b --no-figures -q; summ $W/b orbit-1e7
 $B ensemble $S/ensembles/paper-orbit-attitudes.toml --out $W/ens --threads 2 -q --no-figures > /dev/null 2>&1; py "
 import numpy as np
