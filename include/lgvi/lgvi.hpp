@@ -274,8 +274,8 @@ class LieGroupVariationalIntegrator<P> : public SingleBodyStepper<LieGroupVariat
 /// Written as 2 x1 - x0 + (h^2/m) F1, the recurrence rounds at the size of x
 /// every step, and that rounding enters the implied velocity (x1 - x0)/h
 /// with a factor 1/h: in the radial free flight of scenarios/paper.toml at
-/// h = 1e-4 the angular momentum error grew like t^2, to 8.4e-7 at t = 200
-/// (1e-12 of the increment per step, accumulated twice). In summed form the
+/// h = 1e-4 the angular momentum error grew like t^2, to 4.7e-7 by t = 200
+/// (scripts/roundoff_figures.sh; 1.0e-10 in summed form). In summed form the
 /// increment carries its own rounding only (as the Hamiltonian form's
 /// momentum does), x keeps what its sums lose in the base's carry (drift),
 /// and p_k no longer pays the cancellation in x_k - x_{k-1}.
