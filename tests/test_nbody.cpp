@@ -377,16 +377,19 @@ TEST(LennardJonesPairs, EachSiteSumsItsWholeNeighbourhoodInIndexOrderBitForBit) 
   // sum is written out as an O(S^2) loop with the kernel's formula (scalar),
   // and each body's force, torque and energy compared with EXPECT_EQ, at a
   // fresh build, after a move within the skin (lists kept) and after a move
-  // beyond it (rebuilt), on 1 and on 2 threads (64 bodies: 2 threads, so
-  // the second pass reads pair forces the other thread computed). Energy:
-  // per body, its sites' pairs with sites of higher bodies in index order,
-  // then the bodies' sums in body order.
+  // beyond it (rebuilt), on 1, 2 and 3 threads (64 bodies: 2 and 3 ranges,
+  // whose sites' sums start with the pairs crossing from lower ranges), for
+  // bodies numbered along the lattice (few pairs cross) and numbered at
+  // random (most do). Energy: per body, its sites' pairs with sites of
+  // higher bodies in index order, then the bodies' sums in body order.
   const System sys = molecules(64);
-  const SystemState s = lattice_state(64, 1.7, 0.4);
+  for (const bool shuffled : {false, true}) {
+  SystemState s = lattice_state(64, 1.7, 0.4);
+  if (shuffled) std::shuffle(s.x.begin(), s.x.end(), std::mt19937(7));
   const double eps = 1.0, sigma = 1.0, cutoff = 2.5;
   const lgvi::InteractionSites sites(sys);
   const double sr6c = std::pow(sigma * sigma / (cutoff * cutoff), 3), shift = 4.0 * eps * (sr6c * sr6c - sr6c);
-  for (const int threads : {1, 2}) {
+  for (const int threads : {1, 2, 3}) {
   const LennardJones lj(sys, eps, sigma, cutoff, Parallelism{threads});
   for (const double move : {0.0, 0.05, 0.4}) {  // skin 0.3: 0.05 < skin/2 < 0.4
     SystemState moved = s;
@@ -426,6 +429,7 @@ TEST(LennardJonesPairs, EachSiteSumsItsWholeNeighbourhoodInIndexOrderBitForBit) 
   }
   EXPECT_EQ(lj.list_builds(), 2) << threads;  // the second state used the first's lists
   }
+  }
 }
 
 TEST(LennardJonesPairs, TwoSitesOnTopOfEachOtherStopTheRunNamingBoth) {
@@ -448,16 +452,19 @@ TEST(LennardJonesPairs, TwoSitesOnTopOfEachOtherStopTheRunNamingBoth) {
 }
 
 TEST(LennardJonesPairs, TwoCollisionsOnTwoThreadsNameThePairOfTheLowerBody) {
-  // 64 spheres on a lattice (2 threads: bodies 0-31 and 32-63 in the first
-  // pass), two of them placed on others in each thread's half: the message
-  // names the pair a serial loop over the bodies meets first, that of the
-  // lowest body (3 on 10), whichever thread finishes first.
+  // 64 spheres on a lattice (2 threads: about bodies 0-31 and 32-63; 3: three
+  // ranges), bodies placed on others in each thread's range, and body 60 on
+  // body 3 as well (a pair crossing into the last range, computed before the
+  // ranges' passes): the message names the pair a serial loop over the bodies
+  // meets first, that of the lowest body (3, on 10 before 60 in index
+  // order), whichever thread finishes first.
   const RigidBody sphere(1.0, 0.1 * lgvi::Matrix3<double>::Identity());
   const System sys(std::vector<RigidBody>(64, sphere));
   SystemState s = lattice_state(64, 1.5, 0.0);
   s.x[50] = s.x[45];
   s.x[10] = s.x[3];
-  for (const int threads : {1, 2}) {
+  s.x[60] = s.x[3];
+  for (const int threads : {1, 2, 3}) {
     SystemEvaluation e(64);
     try {
       LennardJones(sys, 1.0, 1.0, 2.5, Parallelism{threads}).add(s, e);

@@ -18,20 +18,16 @@
 // unseen), so the cost grows like the number of sites, not its square.
 //
 // Half lists (as LAMMPS with newton on): each pair is in the list of its
-// lower site only (the sites of higher bodies within r_c + skin), and its
-// force is computed once, vectorized (detail::lennard_jones_terms), in a first
-// pass over the bodies. A second pass sums each site's force over its whole
-// neighbourhood: the forces of its pairs with lower sites, found through the
-// lists' transpose, negated - the exact force that site would have computed
-// itself (d = X_j - X_i on one side, X_i - X_j = -d exactly on the other, the
-// same r^2, so the same coef, and (-coef d) is exact) - then its own pairs'.
-// Every sum is taken by one thread over one site, so the passes split between
-// threads like any per-body loop. (Adding each pair's force to both of its
-// sites as it is computed, LAMMPS's way, would make a site's sum take terms
-// from whichever thread owns its partners, in an order that depends on them.)
-// On one thread, though, LAMMPS's way in body order gives each site exactly
-// those sums, term by term in the same order (LennardJones::one_pass), in one
-// pass without the pair arrays; one thread takes it.
+// lower site only (the sites of higher bodies within r_c + skin). One pass
+// over the bodies in order computes each body's pair terms at once,
+// vectorized (detail::lennard_jones_terms), and adds each pair's force to its
+// lower site's running sum and, negated, to its partner's: the negated force
+// is exactly what that site would have computed itself (d = X_j - X_i on one
+// side, X_i - X_j = -d exactly on the other, the same r^2, so the same coef,
+// and (-coef d) is exact). On several threads each takes a range of bodies;
+// the pairs that cross from a lower range into a higher one are computed
+// first, so that every site's sum takes the same terms in the same order on
+// any number of threads (LennardJones::ranged_pass).
 //
 // Determinism: each site's lists are sorted by site index, so the sum over a
 // site's neighbours (in index order: its lower partners, then its own list)
@@ -48,6 +44,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -141,10 +138,7 @@ class LennardJones {
     const Constants c{sigma2_, -24.0 * eps_, 4.0 * eps_, shift_, cutoff_ * cutoff_};
     energy_.assign(n, 0.0);
     finite_.assign(n, 1);
-    if (pair_ranges_.size() <= 2)
-      one_pass(s, e, c);
-    else
-      two_passes(s, e, c);
+    ranged_pass(s, e, c);
     for (std::size_t a = 0; a < n; ++a) e.energy += energy_[a];
   }
 
@@ -165,7 +159,7 @@ class LennardJones {
       for (std::vector<double>* v : {&dx, &dy, &dz, &energy}) v->resize(count);
     }
   };
-  /// one_pass's buffers: also the pair forces (two_passes keeps them per pair).
+  /// A range pass's buffers: also the pair forces.
   struct OnePassScratch : Scratch {
     std::vector<double> fx, fy, fz;
     void resize(std::size_t count) {
@@ -194,31 +188,41 @@ class LennardJones {
   }
 
   /// Body a's pair terms: the separations gathered into the scratch, the
-  /// forces on its sites into fx, fy, fz (entry k - first of its list
-  /// entries), and the energy of its pairs summed in list order into
-  /// energy_[a]. Returns false if a force may not be finite (as
-  /// detail::lennard_jones_terms).
+  /// forces on its sites into fx, fy, fz and the pairs' energies into the
+  /// scratch's `energy` (entry k - first of its list entries). Returns false
+  /// if a force may not be finite (as detail::lennard_jones_terms).
   template <class Buffers>
   bool body_pair_terms(std::size_t a, const Constants& c, Buffers& scratch, double* fx, double* fy,
                        double* fz) const {
     const std::size_t count = gather(a, scratch);
-    const bool finite = detail::lennard_jones_terms(count, c, scratch.dx.data(), scratch.dy.data(),
-                                                    scratch.dz.data(), fx, fy, fz, scratch.energy.data());
-    // Beyond r_c the energy is 0 and adds nothing: x + 0 = x (no sum here is
-    // ever -0).
+    return detail::lennard_jones_terms(count, c, scratch.dx.data(), scratch.dy.data(), scratch.dz.data(), fx, fy,
+                                       fz, scratch.energy.data());
+  }
+
+  /// The energy of body a's pairs, summed in list order into energy_[a].
+  /// Beyond r_c a pair's energy is 0 and adds nothing: x + 0 = x (no sum here
+  /// is ever -0).
+  template <class Buffers>
+  void sum_body_energy(std::size_t a, const Buffers& scratch) const {
+    const std::size_t count = list_start_[sites_.end(a)] - list_start_[sites_.begin(a)];
     double energy = 0.0;
     for (std::size_t q = 0; q < count; ++q) energy += scratch.energy[q];
     energy_[a] = energy;
-    return finite;
   }
 
   /// Stops the run at the first pair of body a's lists, in list order, whose
-  /// force (fx, fy, fz)[k - first] is not finite, naming both bodies.
-  void report_collision(std::size_t a, std::size_t first, const double* fx, const double* fy,
-                        const double* fz) const {
+  /// force is not finite, naming both bodies; returns if there is none (only
+  /// a sum of components overflowed). Computes the body's pair terms again:
+  /// the pass has not kept them (a run ends here, so the cost is no matter).
+  void report_collision(std::size_t a, const Constants& c) const {
+    OnePassScratch scratch;
+    const std::size_t first = list_start_[sites_.begin(a)];
+    scratch.resize(list_start_[sites_.end(a)] - first);
+    body_pair_terms(a, c, scratch, scratch.fx.data(), scratch.fy.data(), scratch.fz.data());
     for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i)
       for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k)
-        if (!(std::isfinite(fx[k - first]) && std::isfinite(fy[k - first]) && std::isfinite(fz[k - first]))) {
+        if (!(std::isfinite(scratch.fx[k - first]) && std::isfinite(scratch.fy[k - first]) &&
+              std::isfinite(scratch.fz[k - first]))) {
           const std::size_t j = neighbours_[k];
           detail::close_approach(sys_, sites_, i, j, (position_[j] - position_[i]).norm());
         }
@@ -239,100 +243,110 @@ class LennardJones {
     e.torque[a] += s.q[a].inverse().act(torque);
   }
 
-  /// One thread: one pass over the bodies in order. Per body, its lists' pair
-  /// terms (vectorized, into the scratch), then per site i: its own pairs'
-  /// forces added to its sum, each negated into its partner's running sum
-  /// (LAMMPS's newton on). A site j's sum thus receives its lower partners'
-  /// terms as the bodies below it are passed, by increasing partner index,
-  /// and then its own, in list order, from 0: the sums two_passes takes, the
-  /// same operations in the same order (x - y and x + (-y) are the same IEEE
-  /// operation), so the results are bit-identical to any number of threads.
-  /// It saves the pair arrays' round trip through memory and the lists'
-  /// transpose.
-  void one_pass(const SystemState& s, SystemEvaluation& e, const Constants& c) const {
-    const std::size_t n = s.size(), m = position_.size();
-    site_fx_.assign(m, 0.0);
-    site_fy_.assign(m, 0.0);
-    site_fz_.assign(m, 0.0);
-    OnePassScratch& scratch = one_pass_scratch_;
-    for (std::size_t a = 0; a < n; ++a) {
-      const std::size_t first = list_start_[sites_.begin(a)];
-      scratch.resize(list_start_[sites_.end(a)] - first);  // before taking the force buffers' addresses
-      // (report_collision returns if only a sum of components overflowed.)
-      if (!body_pair_terms(a, c, scratch, scratch.fx.data(), scratch.fy.data(), scratch.fz.data()))
-        report_collision(a, first, scratch.fx.data(), scratch.fy.data(), scratch.fz.data());
-      for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
-        double fx = site_fx_[i], fy = site_fy_[i], fz = site_fz_[i];
-        for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
-          const std::size_t j = neighbours_[k];
-          const double gx = scratch.fx[k - first], gy = scratch.fy[k - first], gz = scratch.fz[k - first];
-          fx += gx;
-          fy += gy;
-          fz += gz;
-          site_fx_[j] -= gx;
-          site_fy_[j] -= gy;
-          site_fz_[j] -= gz;
-        }
-        site_fx_[i] = fx;
-        site_fy_[i] = fy;
-        site_fz_[i] = fz;
-      }
-      add_body_wrench(s, e, a, [&](std::size_t i) { return Vector3<double>(site_fx_[i], site_fy_[i], site_fz_[i]); });
-    }
-  }
-
-  /// Several threads: two passes over the bodies, each split between the
-  /// threads (the header's half lists). First, per body, its sites' pairs
-  /// with sites of bodies above it: gather d, the pair terms of all of them
-  /// at once (detail::lennard_jones_terms, vectorized) into the pair arrays,
-  /// and the energy of those pairs in list order. Then, per body, each site's
-  /// force over its whole neighbourhood in index order: minus the forces of
-  /// its pairs with lower sites (computed in the first pass from the other
-  /// side), then its own pairs' forces.
-  void two_passes(const SystemState& s, SystemEvaluation& e, const Constants& c) const {
-    auto pair_terms = [&](std::size_t a) {
+  /// The sites' forces in one pass over the bodies in order, LAMMPS's newton
+  /// on: per body, its lists' pair terms (vectorized), then per site i its
+  /// own pairs' forces added to its running sum, each negated into its
+  /// partner's. A site j's sum thus receives its lower partners' terms as the
+  /// bodies below it are passed, by increasing partner index, and then its
+  /// own in list order, from 0: the sum over its whole neighbourhood in index
+  /// order (pairs beyond r_c add exact zeros, so it depends on the positions
+  /// only). Each body's energy is summed in list order in the same loop (its
+  /// chain of additions runs beside the forces').
+  ///
+  /// On T threads the bodies are cut into T consecutive ranges, one pass per
+  /// range, and each site's sum is still that one, term by term: a site's
+  /// lower partners in ranges below its own come first in index order, so
+  /// they are added first, before the range's pass, from the terms of the
+  /// pairs that cross into a higher range. Those are computed beforehand by
+  /// all threads (the bodies with such pairs, split evenly); then, after a
+  /// barrier, each range's pass starts its sites' sums with the crossing
+  /// pairs' terms (x - y and x + (-y) are the same IEEE operation), by
+  /// increasing partner, and adds a crossing pair only to its lower site.
+  /// So results are bit-identical on any number of threads. Bodies numbered
+  /// in space (a lattice) cross little; in the worst case, every body, this
+  /// is two passes: all terms, then the sums.
+  void ranged_pass(const SystemState& s, SystemEvaluation& e, const Constants& c) const {
+    const std::size_t m = position_.size();
+    site_force_.resize(4 * m);
+    double* const site_force = site_force_.data();
+    // Before the barrier: the terms of the bodies with crossing pairs, into
+    // the crossing arrays, and their energies.
+    auto crossing_terms = [&](std::size_t index) {
       thread_local Scratch scratch;
-      const std::size_t first = list_start_[sites_.begin(a)];
+      const std::size_t a = crossing_bodies_[index], at = crossing_first_[a];
       finite_[a] =
-          body_pair_terms(a, c, scratch, pair_fx_.data() + first, pair_fy_.data() + first, pair_fz_.data() + first)
+          body_pair_terms(a, c, scratch, crossing_fx_.data() + at, crossing_fy_.data() + at, crossing_fz_.data() + at)
               ? 1
               : 0;
+      sum_body_energy(a, scratch);
     };
-    // Each site's force in index order of its neighbours: the pairs with lower
-    // sites first, each the exact negative of the force its partner felt
-    // (d -> -d, the same r^2, so the same coef: (-c d) is exact), then its
-    // own. The sums are those of the whole sorted list, bit for bit.
-    auto site_sums = [&](std::size_t a) {
-      add_body_wrench(s, e, a, [&](std::size_t i) {
+    auto range_pass = [&](std::size_t t) {
+      thread_local OnePassScratch scratch;
+      const std::size_t begin = range_bounds_[t], end = range_bounds_[t + 1];
+      const std::size_t site_end = end < s.size() ? sites_.begin(end) : m;
+      // Each site's sum starts with its crossing pairs' terms, by increasing partner.
+      for (std::size_t j = begin < s.size() ? sites_.begin(begin) : m; j < site_end; ++j) {
         double fx = 0.0, fy = 0.0, fz = 0.0;
-        for (std::size_t l = lower_start_[i]; l < lower_start_[i + 1]; ++l) {
-          const std::size_t k = lower_pair_[l];
-          fx -= pair_fx_[k];
-          fy -= pair_fy_[k];
-          fz -= pair_fz_[k];
+        for (std::size_t l = incoming_start_[j]; l < incoming_start_[j + 1]; ++l) {
+          const std::size_t k = incoming_pair_[l];
+          fx -= crossing_fx_[k];
+          fy -= crossing_fy_[k];
+          fz -= crossing_fz_[k];
         }
-        for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
-          fx += pair_fx_[k];
-          fy += pair_fy_[k];
-          fz += pair_fz_[k];
+        site_force[4 * j] = fx;
+        site_force[4 * j + 1] = fy;
+        site_force[4 * j + 2] = fz;
+      }
+      // Body a's pass, its pair forces g at entry k - first; `crossing`: its
+      // terms were computed before the barrier (energy too), and its pairs
+      // with sites beyond the range are added to its own sites only.
+      auto scatter = [&](std::size_t a, std::size_t first, const double* gx, const double* gy, const double* gz,
+                         auto crossing) {
+        double energy = 0.0;
+        for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
+          double fx = site_force[4 * i], fy = site_force[4 * i + 1], fz = site_force[4 * i + 2];
+          for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
+            const std::size_t j = neighbours_[k];
+            const double x = gx[k - first], y = gy[k - first], z = gz[k - first];
+            fx += x;
+            fy += y;
+            fz += z;
+            if constexpr (!decltype(crossing)::value) energy += scratch.energy[k - first];
+            if (decltype(crossing)::value && j >= site_end) continue;  // its partner has it already
+            double* const fj = site_force + 4 * j;
+            fj[0] -= x;
+            fj[1] -= y;
+            fj[2] -= z;
+          }
+          site_force[4 * i] = fx;
+          site_force[4 * i + 1] = fy;
+          site_force[4 * i + 2] = fz;
         }
-        return Vector3<double>(fx, fy, fz);
-      });
+        if constexpr (!decltype(crossing)::value) energy_[a] = energy;
+      };
+      for (std::size_t a = begin; a < end; ++a) {
+        const std::size_t first = list_start_[sites_.begin(a)], at = crossing_first_[a];
+        if (at != no_crossing) {
+          scatter(a, first, crossing_fx_.data() + at, crossing_fy_.data() + at, crossing_fz_.data() + at,
+                  std::true_type{});
+        } else {
+          scratch.resize(list_start_[sites_.end(a)] - first);  // before taking the force buffers' addresses
+          finite_[a] = body_pair_terms(a, c, scratch, scratch.fx.data(), scratch.fy.data(), scratch.fz.data()) ? 1 : 0;
+          scatter(a, first, scratch.fx.data(), scratch.fy.data(), scratch.fz.data(), std::false_type{});
+        }
+        add_body_wrench(s, e, a, [&](std::size_t i) {
+          return Vector3<double>(site_force[4 * i], site_force[4 * i + 1], site_force[4 * i + 2]);
+        });
+      }
     };
-    // The sums read the pair terms of lower bodies: both passes in one
-    // parallel region, the sums after every thread's pair terms.
-    parallel_ranges(pair_ranges_, pair_terms, site_ranges_, site_sums);
+    parallel_ranges(crossing_ranges_, crossing_terms, range_ids_, range_pass);
     // A force that is not finite (two sites on top of each other) stops the
     // run, naming the first such pair of the lowest body in list order, as a
-    // serial loop over the bodies' whole neighbourhoods would. (A pair is in
-    // the list of its lower site, so the lowest body with a non-finite pair
-    // in its sites' whole neighbourhoods is the lowest with one in its own
-    // lists.)
-    for (std::size_t a = 0; a < s.size(); ++a) {
-      if (finite_[a] != 0) continue;
-      const std::size_t first = list_start_[sites_.begin(a)];
-      report_collision(a, first, pair_fx_.data() + first, pair_fy_.data() + first, pair_fz_.data() + first);
-    }
+    // serial pass would. (A pair is in the list of its lower site, so the
+    // lowest body with a non-finite pair in its sites' whole neighbourhoods
+    // is the lowest with one in its own lists.)
+    for (std::size_t a = 0; a < s.size(); ++a)
+      if (finite_[a] == 0) report_collision(a, c);
   }
 
   std::array<std::int64_t, 3> cell_of(const Vector3<double>& x) const {
@@ -346,7 +360,8 @@ class LennardJones {
 
   /// Sorts the sites into cells of side >= (r_c + skin) / 2, then lists for
   /// every site the sites of higher bodies within r_c + skin, by increasing
-  /// index, and the lists' transpose (each site's lower partners).
+  /// index; then the threads' ranges and the pairs that cross between them
+  /// (ranged_pass).
   void build_lists() const {
     ++builds_;
     const std::size_t m = position_.size();
@@ -451,32 +466,72 @@ class LennardJones {
       std::copy(chunk_lists_[chunk].begin(), chunk_lists_[chunk].end(),
                 neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[chunk * m / chunks]));
     });
-    // How the evaluation splits its work between threads: the bodies into
-    // consecutive ranges of about equal pairs (a gas that clusters makes
-    // halves by count uneven), for the pair terms of each body's own lists
-    // and for the sums over its sites' whole neighbourhoods. Results do not
-    // depend on it. One thread takes one_pass, which needs neither the pair
-    // arrays nor the lists' transpose.
+    // How the evaluation splits its work between threads (results do not
+    // depend on it): the bodies into consecutive ranges of about equal pairs
+    // (a gas that clusters makes halves by count uneven), the bodies with
+    // pairs that cross into a higher range, and the crossing pairs' terms
+    // by their higher site (ranged_pass).
     const std::size_t n = sys_.size();
     const int threads = par_.threads_for(n);
     auto site_of = [&](std::size_t a) { return a < n ? sites_.begin(a) : m; };
-    pair_ranges_ = balanced_ranges(n, threads, [&](std::size_t a) { return list_start_[site_of(a)]; });
+    auto entries = [&](std::size_t a) { return list_start_[sites_.end(a)] - list_start_[sites_.begin(a)]; };
+    // The bodies with pairs into a higher range than theirs.
+    auto find_crossing = [&] {
+      crossing_first_.assign(n, no_crossing);
+      crossing_bodies_.clear();
+      std::size_t pairs = 0;
+      for (std::size_t t = 0; t + 1 < range_bounds_.size(); ++t) {
+        const std::size_t site_end = site_of(range_bounds_[t + 1]);
+        for (std::size_t a = range_bounds_[t]; a < range_bounds_[t + 1]; ++a) {
+          bool crosses = false;  // each list is sorted: its last partner is its highest
+          for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i)
+            crosses = crosses || (list_start_[i + 1] > list_start_[i] && neighbours_[list_start_[i + 1] - 1] >= site_end);
+          if (!crosses) continue;
+          crossing_first_[a] = pairs;
+          crossing_bodies_.push_back(a);
+          pairs += entries(a);
+        }
+      }
+      return pairs;
+    };
+    // First ranges of about equal pairs; then, as a crossing body's terms
+    // are computed before the barrier by all threads, ranges of about equal
+    // work after it: a pair costs its sum, and its terms if its body does not
+    // cross (about as much again, measured), with the crossing bodies of the
+    // first ranges.
+    range_bounds_ = balanced_ranges(n, threads, [&](std::size_t a) { return list_start_[site_of(a)]; });
     if (threads > 1) {
-      // Each site's pairs with lower sites (the lists' transpose): the indices
-      // of the pairs (i, j) with j this site, by increasing i, which is the
-      // order a counting sort over the pairs in list order leaves them in.
-      lower_start_.assign(m + 1, 0);
-      for (const std::size_t j : neighbours_) ++lower_start_[j + 1];
-      for (std::size_t i = 0; i < m; ++i) lower_start_[i + 1] += lower_start_[i];
-      fill_.assign(lower_start_.begin(), lower_start_.end() - 1);
-      lower_pair_.resize(neighbours_.size());
-      for (std::size_t k = 0; k < neighbours_.size(); ++k) lower_pair_[fill_[neighbours_[k]]++] = k;
-      pair_fx_.resize(neighbours_.size());
-      pair_fy_.resize(neighbours_.size());
-      pair_fz_.resize(neighbours_.size());
-      site_ranges_ = balanced_ranges(
-          n, threads, [&](std::size_t a) { return list_start_[site_of(a)] + lower_start_[site_of(a)]; });
+      find_crossing();
+      std::vector<std::size_t> work(n + 1, 0);
+      for (std::size_t a = 0; a < n; ++a) work[a + 1] = work[a] + entries(a) * (crossing_first_[a] == no_crossing ? 2 : 1);
+      range_bounds_ = balanced_ranges(n, threads, [&](std::size_t a) { return work[a]; });
     }
+    range_ids_.resize(static_cast<std::size_t>(threads) + 1);
+    for (std::size_t t = 0; t < range_ids_.size(); ++t) range_ids_[t] = t;
+    const std::size_t crossing_pairs = find_crossing();
+    crossing_fx_.resize(crossing_pairs);
+    crossing_fy_.resize(crossing_pairs);
+    crossing_fz_.resize(crossing_pairs);
+    crossing_ranges_ = balanced_ranges(crossing_bodies_.size(), threads, [&](std::size_t index) {
+      return index < crossing_bodies_.size() ? crossing_first_[crossing_bodies_[index]] : crossing_pairs;
+    });
+    // Each site's crossing pairs (i, j), j this site, by increasing i: a
+    // counting sort by j of the crossing bodies' pairs in list order.
+    incoming_start_.assign(m + 1, 0);
+    auto for_each_crossing_pair = [&](auto&& visit) {
+      for (const std::size_t a : crossing_bodies_) {
+        std::size_t t = 0;
+        while (range_bounds_[t + 1] <= a) ++t;
+        const std::size_t site_end = site_of(range_bounds_[t + 1]), first = list_start_[sites_.begin(a)];
+        for (std::size_t k = first; k < list_start_[sites_.end(a)]; ++k)
+          if (neighbours_[k] >= site_end) visit(neighbours_[k], crossing_first_[a] + (k - first));
+      }
+    };
+    for_each_crossing_pair([&](std::size_t j, std::size_t) { ++incoming_start_[j + 1]; });
+    for (std::size_t i = 0; i < m; ++i) incoming_start_[i + 1] += incoming_start_[i];
+    fill_.assign(incoming_start_.begin(), incoming_start_.end() - 1);
+    incoming_pair_.resize(incoming_start_[m]);
+    for_each_crossing_pair([&](std::size_t j, std::size_t k) { incoming_pair_[fill_[j]++] = k; });
     built_at_ = position_;
   }
 
@@ -502,16 +557,20 @@ class LennardJones {
   mutable std::vector<double> cell_x_, cell_y_, cell_z_;  ///< the sites' positions in cell order
   mutable std::vector<std::size_t> cell_body_;            ///< and their bodies
   mutable std::vector<std::vector<std::size_t>> chunk_lists_;
-  /// Each site's pairs with lower sites: lower_pair_[lower_start_[j] ...
-  /// lower_start_[j + 1]) index the pairs (i, j), i < j, by increasing i.
-  mutable std::vector<std::size_t> lower_start_, lower_pair_;
-  mutable std::vector<double> pair_fx_, pair_fy_, pair_fz_;  ///< per pair (i, j) of the lists: the force on i
-  /// one_pass: each site's running force sum, and the scratch.
-  mutable std::vector<double> site_fx_, site_fy_, site_fz_;
-  mutable OnePassScratch one_pass_scratch_;
-  /// Per thread t: bodies [r[t], r[t + 1]) (build_lists), for the pair terms
-  /// and (several threads) for the sums.
-  mutable std::vector<std::size_t> pair_ranges_, site_ranges_;
+  /// ranged_pass: each site's running force sum (x, y, z and a pad: one
+  /// cache line holds two sites, a partner's three components are one access).
+  mutable std::vector<double> site_force_;
+  /// Range t: bodies [range_bounds_[t], range_bounds_[t + 1]); range_ids_ = 0, 1, ..., T.
+  mutable std::vector<std::size_t> range_bounds_, range_ids_;
+  static constexpr std::size_t no_crossing = static_cast<std::size_t>(-1);
+  /// The bodies with pairs into a higher range, in order; per body, where
+  /// its list entries' terms start in the crossing arrays (or no_crossing);
+  /// the split of those bodies between threads.
+  mutable std::vector<std::size_t> crossing_bodies_, crossing_first_, crossing_ranges_;
+  mutable std::vector<double> crossing_fx_, crossing_fy_, crossing_fz_;  ///< per entry: the force on its list's site
+  /// Site j's crossing pairs: incoming_pair_[incoming_start_[j] ...
+  /// incoming_start_[j + 1]) index the crossing arrays, by increasing lower site.
+  mutable std::vector<std::size_t> incoming_start_, incoming_pair_;
   mutable std::vector<Vector3<double>> built_at_;
   mutable std::int64_t builds_ = 0;
 };
