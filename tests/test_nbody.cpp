@@ -367,6 +367,56 @@ TEST(LennardJonesPairs, ForcesTorquesAndEnergyEqualADirectSumOverAllPairs) {
   }
 }
 
+/// Each body's force, torque and energy from the lists against the O(S^2)
+/// sum in index order (see the test below), EXPECT_EQ, on 1, 2 and 3 threads,
+/// at s, moved within the skin and moved beyond it.
+void expect_index_order_sums(const System& sys, const SystemState& s, const std::string& label) {
+  SCOPED_TRACE(label);
+  const double eps = 1.0, sigma = 1.0, cutoff = 2.5;
+  const lgvi::InteractionSites sites(sys);
+  const double sr6c = std::pow(sigma * sigma / (cutoff * cutoff), 3), shift = 4.0 * eps * (sr6c * sr6c - sr6c);
+  for (const int threads : {1, 2, 3}) {
+    const LennardJones lj(sys, eps, sigma, cutoff, Parallelism{threads});
+    for (const double move : {0.0, 0.05, 0.4}) {  // skin 0.3: 0.05 < skin/2 < 0.4
+      SystemState moved = s;
+      for (V3& x : moved.x) x += t::random_vector(move);
+      SystemEvaluation e(s.size());
+      lj.add(moved, e);
+      std::vector<V3> pos, arm;
+      sites.place(moved, Parallelism{}, pos, arm);
+      double total = 0.0;
+      for (std::size_t a = 0; a < s.size(); ++a) {
+        V3 force = V3::Zero(), torque = V3::Zero();
+        double energy = 0.0;
+        for (std::size_t i = sites.begin(a); i < sites.end(a); ++i) {
+          double fx = 0.0, fy = 0.0, fz = 0.0;
+          for (std::size_t j = 0; j < sites.size(); ++j) {
+            if (sites.body_of(j) == a) continue;
+            const double dx = pos[j](0) - pos[i](0), dy = pos[j](1) - pos[i](1), dz = pos[j](2) - pos[i](2);
+            const double r2 = (dx * dx + dy * dy) + dz * dz;
+            if (!(r2 < cutoff * cutoff)) continue;
+            const double sr2 = sigma * sigma / r2, sr6 = sr2 * sr2 * sr2, sr12 = sr6 * sr6;
+            const double coef = -24.0 * eps * (2.0 * sr12 - sr6) / r2;
+            fx += coef * dx;
+            fy += coef * dy;
+            fz += coef * dz;
+            if (j > i) energy += 4.0 * eps * (sr12 - sr6) - shift;
+          }
+          const V3 fi(fx, fy, fz);
+          force += fi;
+          torque += arm[i].cross(fi);
+        }
+        EXPECT_EQ(e.force[a], force) << "body " << a << ", move " << move << ", threads " << threads;
+        EXPECT_EQ(e.torque[a], moved.q[a].inverse().act(torque))
+            << "body " << a << ", move " << move << ", threads " << threads;
+        total += energy;
+      }
+      EXPECT_EQ(e.energy, total) << "move " << move;
+    }
+    EXPECT_EQ(lj.list_builds(), 2) << threads;  // the second state used the first's lists
+  }
+}
+
 TEST(LennardJonesPairs, EachSiteSumsItsWholeNeighbourhoodInIndexOrderBitForBit) {
   // The half lists compute each pair once, for its lower site, and give the
   // upper site the negated force. That must be exactly what the upper site
@@ -383,53 +433,33 @@ TEST(LennardJonesPairs, EachSiteSumsItsWholeNeighbourhoodInIndexOrderBitForBit) 
   // random (most do). Energy: per body, its sites' pairs with sites of
   // higher bodies in index order, then the bodies' sums in body order.
   const System sys = molecules(64);
-  for (const bool shuffled : {false, true}) {
   SystemState s = lattice_state(64, 1.7, 0.4);
-  if (shuffled) std::shuffle(s.x.begin(), s.x.end(), std::mt19937(7));
-  const double eps = 1.0, sigma = 1.0, cutoff = 2.5;
-  const lgvi::InteractionSites sites(sys);
-  const double sr6c = std::pow(sigma * sigma / (cutoff * cutoff), 3), shift = 4.0 * eps * (sr6c * sr6c - sr6c);
-  for (const int threads : {1, 2, 3}) {
-  const LennardJones lj(sys, eps, sigma, cutoff, Parallelism{threads});
-  for (const double move : {0.0, 0.05, 0.4}) {  // skin 0.3: 0.05 < skin/2 < 0.4
-    SystemState moved = s;
-    for (V3& x : moved.x) x += t::random_vector(move);
-    SystemEvaluation e(s.size());
-    lj.add(moved, e);
-    std::vector<V3> pos, arm;
-    sites.place(moved, Parallelism{}, pos, arm);
-    double total = 0.0;
-    for (std::size_t a = 0; a < s.size(); ++a) {
-      V3 force = V3::Zero(), torque = V3::Zero();
-      double energy = 0.0;
-      for (std::size_t i = sites.begin(a); i < sites.end(a); ++i) {
-        double fx = 0.0, fy = 0.0, fz = 0.0;
-        for (std::size_t j = 0; j < sites.size(); ++j) {
-          if (sites.body_of(j) == a) continue;
-          const double dx = pos[j](0) - pos[i](0), dy = pos[j](1) - pos[i](1), dz = pos[j](2) - pos[i](2);
-          const double r2 = (dx * dx + dy * dy) + dz * dz;
-          if (!(r2 < cutoff * cutoff)) continue;
-          const double sr2 = sigma * sigma / r2, sr6 = sr2 * sr2 * sr2, sr12 = sr6 * sr6;
-          const double coef = -24.0 * eps * (2.0 * sr12 - sr6) / r2;
-          fx += coef * dx;
-          fy += coef * dy;
-          fz += coef * dz;
-          if (j > i) energy += 4.0 * eps * (sr12 - sr6) - shift;
-        }
-        const V3 fi(fx, fy, fz);
-        force += fi;
-        torque += arm[i].cross(fi);
-      }
-      EXPECT_EQ(e.force[a], force) << "body " << a << ", move " << move << ", threads " << threads;
-      EXPECT_EQ(e.torque[a], moved.q[a].inverse().act(torque)) << "body " << a << ", move " << move << ", threads "
-                                                               << threads;
-      total += energy;
-    }
-    EXPECT_EQ(e.energy, total) << "move " << move;
-  }
-  EXPECT_EQ(lj.list_builds(), 2) << threads;  // the second state used the first's lists
-  }
-  }
+  expect_index_order_sums(sys, s, "lattice order");
+  std::shuffle(s.x.begin(), s.x.end(), std::mt19937(7));
+  expect_index_order_sums(sys, s, "random order");
+}
+
+TEST(LennardJonesPairs, ListsFindEveryPairOfBodiesLargerThanTheReachAndInADiluteGas) {
+  // The lists are built per body, from the cells around its sites' bounding
+  // box extended by r_c + skin, filtered by distance to the box's centre:
+  // rods of 5 balls 6 sigma long (more than twice r_c + skin = 2.8) between
+  // spheres of one site, at random attitudes on a lattice of spacing 3.5, must
+  // give the sums in index order bit for bit; and so must a gas whose
+  // bounding box is huge (two molecules 1000 sigma away), where the cells
+  // are as large as the budget of ~2 sites per cell makes them.
+  std::vector<lgvi::RigidBody> bodies;
+  const RigidBody rod = RigidBody::from_balls({{V3(-3.0, 0.0, 0.0), 1.0, 0.5},
+                                               {V3(-1.5, 0.0, 0.0), 1.0, 0.5},
+                                               {V3(0.0, 0.0, 0.0), 1.0, 0.5},
+                                               {V3(1.5, 0.0, 0.0), 1.0, 0.5},
+                                               {V3(3.0, 0.0, 0.0), 1.0, 0.5}});
+  const RigidBody sphere(1.0, 0.1 * lgvi::Matrix3<double>::Identity());
+  for (std::size_t a = 0; a < 64; ++a) bodies.push_back(a % 2 == 0 ? rod : sphere);
+  expect_index_order_sums(System(bodies), lattice_state(64, 3.5, 0.4), "rods and spheres");
+  SystemState dilute = lattice_state(64, 1.7, 0.4);
+  dilute.x[5] += V3(1000.0, 0.0, 0.0);
+  dilute.x[6] += V3(1000.0, 0.5, 0.0);
+  expect_index_order_sums(molecules(64), dilute, "dilute");
 }
 
 TEST(LennardJonesPairs, TwoSitesOnTopOfEachOtherStopTheRunNamingBoth) {
