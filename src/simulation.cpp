@@ -101,7 +101,11 @@ struct Recorder {
     for (std::size_t a = 0; a < n; ++a) {
       const RigidBodyState body = s.body(a);
       const double ke = kinetic_energy(body, sys.body(a));
-      const Vector3<double> la = angular_momentum(body);
+      // The spin R_a pi_a, pi_a = w_a / 2: the rotational part of
+      // angular_momentum(body), x_a x p_a + R_a (w_a / 2), and the spin's sum.
+      const Vector3<double> pi = 0.5 * s.w[a];
+      const Vector3<double> spin_a = s.q[a].act(pi);
+      const Vector3<double> la = s.x[a].cross(s.p[a]) + spin_a;
       const double dq_a = s.q[a].norm_error();
       if (a == 0) {
         kinetic = ke;
@@ -114,9 +118,8 @@ struct Recorder {
         P += s.p[a];
         if (std::abs(dq_a) > std::abs(dq)) dq = dq_a;
       }
-      const Vector3<double> pi = 0.5 * s.w[a];
       rot_energy += 0.5 * pi.dot(sys.body(a).inertia_inverse() * pi);
-      spin += s.q[a].act(pi);
+      spin += spin_a;
     }
     const double energy = kinetic + i.evaluation.energy;  // total_energy(s, sys, i.evaluation)
     if (i.k == 0) {
