@@ -169,13 +169,13 @@ class LennardJones {
     }
   };
 
-  /// The separations d = X_j - X_i of body a's list entries into the
-  /// scratch (entry k - first of the list entries from `first`); their count.
+  /// The separations d = X_j - X_i of the list entries of bodies [a, b) into
+  /// the scratch (entry k - first, first the bodies' first entry); their count.
   template <class Buffers>
-  std::size_t gather(std::size_t a, Buffers& scratch) const {
-    const std::size_t first = list_start_[sites_.begin(a)], count = list_start_[sites_.end(a)] - first;
+  std::size_t gather(std::size_t a, std::size_t b, Buffers& scratch) const {
+    const std::size_t first = list_start_[sites_.begin(a)], count = list_start_[sites_.end(b - 1)] - first;
     scratch.resize(count);
-    for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
+    for (std::size_t i = sites_.begin(a); i < sites_.end(b - 1); ++i) {
       const Vector3<double> xi = position_[i];
       for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
         const Vector3<double>& xj = position_[neighbours_[k]];
@@ -187,26 +187,28 @@ class LennardJones {
     return count;
   }
 
-  /// Body a's pair terms: the separations gathered into the scratch, the
-  /// forces on its sites into fx, fy, fz and the pairs' energies into the
-  /// scratch's `energy` (entry k - first of its list entries). Returns false
-  /// if a force may not be finite (as detail::lennard_jones_terms).
+  /// The pair terms of bodies [a, b): the separations gathered into the
+  /// scratch, the forces on their sites into fx, fy, fz and the pairs'
+  /// energies into the scratch's `energy` (entry k - first of their list
+  /// entries). Each entry's terms depend on its separation only, so they are
+  /// the same computed for one body or several at once. Returns false if a
+  /// force may not be finite (as detail::lennard_jones_terms).
   template <class Buffers>
-  bool body_pair_terms(std::size_t a, const Constants& c, Buffers& scratch, double* fx, double* fy,
-                       double* fz) const {
-    const std::size_t count = gather(a, scratch);
+  bool pair_terms(std::size_t a, std::size_t b, const Constants& c, Buffers& scratch, double* fx, double* fy,
+                  double* fz) const {
+    const std::size_t count = gather(a, b, scratch);
     return detail::lennard_jones_terms(count, c, scratch.dx.data(), scratch.dy.data(), scratch.dz.data(), fx, fy,
                                        fz, scratch.energy.data());
   }
 
-  /// The energy of body a's pairs, summed in list order into energy_[a].
+  /// The energy of body a's pairs, summed in list order into energy_[a], from
+  /// their energies u (entry k - first, first the body's first entry).
   /// Beyond r_c a pair's energy is 0 and adds nothing: x + 0 = x (no sum here
   /// is ever -0).
-  template <class Buffers>
-  void sum_body_energy(std::size_t a, const Buffers& scratch) const {
+  void sum_body_energy(std::size_t a, const double* u) const {
     const std::size_t count = list_start_[sites_.end(a)] - list_start_[sites_.begin(a)];
     double energy = 0.0;
-    for (std::size_t q = 0; q < count; ++q) energy += scratch.energy[q];
+    for (std::size_t q = 0; q < count; ++q) energy += u[q];
     energy_[a] = energy;
   }
 
@@ -218,7 +220,7 @@ class LennardJones {
     OnePassScratch scratch;
     const std::size_t first = list_start_[sites_.begin(a)];
     scratch.resize(list_start_[sites_.end(a)] - first);
-    body_pair_terms(a, c, scratch, scratch.fx.data(), scratch.fy.data(), scratch.fz.data());
+    pair_terms(a, a + 1, c, scratch, scratch.fx.data(), scratch.fy.data(), scratch.fz.data());
     for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i)
       for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k)
         if (!(std::isfinite(scratch.fx[k - first]) && std::isfinite(scratch.fy[k - first]) &&
@@ -273,12 +275,14 @@ class LennardJones {
     // the crossing arrays, and their energies.
     auto crossing_terms = [&](std::size_t index) {
       thread_local Scratch scratch;
-      const std::size_t a = crossing_bodies_[index], at = crossing_first_[a];
-      finite_[a] =
-          body_pair_terms(a, c, scratch, crossing_fx_.data() + at, crossing_fy_.data() + at, crossing_fz_.data() + at)
-              ? 1
-              : 0;
-      sum_body_energy(a, scratch);
+      const auto [a, b] = crossing_batches_[index];
+      const std::size_t at = crossing_first_[a], first = list_start_[sites_.begin(a)];
+      const bool finite =
+          pair_terms(a, b, c, scratch, crossing_fx_.data() + at, crossing_fy_.data() + at, crossing_fz_.data() + at);
+      for (std::size_t body = a; body < b; ++body) {
+        finite_[body] = finite ? 1 : 0;
+        sum_body_energy(body, scratch.energy.data() + (list_start_[sites_.begin(body)] - first));
+      }
     };
     auto range_pass = [&](std::size_t t) {
       thread_local OnePassScratch scratch;
@@ -297,11 +301,12 @@ class LennardJones {
         site_force[4 * j + 1] = fy;
         site_force[4 * j + 2] = fz;
       }
-      // Body a's pass, its pair forces g at entry k - first; `crossing`: its
-      // terms were computed before the barrier (energy too), and its pairs
-      // with sites beyond the range are added to its own sites only.
+      // Body a's pass, its pair forces g and energies u at entry k - first;
+      // `crossing`: its terms were computed before the barrier (energy too),
+      // and its pairs with sites beyond the range are added to its own sites
+      // only.
       auto scatter = [&](std::size_t a, std::size_t first, const double* gx, const double* gy, const double* gz,
-                         auto crossing) {
+                         const double* u, auto crossing) {
         double energy = 0.0;
         for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
           double fx = site_force[4 * i], fy = site_force[4 * i + 1], fz = site_force[4 * i + 2];
@@ -311,7 +316,7 @@ class LennardJones {
             fx += x;
             fy += y;
             fz += z;
-            if constexpr (!decltype(crossing)::value) energy += scratch.energy[k - first];
+            if constexpr (!decltype(crossing)::value) energy += u[k - first];
             if (decltype(crossing)::value && j >= site_end) continue;  // its partner has it already
             double* const fj = site_force + 4 * j;
             fj[0] -= x;
@@ -324,25 +329,43 @@ class LennardJones {
         }
         if constexpr (!decltype(crossing)::value) energy_[a] = energy;
       };
-      for (std::size_t a = begin; a < end; ++a) {
-        const std::size_t first = list_start_[sites_.begin(a)], at = crossing_first_[a];
-        if (at != no_crossing) {
-          scatter(a, first, crossing_fx_.data() + at, crossing_fy_.data() + at, crossing_fz_.data() + at,
-                  std::true_type{});
-        } else {
-          scratch.resize(list_start_[sites_.end(a)] - first);  // before taking the force buffers' addresses
-          finite_[a] = body_pair_terms(a, c, scratch, scratch.fx.data(), scratch.fy.data(), scratch.fz.data()) ? 1 : 0;
-          scatter(a, first, scratch.fx.data(), scratch.fy.data(), scratch.fz.data(), std::false_type{});
-        }
+      auto wrench = [&](std::size_t a) {
         add_body_wrench(s, e, a, [&](std::size_t i) {
           return Vector3<double>(site_force[4 * i], site_force[4 * i + 1], site_force[4 * i + 2]);
         });
+      };
+      for (std::size_t a = begin; a < end;) {
+        if (const std::size_t at = crossing_first_[a]; at != no_crossing) {
+          scatter(a, list_start_[sites_.begin(a)], crossing_fx_.data() + at, crossing_fy_.data() + at,
+                  crossing_fz_.data() + at, nullptr, std::true_type{});
+          wrench(a);
+          ++a;
+          continue;
+        }
+        // A batch of bodies [a, b) that do not cross, of about batch_entries
+        // list entries: their pair terms in one call (the vectorized loop's
+        // set-up and remainder shared), then each body's sums in order.
+        const std::size_t first = list_start_[sites_.begin(a)];
+        std::size_t b = a + 1;
+        while (b < end && crossing_first_[b] == no_crossing && list_start_[sites_.begin(b)] - first < batch_entries)
+          ++b;
+        scratch.resize(list_start_[sites_.end(b - 1)] - first);  // before taking the force buffers' addresses
+        const bool finite = pair_terms(a, b, c, scratch, scratch.fx.data(), scratch.fy.data(), scratch.fz.data());
+        for (; a < b; ++a) {
+          // (A batch that may not be finite marks each of its bodies: the
+          // report below looks at each again.)
+          finite_[a] = finite ? 1 : 0;
+          const std::size_t at = list_start_[sites_.begin(a)] - first;
+          scatter(a, first + at, scratch.fx.data() + at, scratch.fy.data() + at, scratch.fz.data() + at,
+                  scratch.energy.data() + at, std::false_type{});
+          wrench(a);
+        }
       }
     };
     parallel_ranges(crossing_ranges_, crossing_terms, range_ids_, range_pass);
     // A force that is not finite (two sites on top of each other) stops the
     // run, naming the first such pair of the lowest body in list order, as a
-    // serial pass would. (A pair is in the list of its lower site, so the
+    // serial pass would (report_collision returns for a body without one). (A pair is in the list of its lower site, so the
     // lowest body with a non-finite pair in its sites' whole neighbourhoods
     // is the lowest with one in its own lists.)
     for (std::size_t a = 0; a < s.size(); ++a)
@@ -536,8 +559,20 @@ class LennardJones {
     crossing_fx_.resize(crossing_pairs);
     crossing_fy_.resize(crossing_pairs);
     crossing_fz_.resize(crossing_pairs);
-    crossing_ranges_ = balanced_ranges(crossing_bodies_.size(), threads, [&](std::size_t index) {
-      return index < crossing_bodies_.size() ? crossing_first_[crossing_bodies_[index]] : crossing_pairs;
+    // The crossing bodies in batches of consecutive bodies (their entries
+    // consecutive in the lists and in the crossing arrays), as a range pass
+    // batches its others; the batches split between threads by entries.
+    crossing_batches_.clear();
+    for (std::size_t index = 0; index < crossing_bodies_.size(); ++index) {
+      const std::size_t a = crossing_bodies_[index];
+      if (!crossing_batches_.empty() && crossing_batches_.back().second == a &&
+          crossing_first_[a] - crossing_first_[crossing_batches_.back().first] < batch_entries)
+        crossing_batches_.back().second = a + 1;
+      else
+        crossing_batches_.emplace_back(a, a + 1);
+    }
+    crossing_ranges_ = balanced_ranges(crossing_batches_.size(), threads, [&](std::size_t index) {
+      return index < crossing_batches_.size() ? crossing_first_[crossing_batches_[index].first] : crossing_pairs;
     });
     // Each site's crossing pairs (i, j), j this site, by increasing i: a
     // counting sort by j of the crossing bodies' pairs in list order.
@@ -587,11 +622,16 @@ class LennardJones {
   /// Range t: bodies [range_bounds_[t], range_bounds_[t + 1]); range_ids_ = 0, 1, ..., T.
   mutable std::vector<std::size_t> range_bounds_, range_ids_;
   static constexpr std::size_t no_crossing = static_cast<std::size_t>(-1);
+  /// A range pass computes the pair terms of consecutive bodies in batches
+  /// of about this many list entries (7 arrays of it stay in a core's L1).
+  static constexpr std::size_t batch_entries = 256;
   /// The bodies with pairs into a higher range, in order; per body, where
   /// its list entries' terms start in the crossing arrays (or no_crossing);
   /// the split of those bodies between threads.
   mutable std::vector<std::size_t> crossing_bodies_, crossing_first_, crossing_ranges_;
   mutable std::vector<double> crossing_fx_, crossing_fy_, crossing_fz_;  ///< per entry: the force on its list's site
+  /// The crossing bodies in batches [first, end) of consecutive bodies.
+  mutable std::vector<std::pair<std::size_t, std::size_t>> crossing_batches_;
   /// Site j's crossing pairs: incoming_pair_[incoming_start_[j] ...
   /// incoming_start_[j + 1]) index the crossing arrays, by increasing lower site.
   mutable std::vector<std::size_t> incoming_start_, incoming_pair_;
