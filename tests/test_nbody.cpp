@@ -617,6 +617,31 @@ LjSystem lennard_jones(const System& sys, Parallelism par = {}) {
   return {ExternalField<NoPotential>::uniform(NoPotential{}, sys.size(), par), LennardJones(sys, 1.0, 1.0, 2.5, par)};
 }
 
+TEST(NBodyLgvi, ANonFiniteBodyStopsTheStepNamingTheLowestOnAnyThreads) {
+  // The step checks each body's new state in its last per-body loop, on the
+  // threads (lgvi.hpp): the message must be a serial check's - the lowest
+  // failing body, named once - whichever thread meets which body first. 40
+  // free point masses (2 threads: two ranges of 20), two of them given a NaN
+  // momentum, one in each range.
+  const RigidBody sphere(1.0, 0.1 * lgvi::Matrix3<double>::Identity());
+  const System sys(std::vector<RigidBody>(40, sphere));
+  for (const int threads : {1, 2}) {
+    const Parallelism par{threads};
+    lgvi::LieGroupVariationalIntegrator<ExternalField<NoPotential>> integ(
+        sys, ExternalField<NoPotential>::uniform(NoPotential{}, sys.size(), par), lgvi::SolverOptions{}, par);
+    SystemState s = lattice_state(40, 2.0, 0.1);
+    integ.initialize(s, 0.0);
+    s.p[33] = V3(std::nan(""), 0.0, 0.0);
+    s.p[17] = V3(0.0, std::nan(""), 0.0);
+    try {
+      integ.step(s, 0.0, 0.01);
+      ADD_FAILURE() << "no StepFailure, threads " << threads;
+    } catch (const lgvi::StepFailure& f) {
+      EXPECT_STREQ(f.what(), "body 17 (\"body17\"): the state became non-finite") << "threads " << threads;
+    }
+  }
+}
+
 TEST(NBodyLgvi, LennardJonesClusterConservesMomentaAndBoundsEnergy) {
   // 27 triangle molecules on a lattice of spacing 2.2 centred at the origin
   // (no two balls of different molecules closer than 1.05 sigma), cold; the

@@ -169,10 +169,12 @@ class ImplicitStepperBase : public StepperBase<I> {
   /// p1 = p_half + (h/2) F1 for body a (after the evaluation at the new state).
   void kick(SystemState& s, std::size_t a, double h) { s.p[a] = p_half_[a] + (0.5 * h) * this->force(a); }
 
-  /// Combines the bodies' reports and checks the new state.
-  void finish_step(const SystemState& s) {
+  /// Combines the bodies' reports and checks the new state, unless each
+  /// body's was checked already (`checked`: by require_finite_body in the
+  /// step's last per-body loop, on its threads).
+  void finish_step(const SystemState& s, bool checked = false) {
     this->report_ = combine(reports_);
-    require_finite(this->system_, s, this->eval_);
+    if (!checked) require_finite(this->system_, s, this->eval_);
   }
 
   SolverOptions opt_;
@@ -224,11 +226,18 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
       f_[a] = f;
     });
     this->evaluate_at(s);
+    // Without a forcing the momenta are updated in one pass over the bodies,
+    // after which each body's state is final: it is checked there, on the
+    // threads, rather than in a serial loop after it (the same verdict and
+    // message: for_each_body names the body, and the lowest failing body's
+    // failure is the one reported, as a serial loop's would be).
+    const bool checked = this->forcing().empty();
     this->end_step(s, t + h, h, [&](std::size_t a) {
       this->kick(s, a, h);
       s.w[a] = f_[a].inverse().act(w_half_[a]) + h * this->torque(a);
+      if (checked) detail::require_finite_body(s, this->eval_, a);
     });
-    this->finish_step(s);
+    this->finish_step(s, checked);
   }
 
   /// Adds a forcing (forcing.hpp) to the potential's force and torque, by the

@@ -73,26 +73,36 @@ void for_each_body(const System& sys, const Parallelism& par, F&& f) {
   });
 }
 
-/// Throws StepFailure if the state or the evaluation is not finite. One test
-/// on a sum per body: a NaN or infinity anywhere makes it non-finite
-/// (inf - inf is NaN), so the common case costs one branch per body.
+/// Throws StepFailure if body a's state or evaluation is not finite, its
+/// message without the body's name (for_each_body and require_finite add
+/// it). One test on a sum: a NaN or infinity anywhere makes it non-finite
+/// (inf - inf is NaN), so the common case costs one branch.
+inline void require_finite_body(const SystemState& s, const SystemEvaluation& e, std::size_t a) {
+  const double sum = s.x[a].sum() + s.q[a].coefficient_sum() + s.p[a].sum() + s.w[a].sum() + e.energy +
+                     e.force[a].sum() + e.torque[a].sum();
+  if (std::isfinite(sum)) return;
+  // Cause-neutral: the potential may be the user's. At a finite configuration (x, q) a non-finite
+  // evaluation is the cause (the momenta it fed are non-finite too); name what was not finite (the
+  // caller adds the step and its time).
+  const bool evaluation_finite = std::isfinite(e.energy) && e.force[a].allFinite() && e.torque[a].allFinite();
+  if (!evaluation_finite && s.x[a].allFinite() && s.q[a].all_finite()) {
+    const char* what = !std::isfinite(e.energy) ? "energy" : !e.force[a].allFinite() ? "force" : "torque";
+    throw StepFailure(std::string("the potential returned a non-finite ") + what,
+                      "check the potential at this state (where is it not defined?); a smaller step resolves "
+                      "close encounters better");
+  }
+  if (!s.body(a).all_finite()) throw StepFailure("the state became non-finite", "try a smaller step");
+}
+
+/// Throws StepFailure if the state or the evaluation is not finite, naming
+/// the first body that is not (systems of more than one body).
 inline void require_finite(const System& sys, const SystemState& s, const SystemEvaluation& e) {
   for (std::size_t a = 0; a < s.size(); ++a) {
-    const double sum = s.x[a].sum() + s.q[a].coefficient_sum() + s.p[a].sum() + s.w[a].sum() + e.energy +
-                       e.force[a].sum() + e.torque[a].sum();
-    if (std::isfinite(sum)) continue;
-    // Cause-neutral: the potential may be the user's. At a finite configuration (x, q) a non-finite
-    // evaluation is the cause (the momenta it fed are non-finite too); name what was not finite (the
-    // caller adds the step and its time).
-    const bool evaluation_finite = std::isfinite(e.energy) && e.force[a].allFinite() && e.torque[a].allFinite();
-    if (!evaluation_finite && s.x[a].allFinite() && s.q[a].all_finite()) {
-      const char* what = !std::isfinite(e.energy) ? "energy" : !e.force[a].allFinite() ? "force" : "torque";
-      throw StepFailure(body_prefix(sys, a) + "the potential returned a non-finite " + what,
-                        "check the potential at this state (where is it not defined?); a smaller step resolves "
-                        "close encounters better");
+    try {
+      require_finite_body(s, e, a);
+    } catch (const StepFailure& f) {
+      throw StepFailure(body_prefix(sys, a) + f.what(), f.hint());
     }
-    if (!s.body(a).all_finite())
-      throw StepFailure(body_prefix(sys, a) + "the state became non-finite", "try a smaller step");
   }
 }
 
