@@ -368,15 +368,18 @@ TEST(LennardJonesPairs, ForcesTorquesAndEnergyEqualADirectSumOverAllPairs) {
 }
 
 /// Each body's force, torque and energy from the lists against the O(S^2)
-/// sum in index order (see the test below), EXPECT_EQ, on 1, 2 and 3 threads,
-/// at s, moved within the skin and moved beyond it.
+/// sum in index order (see the test below), EXPECT_EQ, on 1, 2 and 3 threads
+/// and on 7 with as little as one body per thread (ranges of a few bodies,
+/// crossing into ranges several above), at s, moved within the skin and
+/// moved beyond it.
 void expect_index_order_sums(const System& sys, const SystemState& s, const std::string& label) {
   SCOPED_TRACE(label);
   const double eps = 1.0, sigma = 1.0, cutoff = 2.5;
   const lgvi::InteractionSites sites(sys);
   const double sr6c = std::pow(sigma * sigma / (cutoff * cutoff), 3), shift = 4.0 * eps * (sr6c * sr6c - sr6c);
-  for (const int threads : {1, 2, 3}) {
-    const LennardJones lj(sys, eps, sigma, cutoff, Parallelism{threads});
+  for (const Parallelism par : {Parallelism{1}, Parallelism{2}, Parallelism{3}, Parallelism{7, 1}}) {
+    const int threads = par.threads;
+    const LennardJones lj(sys, eps, sigma, cutoff, par);
     for (const double move : {0.0, 0.05, 0.4}) {  // skin 0.3: 0.05 < skin/2 < 0.4
       SystemState moved = s;
       for (V3& x : moved.x) x += t::random_vector(move);
@@ -443,8 +446,9 @@ TEST(LennardJonesPairs, ListsFindEveryPairOfBodiesLargerThanTheReachAndInADilute
   // The lists are built per body, from the cells around its sites' bounding
   // box extended by r_c + skin, filtered by distance to the box's centre:
   // rods of 5 balls 6 sigma long (more than twice r_c + skin = 2.8) between
-  // spheres of one site, at random attitudes on a lattice of spacing 3.5, must
-  // give the sums in index order bit for bit; and so must a gas whose
+  // spheres of one site, at random attitudes on a lattice of spacing 3.5, and
+  // a sheet of 36 balls (more than group_sites: its lists are built site by
+  // site), must give the sums in index order bit for bit; and so must a gas whose
   // bounding box is huge (two molecules 1000 sigma away), where the cells
   // are as large as the budget of ~2 sites per cell makes them.
   std::vector<lgvi::RigidBody> bodies;
@@ -454,7 +458,9 @@ TEST(LennardJonesPairs, ListsFindEveryPairOfBodiesLargerThanTheReachAndInADilute
                                                {V3(1.5, 0.0, 0.0), 1.0, 0.5},
                                                {V3(3.0, 0.0, 0.0), 1.0, 0.5}});
   const RigidBody sphere(1.0, 0.1 * lgvi::Matrix3<double>::Identity());
-  for (std::size_t a = 0; a < 64; ++a) bodies.push_back(a % 2 == 0 ? rod : sphere);
+  std::vector<Ball> sheet;
+  for (int i = 0; i < 36; ++i) sheet.push_back({V3(1.1 * (i % 6) - 2.75, 1.1 * (i / 6) - 2.75, 0.0), 1.0, 0.5});
+  for (std::size_t a = 0; a < 64; ++a) bodies.push_back(a == 9 ? RigidBody::from_balls(sheet) : a % 2 == 0 ? rod : sphere);
   expect_index_order_sums(System(bodies), lattice_state(64, 3.5, 0.4), "rods and spheres");
   SystemState dilute = lattice_state(64, 1.7, 0.4);
   dilute.x[5] += V3(1000.0, 0.0, 0.0);
@@ -618,18 +624,23 @@ LjSystem lennard_jones(const System& sys, Parallelism par = {}) {
 }
 
 TEST(NBodyLgvi, ANonFiniteBodyStopsTheStepNamingTheLowestOnAnyThreads) {
-  // The step checks each body's new state in its last per-body loop, on the
-  // threads (lgvi.hpp): the message must be a serial check's - the lowest
-  // failing body, named once - whichever thread meets which body first. 40
-  // free point masses (2 threads: two ranges of 20), two of them given a NaN
+  // The step notes whether each body's new state is finite in its last
+  // per-body loop, on the threads (lgvi.hpp): the message must be a serial
+  // check's - the lowest failing body, named once - whichever thread meets
+  // which body first; every body must still be updated, so that the state
+  // left behind is the same on any number of threads (byte for byte, NaNs
+  // included); and the step's solver report must be this step's. 40 free
+  // point masses (2 threads: two ranges of 20), two of them given a NaN
   // momentum, one in each range.
   const RigidBody sphere(1.0, 0.1 * lgvi::Matrix3<double>::Identity());
   const System sys(std::vector<RigidBody>(40, sphere));
-  for (const int threads : {1, 2}) {
+  const SystemState start = lattice_state(40, 2.0, 0.1);
+  std::vector<SystemState> after;
+  for (const int threads : {1, 2, 3}) {
     const Parallelism par{threads};
     lgvi::LieGroupVariationalIntegrator<ExternalField<NoPotential>> integ(
         sys, ExternalField<NoPotential>::uniform(NoPotential{}, sys.size(), par), lgvi::SolverOptions{}, par);
-    SystemState s = lattice_state(40, 2.0, 0.1);
+    SystemState s = start;
     integ.initialize(s, 0.0);
     s.p[33] = V3(std::nan(""), 0.0, 0.0);
     s.p[17] = V3(0.0, std::nan(""), 0.0);
@@ -639,7 +650,15 @@ TEST(NBodyLgvi, ANonFiniteBodyStopsTheStepNamingTheLowestOnAnyThreads) {
     } catch (const lgvi::StepFailure& f) {
       EXPECT_STREQ(f.what(), "body 17 (\"body17\"): the state became non-finite") << "threads " << threads;
     }
+    EXPECT_GE(integ.last_solve().worst_iterations, 1) << "threads " << threads;  // 40 bodies solved this step
+    after.push_back(s);
   }
+  for (std::size_t k = 1; k < after.size(); ++k)
+    for (std::size_t a = 0; a < 40; ++a) {
+      EXPECT_EQ(std::memcmp(after[k].p[a].data(), after[0].p[a].data(), sizeof(V3)), 0) << "body " << a;
+      EXPECT_EQ(std::memcmp(after[k].w[a].data(), after[0].w[a].data(), sizeof(V3)), 0) << "body " << a;
+      EXPECT_EQ(std::memcmp(after[k].x[a].data(), after[0].x[a].data(), sizeof(V3)), 0) << "body " << a;
+    }
 }
 
 TEST(NBodyLgvi, LennardJonesClusterConservesMomentaAndBoundsEnergy) {

@@ -19,15 +19,15 @@
 //
 // Half lists (as LAMMPS with newton on): each pair is in the list of its
 // lower site only (the sites of higher bodies within r_c + skin). One pass
-// over the bodies in order computes each body's pair terms at once,
-// vectorized (detail::lennard_jones_terms), and adds each pair's force to its
+// over the bodies in order computes the pair terms of consecutive bodies in
+// batches, vectorized (detail::lennard_jones_terms), and adds each pair's force to its
 // lower site's running sum and, negated, to its partner's: the negated force
 // is exactly what that site would have computed itself (d = X_j - X_i on one
 // side, X_i - X_j = -d exactly on the other, the same r^2, so the same coef,
 // and (-coef d) is exact). On several threads each takes a range of bodies;
-// the pairs that cross from a lower range into a higher one are computed
-// first, so that every site's sum takes the same terms in the same order on
-// any number of threads (LennardJones::ranged_pass).
+// the terms of every body with a pair that crosses from its range into a
+// higher one are computed first, so that every site's sum takes the same
+// terms in the same order on any number of threads (LennardJones::ranged_pass).
 //
 // Determinism: each site's lists are sorted by site index, so the sum over a
 // site's neighbours (in index order: its lower partners, then its own list)
@@ -151,7 +151,8 @@ class LennardJones {
 
  private:
   using Constants = detail::LennardJonesConstants;
-  /// One thread's buffers for a body's list entries (see add).
+  /// One thread's buffers for the list entries of a batch of bodies: the
+  /// separations and the pairs' energies.
   struct Scratch {
     std::vector<double> dx, dy, dz, energy;
     void resize(std::size_t count) {
@@ -159,8 +160,9 @@ class LennardJones {
       for (std::vector<double>* v : {&dx, &dy, &dz, &energy}) v->resize(count);
     }
   };
-  /// A range pass's buffers: also the pair forces.
-  struct OnePassScratch : Scratch {
+  /// A range pass's buffers: also the pair forces (the crossing bodies' go
+  /// into the crossing arrays).
+  struct PassScratch : Scratch {
     std::vector<double> fx, fy, fz;
     void resize(std::size_t count) {
       Scratch::resize(count);
@@ -217,7 +219,7 @@ class LennardJones {
   /// a sum of components overflowed). Computes the body's pair terms again:
   /// the pass has not kept them (a run ends here, so the cost is no matter).
   void report_collision(std::size_t a, const Constants& c) const {
-    OnePassScratch scratch;
+    PassScratch scratch;
     const std::size_t first = list_start_[sites_.begin(a)];
     scratch.resize(list_start_[sites_.end(a)] - first);
     pair_terms(a, a + 1, c, scratch, scratch.fx.data(), scratch.fy.data(), scratch.fz.data());
@@ -246,9 +248,9 @@ class LennardJones {
   }
 
   /// The sites' forces in one pass over the bodies in order, LAMMPS's newton
-  /// on: per body, its lists' pair terms (vectorized), then per site i its
-  /// own pairs' forces added to its running sum, each negated into its
-  /// partner's. A site j's sum thus receives its lower partners' terms as the
+  /// on: the pair terms of a batch of consecutive bodies (vectorized), then,
+  /// body by body, per site i its own pairs' forces added to its running
+  /// sum, each negated into its partner's. A site j's sum thus receives its lower partners' terms as the
   /// bodies below it are passed, by increasing partner index, and then its
   /// own in list order, from 0: the sum over its whole neighbourhood in index
   /// order (pairs beyond r_c add exact zeros, so it depends on the positions
@@ -285,7 +287,7 @@ class LennardJones {
       }
     };
     auto range_pass = [&](std::size_t t) {
-      thread_local OnePassScratch scratch;
+      thread_local PassScratch scratch;
       const std::size_t begin = range_bounds_[t], end = range_bounds_[t + 1];
       const std::size_t site_end = end < s.size() ? sites_.begin(end) : m;
       // Each site's sum starts with its crossing pairs' terms, by increasing partner.
@@ -365,9 +367,11 @@ class LennardJones {
     parallel_ranges(crossing_ranges_, crossing_terms, range_ids_, range_pass);
     // A force that is not finite (two sites on top of each other) stops the
     // run, naming the first such pair of the lowest body in list order, as a
-    // serial pass would (report_collision returns for a body without one). (A pair is in the list of its lower site, so the
-    // lowest body with a non-finite pair in its sites' whole neighbourhoods
-    // is the lowest with one in its own lists.)
+    // serial pass would; report_collision returns for a body without one (a
+    // batch that may not be finite marks each of its bodies). A pair is in
+    // the list of its lower site, so the lowest body with a non-finite pair
+    // in its sites' whole neighbourhoods is the lowest with one in its own
+    // lists.
     for (std::size_t a = 0; a < s.size(); ++a)
       if (finite_[a] == 0) report_collision(a, c);
   }
@@ -430,14 +434,15 @@ class LennardJones {
       cell_body_[k] = sites_.body_of(sorted_[k]);
     }
     // The lists, one body after the other. Each site's list is its own: the
-    // sites of higher bodies within r_c + skin, by index. Per body, first
-    // the sites of higher bodies near it: those in the cells around its
-    // sites' bounding box (extended by r_c + skin) within r_c + skin + R of
-    // the box's centre (R: the farthest of its sites from it), sorted by
-    // index; then each site's list is the sites of those within r_c + skin
-    // of it, in that order. (Per body rather than per site: the body's sites
-    // share their surroundings, so each cell is visited and each candidate
-    // is sorted once for all of them.) So the lists do not depend on who
+    // sites of higher bodies within r_c + skin, by index. Per body (per site
+    // for a body of more than group_sites sites), first the sites of higher
+    // bodies near it: those in the cells around its sites' bounding box
+    // (extended by r_c + skin) within r_c + skin + R of the box's centre (R:
+    // the farthest of its sites from it), sorted by index; then each site's
+    // list is the sites of those within r_c + skin of it, in that order.
+    // (Per body rather than per site: the body's sites share their
+    // surroundings, so each cell is visited and each candidate is sorted
+    // once for all of them.) So the lists do not depend on who
     // builds them: the bodies are cut into fixed chunks, each chunk's lists
     // built on some thread into the chunk's buffer, and the buffers joined
     // in site order.
@@ -452,57 +457,68 @@ class LennardJones {
       out.clear();
       thread_local std::vector<std::size_t> near;
       for (std::size_t a = chunk * n / chunks; a < (chunk + 1) * n / chunks; ++a) {
-        Vector3<double> lo = position_[sites_.begin(a)], hi = lo;
-        for (std::size_t i = sites_.begin(a) + 1; i < sites_.end(a); ++i) {
-          lo = lo.cwiseMin(position_[i]);
-          hi = hi.cwiseMax(position_[i]);
-        }
-        const Vector3<double> centre = 0.5 * (lo + hi);
-        double radius2 = 0.0;
-        for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i)
-          radius2 = std::max(radius2, (position_[i] - centre).squaredNorm());
-        // Generous by a relative 1e-9: only a filter, the test below is exact.
-        const double around = (reach + std::sqrt(radius2)) * (1.0 + 1e-9), around2 = around * around;
-        const Vector3<double> margin = Vector3<double>::Constant(reach);
-        const std::array<std::int64_t, 3> c0 = cell_of(lo - margin), c1 = cell_of(hi + margin);
-        const double cx = centre(0), cy = centre(1), cz = centre(2);
-        std::size_t kept = 0;
-        for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
-          for (std::int64_t y = c0[1]; y <= c1[1]; ++y) {
-            const auto row = static_cast<std::size_t>((z * dims_[1] + y) * dims_[0]);
-            const std::size_t run_first = cell_start_[row + static_cast<std::size_t>(c0[0])],
-                              run_end = cell_start_[row + static_cast<std::size_t>(c1[0]) + 1];
-            if (near.size() < kept + (run_end - run_first)) near.resize(2 * (kept + (run_end - run_first)));
-            std::size_t* const list = near.data();
-            // Every candidate written, the count advanced only for those kept:
-            // no branch to mispredict on the distance test.
-            for (std::size_t k = run_first; k < run_end; ++k) {
-              const double dx = cell_x_[k] - cx, dy = cell_y_[k] - cy, dz = cell_z_[k] - cz;
-              list[kept] = sorted_[k];
-              kept += static_cast<std::size_t>((dx * dx + dy * dy + dz * dz < around2) & (cell_body_[k] > a));
+        // A body of many sites (a wall, a long chain) goes site by site: its
+        // box would hold candidates for all of them, each site scanning all.
+        const std::size_t group = sites_.end(a) - sites_.begin(a) <= group_sites ? group_sites : 1;
+        for (std::size_t g0 = sites_.begin(a); g0 < sites_.end(a); g0 += group) {
+          const std::size_t g1 = std::min(g0 + group, sites_.end(a));
+          Vector3<double> lo = position_[g0], hi = lo;
+          for (std::size_t i = g0 + 1; i < g1; ++i) {
+            lo = lo.cwiseMin(position_[i]);
+            hi = hi.cwiseMax(position_[i]);
+          }
+          const Vector3<double> centre = 0.5 * (lo + hi);
+          double radius2 = 0.0;
+          for (std::size_t i = g0; i < g1; ++i) radius2 = std::max(radius2, (position_[i] - centre).squaredNorm());
+          // Generous by a relative 1e-9: only a filter, the test below is exact.
+          const double around = (reach + std::sqrt(radius2)) * (1.0 + 1e-9), around2 = around * around;
+          const Vector3<double> margin = Vector3<double>::Constant(reach);
+          const std::array<std::int64_t, 3> c0 = cell_of(lo - margin), c1 = cell_of(hi + margin);
+          const double cx = centre(0), cy = centre(1), cz = centre(2);
+          std::size_t kept = 0;
+          for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
+            for (std::int64_t y = c0[1]; y <= c1[1]; ++y) {
+              const auto row = static_cast<std::size_t>((z * dims_[1] + y) * dims_[0]);
+              const std::size_t run_first = cell_start_[row + static_cast<std::size_t>(c0[0])],
+                                run_end = cell_start_[row + static_cast<std::size_t>(c1[0]) + 1];
+              if (near.size() < kept + (run_end - run_first)) near.resize(2 * (kept + (run_end - run_first)));
+              std::size_t* const list = near.data();
+              // Every candidate written, the count advanced only for those kept:
+              // no branch to mispredict on the distance test.
+              for (std::size_t k = run_first; k < run_end; ++k) {
+                const double dx = cell_x_[k] - cx, dy = cell_y_[k] - cy, dz = cell_z_[k] - cz;
+                list[kept] = sorted_[k];
+                kept += static_cast<std::size_t>((dx * dx + dy * dy + dz * dz < around2) & (cell_body_[k] > a));
+              }
+            }
+          // By index; insertion sort for tens of sites, where it is fastest
+          // (and the candidates, in cell order, come nearly sorted in a gas
+          // numbered along its lattice).
+          if (kept > 64) {
+            std::sort(near.begin(), near.begin() + static_cast<std::ptrdiff_t>(kept));
+          } else {
+            for (std::size_t k = 1; k < kept; ++k) {
+              const std::size_t j = near[k];
+              std::size_t slot = k;
+              for (; slot > 0 && near[slot - 1] > j; --slot) near[slot] = near[slot - 1];
+              near[slot] = j;
             }
           }
-        // By index; tens of sites, where insertion sort is fastest.
-        for (std::size_t k = 1; k < kept; ++k) {
-          const std::size_t j = near[k];
-          std::size_t slot = k;
-          for (; slot > 0 && near[slot - 1] > j; --slot) near[slot] = near[slot - 1];
-          near[slot] = j;
-        }
-        for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
-          const double xi = position_[i](0), yi = position_[i](1), zi = position_[i](2);
-          const std::size_t first = out.size();
-          out.resize(first + kept);
-          std::size_t* const list = out.data() + first;
-          std::size_t count = 0;
-          for (std::size_t k = 0; k < kept; ++k) {
-            const std::size_t j = near[k];
-            const double dx = position_[j](0) - xi, dy = position_[j](1) - yi, dz = position_[j](2) - zi;
-            list[count] = j;
-            count += static_cast<std::size_t>(dx * dx + dy * dy + dz * dz < reach2);
+          for (std::size_t i = g0; i < g1; ++i) {
+            const double xi = position_[i](0), yi = position_[i](1), zi = position_[i](2);
+            const std::size_t first = out.size();
+            out.resize(first + kept);
+            std::size_t* const list = out.data() + first;
+            std::size_t count = 0;
+            for (std::size_t k = 0; k < kept; ++k) {
+              const std::size_t j = near[k];
+              const double dx = position_[j](0) - xi, dy = position_[j](1) - yi, dz = position_[j](2) - zi;
+              list[count] = j;
+              count += static_cast<std::size_t>(dx * dx + dy * dy + dz * dz < reach2);
+            }
+            out.resize(first + count);
+            list_start_[i + 1] = count;  // summed below
           }
-          out.resize(first + count);
-          list_start_[i + 1] = count;  // summed below
         }
       }
     });
@@ -530,7 +546,8 @@ class LennardJones {
         for (std::size_t a = range_bounds_[t]; a < range_bounds_[t + 1]; ++a) {
           bool crosses = false;  // each list is sorted: its last partner is its highest
           for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i)
-            crosses = crosses || (list_start_[i + 1] > list_start_[i] && neighbours_[list_start_[i + 1] - 1] >= site_end);
+            crosses =
+                crosses || (list_start_[i + 1] > list_start_[i] && neighbours_[list_start_[i + 1] - 1] >= site_end);
           if (!crosses) continue;
           crossing_first_[a] = pairs;
           crossing_bodies_.push_back(a);
@@ -545,12 +562,15 @@ class LennardJones {
     // cross (gathering the separations and the vectorized terms take about
     // twice the sums' time in a profile of one thread; weights 2 and 4 gave
     // 1 % more and 1 % less time at N = 1000 on 2 threads, 1 % more each at
-    // 10^4), with the crossing bodies of the first ranges.
+    // 10^4). Which bodies cross is taken from the first split; the second
+    // moves its bounds a little, and the crossing bodies are then found
+    // again for it (an estimate: results do not depend on the split).
     range_bounds_ = balanced_ranges(n, threads, [&](std::size_t a) { return list_start_[site_of(a)]; });
     if (threads > 1) {
       find_crossing();
       std::vector<std::size_t> work(n + 1, 0);
-      for (std::size_t a = 0; a < n; ++a) work[a + 1] = work[a] + entries(a) * (crossing_first_[a] == no_crossing ? 3 : 1);
+      for (std::size_t a = 0; a < n; ++a)
+        work[a + 1] = work[a] + entries(a) * (crossing_first_[a] == no_crossing ? 3 : 1);
       range_bounds_ = balanced_ranges(n, threads, [&](std::size_t a) { return work[a]; });
     }
     range_ids_.resize(static_cast<std::size_t>(threads) + 1);
@@ -625,6 +645,9 @@ class LennardJones {
   /// A range pass computes the pair terms of consecutive bodies in batches
   /// of about this many list entries (7 arrays of it stay in a core's L1).
   static constexpr std::size_t batch_entries = 256;
+  /// Lists are built per body for bodies of up to this many sites (molecules,
+  /// rubble), site by site for larger ones (build_lists).
+  static constexpr std::size_t group_sites = 16;
   /// The bodies with pairs into a higher range, in order; per body, where
   /// its list entries' terms start in the crossing arrays (or no_crossing);
   /// the split of those bodies between threads.

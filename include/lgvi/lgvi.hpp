@@ -108,7 +108,8 @@ class ImplicitStepperBase : public StepperBase<I> {
         opt_(solver),
         predictors_(this->system_.size(), Predictor(solver.predictor_order)),
         reports_(this->system_.size()),
-        p_half_(this->system_.size()), x_carry_(this->system_.size(), Vector3<double>::Zero()) {}
+        p_half_(this->system_.size()), x_carry_(this->system_.size(), Vector3<double>::Zero()),
+        body_finite_(this->system_.size(), 1) {}
 
   virtual ~ImplicitStepperBase() = default;
   ImplicitStepperBase(const ImplicitStepperBase&) = default;
@@ -169,12 +170,19 @@ class ImplicitStepperBase : public StepperBase<I> {
   /// p1 = p_half + (h/2) F1 for body a (after the evaluation at the new state).
   void kick(SystemState& s, std::size_t a, double h) { s.p[a] = p_half_[a] + (0.5 * h) * this->force(a); }
 
-  /// Combines the bodies' reports and checks the new state, unless each
-  /// body's was checked already (`checked`: by require_finite_body in the
-  /// step's last per-body loop, on its threads).
+  /// Combines the bodies' reports and checks the new state. `checked`: the
+  /// step's last per-body loop has recorded, on its threads, whether each
+  /// body is finite (note_finite); then only a failure is looked at again,
+  /// on this thread, for the message.
   void finish_step(const SystemState& s, bool checked = false) {
     this->report_ = combine(reports_);
-    if (!checked) require_finite(this->system_, s, this->eval_);
+    if (!checked || std::find(body_finite_.begin(), body_finite_.end(), 0) != body_finite_.end())
+      require_finite(this->system_, s, this->eval_);
+  }
+  /// Records whether body a's new state and the evaluation are finite (for
+  /// finish_step; in a per-body loop, where the body's data are in cache).
+  void note_finite(const SystemState& s, std::size_t a) {
+    body_finite_[a] = body_finite(s, this->eval_, a) ? 1 : 0;
   }
 
   SolverOptions opt_;
@@ -183,6 +191,7 @@ class ImplicitStepperBase : public StepperBase<I> {
   std::vector<SolveReport> reports_;
   std::vector<Vector3<double>> p_half_;
   std::vector<Vector3<double>> x_carry_;  ///< per body: what the last compensated position sum lost
+  std::vector<char> body_finite_;  ///< per body: finite after the step (note_finite)
 };
 
 }  // namespace detail
@@ -227,15 +236,15 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
     });
     this->evaluate_at(s);
     // Without a forcing the momenta are updated in one pass over the bodies,
-    // after which each body's state is final: it is checked there, on the
-    // threads, rather than in a serial loop after it (the same verdict and
-    // message: for_each_body names the body, and the lowest failing body's
-    // failure is the one reported, as a serial loop's would be).
+    // after which each body's state is final: whether it is finite is noted
+    // there, on the threads, rather than tested in a serial loop after it;
+    // only a failure is examined again, serially, for the same message (the
+    // lowest failing body) as before. Every body is updated either way.
     const bool checked = this->forcing().empty();
     this->end_step(s, t + h, h, [&](std::size_t a) {
       this->kick(s, a, h);
       s.w[a] = f_[a].inverse().act(w_half_[a]) + h * this->torque(a);
-      if (checked) detail::require_finite_body(s, this->eval_, a);
+      if (checked) this->note_finite(s, a);
     });
     this->finish_step(s, checked);
   }

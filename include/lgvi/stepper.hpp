@@ -73,14 +73,19 @@ void for_each_body(const System& sys, const Parallelism& par, F&& f) {
   });
 }
 
-/// Throws StepFailure if body a's state or evaluation is not finite, its
-/// message without the body's name (for_each_body and require_finite add
-/// it). One test on a sum: a NaN or infinity anywhere makes it non-finite
-/// (inf - inf is NaN), so the common case costs one branch.
-inline void require_finite_body(const SystemState& s, const SystemEvaluation& e, std::size_t a) {
+/// Whether body a's state and evaluation are finite. One test on a sum: a
+/// NaN or infinity anywhere makes it non-finite (inf - inf is NaN), so the
+/// common case costs one branch.
+inline bool body_finite(const SystemState& s, const SystemEvaluation& e, std::size_t a) {
   const double sum = s.x[a].sum() + s.q[a].coefficient_sum() + s.p[a].sum() + s.w[a].sum() + e.energy +
                      e.force[a].sum() + e.torque[a].sum();
-  if (std::isfinite(sum)) return;
+  return std::isfinite(sum);
+}
+
+/// Throws StepFailure if body a's state or evaluation is not finite, its
+/// message without the body's name (require_finite adds it).
+inline void require_finite_body(const SystemState& s, const SystemEvaluation& e, std::size_t a) {
+  if (body_finite(s, e, a)) return;
   // Cause-neutral: the potential may be the user's. At a finite configuration (x, q) a non-finite
   // evaluation is the cause (the momenta it fed are non-finite too); name what was not finite (the
   // caller adds the step and its time).
