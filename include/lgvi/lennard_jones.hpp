@@ -289,9 +289,9 @@ class LennardJones {
     auto range_pass = [&](std::size_t t) {
       thread_local PassScratch scratch;
       const std::size_t begin = range_bounds_[t], end = range_bounds_[t + 1];
-      const std::size_t site_end = end < s.size() ? sites_.begin(end) : m;
+      const std::size_t site_end = sites_.begin(end);  // (begin(N) is the number of sites)
       // Each site's sum starts with its crossing pairs' terms, by increasing partner.
-      for (std::size_t j = begin < s.size() ? sites_.begin(begin) : m; j < site_end; ++j) {
+      for (std::size_t j = sites_.begin(begin); j < site_end; ++j) {
         double fx = 0.0, fy = 0.0, fz = 0.0;
         for (std::size_t l = incoming_start_[j]; l < incoming_start_[j + 1]; ++l) {
           const std::size_t k = incoming_pair_[l];
@@ -449,7 +449,6 @@ class LennardJones {
     const std::size_t n = sys_.size();
     const double reach2 = reach * reach;
     const std::size_t chunks = std::min<std::size_t>(n, list_chunks);
-    auto chunk_site = [&](std::size_t chunk) { return chunk < chunks ? sites_.begin(chunk * n / chunks) : m; };
     chunk_lists_.resize(chunks);
     list_start_.assign(m + 1, 0);
     parallel_for(chunks, par_, [&](std::size_t chunk) {
@@ -526,7 +525,7 @@ class LennardJones {
     neighbours_.resize(list_start_[m]);
     parallel_for(chunks, par_, [&](std::size_t chunk) {
       std::copy(chunk_lists_[chunk].begin(), chunk_lists_[chunk].end(),
-                neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[chunk_site(chunk)]));
+                neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[sites_.begin(chunk * n / chunks)]));
     });
     // How the evaluation splits its work between threads (results do not
     // depend on it): the bodies into consecutive ranges of about equal pairs
@@ -534,7 +533,6 @@ class LennardJones {
     // pairs that cross into a higher range, and the crossing pairs' terms
     // by their higher site (ranged_pass).
     const int threads = par_.threads_for(n);
-    auto site_of = [&](std::size_t a) { return a < n ? sites_.begin(a) : m; };
     auto entries = [&](std::size_t a) { return list_start_[sites_.end(a)] - list_start_[sites_.begin(a)]; };
     // The bodies with pairs into a higher range than theirs.
     auto find_crossing = [&] {
@@ -542,7 +540,7 @@ class LennardJones {
       crossing_bodies_.clear();
       std::size_t pairs = 0;
       for (std::size_t t = 0; t + 1 < range_bounds_.size(); ++t) {
-        const std::size_t site_end = site_of(range_bounds_[t + 1]);
+        const std::size_t site_end = sites_.begin(range_bounds_[t + 1]);
         for (std::size_t a = range_bounds_[t]; a < range_bounds_[t + 1]; ++a) {
           bool crosses = false;  // each list is sorted: its last partner is its highest
           for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i)
@@ -565,7 +563,7 @@ class LennardJones {
     // 10^4). Which bodies cross is taken from the first split; the second
     // moves its bounds a little, and the crossing bodies are then found
     // again for it (an estimate: results do not depend on the split).
-    range_bounds_ = balanced_ranges(n, threads, [&](std::size_t a) { return list_start_[site_of(a)]; });
+    range_bounds_ = balanced_ranges(n, threads, [&](std::size_t a) { return list_start_[sites_.begin(a)]; });
     if (threads > 1) {
       find_crossing();
       std::vector<std::size_t> work(n + 1, 0);
@@ -601,7 +599,7 @@ class LennardJones {
       for (const std::size_t a : crossing_bodies_) {
         std::size_t t = 0;
         while (range_bounds_[t + 1] <= a) ++t;
-        const std::size_t site_end = site_of(range_bounds_[t + 1]), first = list_start_[sites_.begin(a)];
+        const std::size_t site_end = sites_.begin(range_bounds_[t + 1]), first = list_start_[sites_.begin(a)];
         for (std::size_t k = first; k < list_start_[sites_.end(a)]; ++k)
           if (neighbours_[k] >= site_end) visit(neighbours_[k], crossing_first_[a] + (k - first));
       }

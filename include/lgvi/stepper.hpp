@@ -82,32 +82,23 @@ inline bool body_finite(const SystemState& s, const SystemEvaluation& e, std::si
   return std::isfinite(sum);
 }
 
-/// Throws StepFailure if body a's state or evaluation is not finite, its
-/// message without the body's name (require_finite adds it).
-inline void require_finite_body(const SystemState& s, const SystemEvaluation& e, std::size_t a) {
-  if (body_finite(s, e, a)) return;
-  // Cause-neutral: the potential may be the user's. At a finite configuration (x, q) a non-finite
-  // evaluation is the cause (the momenta it fed are non-finite too); name what was not finite (the
-  // caller adds the step and its time).
-  const bool evaluation_finite = std::isfinite(e.energy) && e.force[a].allFinite() && e.torque[a].allFinite();
-  if (!evaluation_finite && s.x[a].allFinite() && s.q[a].all_finite()) {
-    const char* what = !std::isfinite(e.energy) ? "energy" : !e.force[a].allFinite() ? "force" : "torque";
-    throw StepFailure(std::string("the potential returned a non-finite ") + what,
-                      "check the potential at this state (where is it not defined?); a smaller step resolves "
-                      "close encounters better");
-  }
-  if (!s.body(a).all_finite()) throw StepFailure("the state became non-finite", "try a smaller step");
-}
-
 /// Throws StepFailure if the state or the evaluation is not finite, naming
 /// the first body that is not (systems of more than one body).
 inline void require_finite(const System& sys, const SystemState& s, const SystemEvaluation& e) {
   for (std::size_t a = 0; a < s.size(); ++a) {
-    try {
-      require_finite_body(s, e, a);
-    } catch (const StepFailure& f) {
-      throw StepFailure(body_prefix(sys, a) + f.what(), f.hint());
+    if (body_finite(s, e, a)) continue;
+    // Cause-neutral: the potential may be the user's. At a finite configuration (x, q) a non-finite
+    // evaluation is the cause (the momenta it fed are non-finite too); name what was not finite (the
+    // caller adds the step and its time).
+    const bool evaluation_finite = std::isfinite(e.energy) && e.force[a].allFinite() && e.torque[a].allFinite();
+    if (!evaluation_finite && s.x[a].allFinite() && s.q[a].all_finite()) {
+      const char* what = !std::isfinite(e.energy) ? "energy" : !e.force[a].allFinite() ? "force" : "torque";
+      throw StepFailure(body_prefix(sys, a) + "the potential returned a non-finite " + what,
+                        "check the potential at this state (where is it not defined?); a smaller step resolves "
+                        "close encounters better");
     }
+    if (!s.body(a).all_finite())
+      throw StepFailure(body_prefix(sys, a) + "the state became non-finite", "try a smaller step");
   }
 }
 
