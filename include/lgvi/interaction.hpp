@@ -164,11 +164,19 @@ class InteractionSites {
              std::vector<Vector3<double>>& arm, AfterBody&& after = [](std::size_t) {}) const {
     position.resize(size());
     arm.resize(size());
+    // (Through local pointers: `after` may store chars, which could alias
+    // anything, and the vectors' data would be reloaded for every site.)
+    const Vector3<double>* const rho = rho_.data();
+    const std::size_t* const offset = offset_.data();
+    Vector3<double>* const positions = position.data();
+    Vector3<double>* const arms = arm.data();
     parallel_for(bodies(), par, [&](std::size_t a) {
       const Matrix3<double> r = s.q[a].matrix();
-      for (std::size_t i = begin(a); i < end(a); ++i) {
-        arm[i] = r * rho_[i];
-        position[i] = s.x[a] + arm[i];
+      const Vector3<double> x = s.x[a];
+      for (std::size_t i = offset[a]; i < offset[a + 1]; ++i) {
+        const Vector3<double> arm_i = r * rho[i];
+        arms[i] = arm_i;
+        positions[i] = x + arm_i;
       }
       after(a);
     });
