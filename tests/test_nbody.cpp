@@ -367,56 +367,90 @@ TEST(LennardJonesPairs, ForcesTorquesAndEnergyEqualADirectSumOverAllPairs) {
   }
 }
 
-/// Each body's force, torque and energy from the lists against the O(S^2)
-/// sum in index order (see the test below), EXPECT_EQ, on 1, 2 and 3 threads
-/// and on 7 with as little as one body per thread (ranges of a few bodies,
-/// crossing into ranges several above), at s, moved within the skin and
-/// moved beyond it.
-void expect_index_order_sums(const System& sys, const SystemState& s, const std::string& label) {
-  SCOPED_TRACE(label);
-  const double eps = 1.0, sigma = 1.0, cutoff = 2.5;
+/// Each body's force, torque and energy from `lj` at `moved` against the
+/// O(S^2) sum in index order (see the test below), EXPECT_EQ.
+void expect_index_order_sums_at(const System& sys, const LennardJones& lj, const SystemState& moved,
+                                const std::string& label) {
+  const double eps = lj.epsilon(), sigma = lj.sigma(), cutoff = lj.cutoff();
   const lgvi::InteractionSites sites(sys);
   const double sr6c = std::pow(sigma * sigma / (cutoff * cutoff), 3), shift = 4.0 * eps * (sr6c * sr6c - sr6c);
+  SystemEvaluation e(moved.size());
+  lj.add(moved, e);
+  std::vector<V3> pos, arm;
+  sites.place(moved, Parallelism{}, pos, arm);
+  double total = 0.0;
+  for (std::size_t a = 0; a < moved.size(); ++a) {
+    V3 force = V3::Zero(), torque = V3::Zero();
+    double energy = 0.0;
+    for (std::size_t i = sites.begin(a); i < sites.end(a); ++i) {
+      double fx = 0.0, fy = 0.0, fz = 0.0;
+      for (std::size_t j = 0; j < sites.size(); ++j) {
+        if (sites.body_of(j) == a) continue;
+        const double dx = pos[j](0) - pos[i](0), dy = pos[j](1) - pos[i](1), dz = pos[j](2) - pos[i](2);
+        const double r2 = (dx * dx + dy * dy) + dz * dz;
+        if (!(r2 < cutoff * cutoff)) continue;
+        const double sr2 = sigma * sigma / r2, sr6 = sr2 * sr2 * sr2, sr12 = sr6 * sr6;
+        const double coef = -24.0 * eps * (2.0 * sr12 - sr6) / r2;
+        fx += coef * dx;
+        fy += coef * dy;
+        fz += coef * dz;
+        if (j > i) energy += 4.0 * eps * (sr12 - sr6) - shift;
+      }
+      const V3 fi(fx, fy, fz);
+      force += fi;
+      torque += arm[i].cross(fi);
+    }
+    EXPECT_EQ(e.force[a], force) << "body " << a << ", " << label;
+    EXPECT_EQ(e.torque[a], moved.q[a].inverse().act(torque)) << "body " << a << ", " << label;
+    total += energy;
+  }
+  EXPECT_EQ(e.energy, total) << label;
+}
+
+/// The same on 1, 2 and 3 threads and on 7 with as little as one body per
+/// thread (ranges of a few bodies, crossing into ranges several above), at
+/// s, moved within delta/2 (the lists kept), within skin/2 (pruned again:
+/// delta = skin/3 = 0.1) and beyond it (rebuilt).
+void expect_index_order_sums(const System& sys, const SystemState& s, const std::string& label) {
+  SCOPED_TRACE(label);
   for (const Parallelism par : {Parallelism{1}, Parallelism{2}, Parallelism{3}, Parallelism{7, 1}}) {
     const int threads = par.threads;
-    const LennardJones lj(sys, eps, sigma, cutoff, par);
-    for (const double move : {0.0, 0.05, 0.4}) {  // skin 0.3: 0.05 < skin/2 < 0.4
+    const LennardJones lj(sys, 1.0, 1.0, 2.5, par);
+    // Each coordinate moved by at most `move`: 0.025 sqrt(3) < delta/2 = 0.05;
+    // 0.08 sqrt(3) < skin/2 = 0.15, and some of 64 bodies surely beyond 0.05.
+    for (const double move : {0.0, 0.025, 0.08, 0.4}) {
       SystemState moved = s;
       for (V3& x : moved.x) x += t::random_vector(move);
-      SystemEvaluation e(s.size());
-      lj.add(moved, e);
-      std::vector<V3> pos, arm;
-      sites.place(moved, Parallelism{}, pos, arm);
-      double total = 0.0;
-      for (std::size_t a = 0; a < s.size(); ++a) {
-        V3 force = V3::Zero(), torque = V3::Zero();
-        double energy = 0.0;
-        for (std::size_t i = sites.begin(a); i < sites.end(a); ++i) {
-          double fx = 0.0, fy = 0.0, fz = 0.0;
-          for (std::size_t j = 0; j < sites.size(); ++j) {
-            if (sites.body_of(j) == a) continue;
-            const double dx = pos[j](0) - pos[i](0), dy = pos[j](1) - pos[i](1), dz = pos[j](2) - pos[i](2);
-            const double r2 = (dx * dx + dy * dy) + dz * dz;
-            if (!(r2 < cutoff * cutoff)) continue;
-            const double sr2 = sigma * sigma / r2, sr6 = sr2 * sr2 * sr2, sr12 = sr6 * sr6;
-            const double coef = -24.0 * eps * (2.0 * sr12 - sr6) / r2;
-            fx += coef * dx;
-            fy += coef * dy;
-            fz += coef * dz;
-            if (j > i) energy += 4.0 * eps * (sr12 - sr6) - shift;
-          }
-          const V3 fi(fx, fy, fz);
-          force += fi;
-          torque += arm[i].cross(fi);
-        }
-        EXPECT_EQ(e.force[a], force) << "body " << a << ", move " << move << ", threads " << threads;
-        EXPECT_EQ(e.torque[a], moved.q[a].inverse().act(torque))
-            << "body " << a << ", move " << move << ", threads " << threads;
-        total += energy;
-      }
-      EXPECT_EQ(e.energy, total) << "move " << move;
+      expect_index_order_sums_at(sys, lj, moved, "move " + std::to_string(move) + ", threads " + std::to_string(threads));
     }
-    EXPECT_EQ(lj.list_builds(), 2) << threads;  // the second state used the first's lists
+    EXPECT_EQ(lj.list_builds(), 2) << threads;  // the second and third states used the first's lists
+    EXPECT_EQ(lj.list_prunes(), 3) << threads;  // the third pruned them again
+  }
+}
+
+TEST(LennardJonesPairs, PrunedListsMissNoPairAlongAWalk) {
+  // The pruned lists hold the pairs within r_c + delta at the last pruning
+  // (delta = skin/3 = 0.1), and are pruned again when a site has moved more
+  // than delta/2 since. Along a random walk of the molecules (each step
+  // moves every coordinate by up to 0.01 and turns every body a little),
+  // many states use lists pruned some steps before, while the walk carries
+  // pairs across r_c; at every state the sums must be those in index order
+  // over every pair within r_c, bit for bit.
+  const System sys = molecules(64);
+  SystemState s = lattice_state(64, 1.7, 0.4);
+  for (const Parallelism par : {Parallelism{1}, Parallelism{3}}) {
+    const LennardJones lj(sys, 1.0, 1.0, 2.5, par);
+    SystemState walk = s;
+    for (int k = 0; k < 60; ++k) {
+      for (std::size_t a = 0; a < walk.size(); ++a) {
+        walk.x[a] += t::random_vector(0.01);
+        walk.q[a] = walk.q[a] * S3d::exp(t::random_vector(0.005));
+      }
+      expect_index_order_sums_at(sys, lj, walk, "step " + std::to_string(k) + ", threads " + std::to_string(par.threads));
+    }
+    // Built a few times, pruned several times between builds.
+    EXPECT_GE(lj.list_builds(), 2) << par.threads;
+    EXPECT_GE(lj.list_prunes(), 2 * lj.list_builds()) << par.threads;
   }
 }
 
