@@ -8,6 +8,8 @@
 
 #include <gmock/gmock.h>
 
+#include <map>
+
 namespace {
 
 using lgvi::RotationEquation;
@@ -156,6 +158,122 @@ TEST(Solvers, NonConvergenceIsReportedNotHidden) {
   S3d f;  // a cold start at the identity, far from the root
   lgvi::SolveReport report;
   EXPECT_THROW(RotationSolver(J, opt).solve(V3(0.3, 0.2, 0.1), f, report), lgvi::StepFailure);
+}
+
+/// Solves the problems (J, b, guess) in batches of RotationSolveBatch::lanes
+/// (the last one partly filled), with the run-time clone and with the
+/// baseline code, and each alone with RotationSolver::solve;
+/// every lane must be either solved with the scalar solve's f, iterations
+/// and residual evaluations, bit for bit, or left unsolved where the scalar
+/// solve throws. Returns how many lanes were left unsolved.
+int expect_batch_is_scalar(const std::vector<M3>& J, const std::vector<V3>& b, const std::vector<S3d>& guess,
+                           const lgvi::SolverOptions& opt) {
+  constexpr int lanes = lgvi::RotationSolveBatch::lanes;
+  int unsolved = 0;
+  for (std::size_t first = 0; first < J.size(); first += lanes) {
+    const int count = static_cast<int>(std::min<std::size_t>(lanes, J.size() - first));
+    std::vector<RotationSolver> solvers;
+    lgvi::RotationSolveBatch batch;
+    for (int l = 0; l < count; ++l) {
+      solvers.emplace_back(J[first + l], opt);
+      solvers.back().load(batch, l, b[first + l], guess[first + l]);
+    }
+    lgvi::RotationSolveBatch baseline = batch;
+    lgvi::detail::newton_cayley_lanes(batch, count, opt.tolerance, opt.max_iterations);
+    lgvi::detail::newton_cayley_lanes_baseline(baseline, count, opt.tolerance, opt.max_iterations);
+    for (int l = 0; l < count; ++l) {
+      // The clone this processor runs (AVX2 on today's) and the baseline's: the same bits.
+      EXPECT_EQ(batch.solved[l], baseline.solved[l]);
+      if (!batch.solved[l]) continue;
+      for (int k = 0; k < 4; ++k) EXPECT_EQ(batch.f[k][l], baseline.f[k][l]);
+    }
+    for (int l = 0; l < count; ++l) {
+      S3d f = guess[first + l];
+      lgvi::SolveReport report;
+      bool threw = false;
+      try {
+        solvers[static_cast<std::size_t>(l)].solve(b[first + l], f, report);
+      } catch (const lgvi::StepFailure&) {
+        threw = true;
+      }
+      const auto lane = static_cast<std::size_t>(l);
+      if (!batch.solved[l]) {
+        ++unsolved;
+        EXPECT_TRUE(threw) << "problem " << first + lane << ": the batch left unsolved what the scalar solve solves";
+        continue;
+      }
+      EXPECT_FALSE(threw) << "problem " << first + lane;
+      EXPECT_EQ(batch.f[0][l], f.w()) << "problem " << first + lane;
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(batch.f[k + 1][l], f.vec()(k)) << "problem " << first + lane;
+      EXPECT_EQ(batch.iterations[l], report.iterations) << "problem " << first + lane;
+      EXPECT_EQ(batch.residual_evaluations[l], report.residual_evaluations) << "problem " << first + lane;
+    }
+  }
+  return unsolved;
+}
+
+TEST(Solvers, BatchedNewtonIsTheScalarNewtonBitForBit) {
+  // RotationSolveBatch repeats newton_cayley_chart operation for operation
+  // on SIMD lanes; any difference of order would change last bits, so 40000
+  // random problems (random inertias in random axes, |b| / |J| from 1e-6 to
+  // 0.1) must give the same f, iterations and residual evaluations bit for
+  // bit: half from the first-order guess exp(J^-1 b) off by up to 10 %, a
+  // quarter from the root moved by 1e-16 to 1e-3 (as the predictor's guesses
+  // are), a quarter from the root itself, so that every count of iterations
+  // from 0 to 4 is represented.
+  std::vector<M3> J;
+  std::vector<V3> b;
+  std::vector<S3d> guess;
+  int scalar_failures = 0;
+  std::map<int, int> iterations;  // how many problems took each count
+  for (int k = 0; k < 40002; ++k) {  // (not a multiple of the lanes: the last batch is partly filled)
+    J.push_back(random_inertia() * std::pow(10.0, lgvi::test::uniform(-3.0, 3.0)));
+    b.push_back(lgvi::test::random_vector(1.0) * std::pow(10.0, lgvi::test::uniform(-6.0, -1.0)) *
+                J.back().norm());
+    S3d f = S3d::exp(J.back().inverse() * b.back() * lgvi::test::uniform(0.9, 1.1));
+    if (k % 2 == 1) {
+      lgvi::SolveReport report;
+      try {
+        RotationSolver(J.back(), {}).solve(b.back(), f, report);
+      } catch (const lgvi::StepFailure&) {
+      }
+      if (k % 4 == 1)  // (k % 4 == 3: the root itself)
+        f = S3d::exp(f.log() + lgvi::test::random_vector(std::pow(10.0, lgvi::test::uniform(-16.0, -3.0))));
+    }
+    guess.push_back(f);
+    lgvi::SolveReport report;
+    try {
+      RotationSolver(J.back(), {}).solve(b.back(), f, report);
+      ++iterations[report.iterations];
+    } catch (const lgvi::StepFailure&) {
+      ++scalar_failures;  // a b too large for any root: a handful
+    }
+  }
+  // (With the test's seed: 0 to 5 iterations for 10004, 5584, 17751, 6598, 55, 3 problems.)
+  for (const int count : {0, 1, 2, 3}) EXPECT_GE(iterations[count], 1000) << count << " iterations";
+  EXPECT_GE(iterations[4] + iterations[5], 20);
+  EXPECT_LE(scalar_failures, 100);
+  EXPECT_EQ(expect_batch_is_scalar(J, b, guess, {}), scalar_failures);
+}
+
+TEST(Solvers, BatchedNewtonLeavesFailuresToTheScalarSolve) {
+  // Lanes that fail: a guess beyond the branch (f_s <= 0), b without a root,
+  // one iteration allowed from far away, non-finite inputs; next to lanes
+  // that do not. Each failing lane must be left unsolved (the scalar solve
+  // throws, with its message), the others solved bit for bit.
+  const M3 J = lgvi::paper::three_ball_body().inertia();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<M3> Js(10, J);
+  std::vector<V3> b = {V3(0.01, 0.02, 0.0),  V3(50.0, 0.0, 0.0),  V3(0.01, 0.0, 0.0), V3(nan, 0.0, 0.0),
+                       V3(0.0, 0.01, 0.0),   V3(0.02, 0.0, 0.01), V3(0.0, 0.0, 0.0),  V3(0.01, 0.01, 0.01),
+                       V3(0.0, 0.0, 1e-300), V3(0.0, 0.03, 0.0)};
+  std::vector<S3d> guess(10, S3d());
+  guess[2] = S3d(-0.5, 0.5, 0.5, 0.5);  // off the branch
+  guess[4] = S3d(nan, 0.0, 0.0, 0.0);
+  EXPECT_EQ(expect_batch_is_scalar(Js, b, guess, {}), 4);  // problems 1 to 4
+  lgvi::SolverOptions one_iteration;
+  one_iteration.max_iterations = 1;
+  EXPECT_GE(expect_batch_is_scalar(Js, b, guess, one_iteration), 4);
 }
 
 }  // namespace

@@ -209,6 +209,9 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
   LieGroupVariationalIntegrator(System system, I potential, SolverOptions solver = {}, Parallelism par = {})
       : Base(std::move(system), std::move(potential), solver, par), w_half_(this->system_.size()), f_(this->system_.size()) {
     for (const RigidBody& b : this->system_.bodies()) solvers_.emplace_back(b.inertia(), solver);
+    // In batches from two full ones on (one body alone is faster than a
+    // batch of one).
+    batched_ = solver.kind == SolverKind::Newton && this->system_.size() >= 2 * RotationSolveBatch::lanes;
   }
 
   /// initialize(state, t): the base's; the first step's initial guess is then
@@ -222,18 +225,53 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
   void step(SystemState& s, double t, double h) {
     const System& sys = this->system_;
     this->begin_step(s, t);
-    detail::for_each_body(sys, this->par_, [&](std::size_t a) {
-      // b = (h/4)(w0 + h M0), the right side of g(xi0) = b.
+    // Body a's right side b = (h/4)(w0 + h M0) of g(xi0) = b (w_half_[a] =
+    // w0 + h M0), and the initial guess of its solve.
+    auto right_side = [&](std::size_t a) {
       w_half_[a] = s.w[a] + h * this->torque(a);
       RotationPredictor& predictor = this->predictor(a);
       if (predictor.empty()) predictor.reset(S3d::exp(sys.body(a).inertia_inverse() * ((0.25 * h) * w_half_[a])));
-      S3d f = predictor.predict();
-      solvers_[a].solve((0.25 * h) * w_half_[a], f, this->reports_[a]);
-      predictor.push(f);
+      return predictor.predict();
+    };
+    // Body a after its solve gave f.
+    auto advance = [&](std::size_t a, const S3d& f) {
+      this->predictor(a).push(f);
       this->drift(s, a, h);
       s.q[a] = s.q[a].times_near_identity(f);
       f_[a] = f;
-    });
+    };
+    if (batched_) {
+      // The solves of consecutive bodies side by side (RotationSolveBatch):
+      // each the same bits as alone. A body the batch leaves unsolved is
+      // solved alone, which reports its failure as the loop below would.
+      constexpr int lanes = RotationSolveBatch::lanes;
+      detail::for_each_body_batch(sys, this->par_, lanes, [&](std::size_t first, std::size_t count) {
+        RotationSolveBatch batch;
+        S3d guess[lanes];
+        for (std::size_t l = 0; l < count; ++l) {
+          guess[l] = right_side(first + l);
+          solvers_[first + l].load(batch, static_cast<int>(l), (0.25 * h) * w_half_[first + l], guess[l]);
+        }
+        detail::newton_cayley_lanes(batch, static_cast<int>(count), this->opt_.tolerance, this->opt_.max_iterations);
+        for (std::size_t l = 0; l < count; ++l) {
+          const std::size_t a = first + l;
+          const auto lane = static_cast<int>(l);
+          if (batch.solved[lane]) {
+            this->reports_[a] = {batch.iterations[lane], batch.residual_evaluations[lane], 0};
+            advance(a, S3d(batch.f[0][lane], batch.f[1][lane], batch.f[2][lane], batch.f[3][lane]));
+            continue;
+          }
+          detail::for_body(sys, a, [&] { solvers_[a].solve((0.25 * h) * w_half_[a], guess[l], this->reports_[a]); });
+          advance(a, guess[l]);
+        }
+      });
+    } else {
+      detail::for_each_body(sys, this->par_, [&](std::size_t a) {
+        S3d f = right_side(a);
+        solvers_[a].solve((0.25 * h) * w_half_[a], f, this->reports_[a]);
+        advance(a, f);
+      });
+    }
     this->evaluate_at(s);
     // Without a forcing the momenta are updated in one pass over the bodies,
     // after which each body's state is final: whether it is finite is noted
@@ -263,6 +301,7 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
   std::vector<RotationSolver> solvers_;
   std::vector<Vector3<double>> w_half_;
   std::vector<S3d> f_;
+  bool batched_ = false;  ///< the rotation solves in RotationSolveBatch (step)
 };
 
 template <Potential P>

@@ -37,6 +37,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <numbers>
 #include <string>
@@ -222,6 +223,195 @@ class RotationPredictor {
   int order_;
 };
 
+/// The Newton solves (Cayley chart) of up to `lanes` bodies at once, lane l
+/// of every array one body's: what RotationSolver::solve does for it, the
+/// same IEEE operations in the same order on each lane, so the same result
+/// bit for bit (tests/test_rotation_solver.cpp). One lane's iteration costs
+/// about what one body's does, for all lanes together (SIMD); a lane that
+/// has converged waits for the others. A lane that would fail (a guess off
+/// the branch, no convergence, a number that is not finite) is not solved
+/// here: `solved` is false, and the caller solves it with
+/// RotationSolver::solve, which fails in the same way, with its message.
+struct RotationSolveBatch {
+  static constexpr int lanes = 4;
+  // Inputs.
+  double inertia[9][lanes];  ///< J(i, j) at [3 i + j]
+  double inertia_norm[lanes];
+  double b[3][lanes];
+  double guess[4][lanes];  ///< (f_s, f_x, f_y, f_z)
+  // Outputs.
+  double f[4][lanes];
+  int iterations[lanes];
+  int residual_evaluations[lanes];
+  bool solved[lanes];
+};
+
+namespace detail {
+
+/// Four doubles, and four 64-bit masks (all bits set: true), as GCC and
+/// Clang vector extensions: each operation is one instruction per two lanes
+/// (SSE2), or per four in the AVX2 clone below. Only ever local: vectors
+/// passed by value between functions built for different targets change
+/// the ABI.
+using Lanes = double __attribute__((vector_size(32)));
+using LaneMask = long long __attribute__((vector_size(32)));
+
+[[gnu::always_inline]] inline void load_lanes(Lanes& v, const double* p) { std::memcpy(&v, p, sizeof v); }
+[[gnu::always_inline]] inline void abs_lanes(Lanes& out, const Lanes& v) {
+  const LaneMask magnitude = LaneMask{} + 0x7fffffffffffffffLL;  // every bit but the sign
+  out = __builtin_bit_cast(Lanes, __builtin_bit_cast(LaneMask, v) & magnitude);  // (builtins: no calls)
+}
+[[gnu::always_inline]] inline void max3_abs_lanes(Lanes& out, const Lanes& a, const Lanes& b, const Lanes& c) {
+  Lanes x, y, z;
+  abs_lanes(x, a);
+  abs_lanes(y, b);
+  abs_lanes(z, c);
+  out = x > y ? x : y;  // the max of finite numbers, in any order
+  out = out > z ? out : z;
+}
+[[gnu::always_inline]] inline bool any_lane(const LaneMask& m) { return (m[0] | m[1] | m[2] | m[3]) != 0; }
+/// Lanes where v is finite (|v| < infinity is false for NaN too).
+[[gnu::always_inline]] inline void finite_lanes(LaneMask& out, const Lanes& v) {
+  Lanes magnitude;
+  abs_lanes(magnitude, v);
+  out = magnitude < Lanes{} + std::numeric_limits<double>::infinity();
+}
+
+/// RotationSolveBatch's solves of lanes [0, count): newton_cayley_chart
+/// written for vectors of lanes, operation for operation. Each Eigen
+/// expression of the scalar code is spelled out in the order Eigen
+/// evaluates it (J u: (J_i0 u_0 + J_i1 u_1) + J_i2 u_2 for rows 0 and 1, a
+/// packet, and J_20 u_0 + (J_21 u_1 + J_22 u_2) for row 2, a reduction;
+/// squared norms (x_0^2 + x_1^2) + x_2^2). No fused multiply-add: AVX2
+/// does not include FMA, and the project's build does not target it.
+[[gnu::always_inline]] inline void newton_cayley_lanes_body(RotationSolveBatch& batch, int count, double tolerance,
+                                                              int max_iterations) {
+  constexpr int lanes = RotationSolveBatch::lanes;
+  static_assert(lanes == 4, "Lanes holds 4 doubles");
+  // Lanes from count on: lane 0's problem, solved and ignored.
+  for (int l = count; l < lanes; ++l) {
+    for (auto& row : batch.inertia) row[l] = row[0];
+    for (auto& row : batch.b) row[l] = row[0];
+    for (auto& row : batch.guess) row[l] = row[0];
+    batch.inertia_norm[l] = batch.inertia_norm[0];
+  }
+  Lanes J[9], b[3], g[4], j_norm;
+  for (int k = 0; k < 9; ++k) load_lanes(J[k], batch.inertia[k]);
+  for (int k = 0; k < 3; ++k) load_lanes(b[k], batch.b[k]);
+  for (int k = 0; k < 4; ++k) load_lanes(g[k], batch.guess[k]);
+  load_lanes(j_norm, batch.inertia_norm);
+  const Lanes zero{}, one = zero + 1.0, tol = zero + tolerance;
+  LaneMask used{};
+  for (int l = 0; l < count; ++l) used[l] = -1;
+  // Lanes that start: f_s > 0, and b and the guess finite (anything else
+  // goes to the scalar solver, which knows what to say).
+  const Lanes input_sum = ((b[0] + b[1]) + b[2]) + ((g[0] + g[1]) + (g[2] + g[3]));
+  LaneMask inputs_finite;
+  finite_lanes(inputs_finite, input_sum);
+  LaneMask active = used & (g[0] > zero) & inputs_finite;
+  LaneMask failed = used & ~active;
+  Lanes u[3] = {g[1] / g[0], g[2] / g[0], g[3] / g[0]};
+  Lanes b_scale;
+  max3_abs_lanes(b_scale, b[0], b[1], b[2]);
+  Lanes quadratic_factor = (b[0] * b[0] + b[1] * b[1]) + b[2] * b[2];  // |J| + |b|, below
+  for (int l = 0; l < lanes; ++l) quadratic_factor[l] = std::sqrt(quadratic_factor[l]);
+  quadratic_factor = j_norm + quadratic_factor;
+  const Lanes tol_b_scale = tol * b_scale;
+  LaneMask iterations{}, evaluations{};
+  const LaneMask iteration_limit = LaneMask{} + max_iterations;
+  while (any_lane(active)) {
+    // c(u) = J u + u x J u - (1 + |u|^2) b.
+    const Lanes ju[3] = {(J[0] * u[0] + J[1] * u[1]) + J[2] * u[2], (J[3] * u[0] + J[4] * u[1]) + J[5] * u[2],
+                         J[6] * u[0] + (J[7] * u[1] + J[8] * u[2])};
+    const Lanes s = one + ((u[0] * u[0] + u[1] * u[1]) + u[2] * u[2]);
+    const Lanes r[3] = {(ju[0] + (u[1] * ju[2] - u[2] * ju[1])) - s * b[0],
+                        (ju[1] + (u[2] * ju[0] - u[0] * ju[2])) - s * b[1],
+                        (ju[2] + (u[0] * ju[1] - u[1] * ju[0])) - s * b[2]};
+    evaluations -= active;
+    const Lanes r_sum = (r[0] + r[1]) + r[2];
+    LaneMask r_finite;
+    finite_lanes(r_finite, r_sum);
+    failed |= active & ~r_finite;
+    active &= r_finite;
+    Lanes r_max;
+    max3_abs_lanes(r_max, r[0], r[1], r[2]);
+    active &= ~(r_max <= tol * (s * b_scale));
+    const LaneMask out_of_iterations = active & (iterations >= iteration_limit);
+    failed |= out_of_iterations;
+    active &= ~out_of_iterations;
+    if (!any_lane(active)) break;
+    // dc/du, column j: J_j + u x J_j - 2 u_j b, then - hat(J u).
+    Lanes d[3][3];
+    for (int j = 0; j < 3; ++j) {
+      const Lanes& c0 = J[j];
+      const Lanes& c1 = J[3 + j];
+      const Lanes& c2 = J[6 + j];
+      const Lanes two_uj = 2.0 * u[j];
+      d[0][j] = (c0 + (u[1] * c2 - u[2] * c1)) - two_uj * b[0];
+      d[1][j] = (c1 + (u[2] * c0 - u[0] * c2)) - two_uj * b[1];
+      d[2][j] = (c2 + (u[0] * c1 - u[1] * c0)) - two_uj * b[2];
+    }
+    d[0][1] += ju[2];
+    d[0][2] -= ju[1];
+    d[1][0] -= ju[2];
+    d[1][2] += ju[0];
+    d[2][0] += ju[1];
+    d[2][1] -= ju[0];
+    // detail::solve_3x3(d, r).
+    const Lanes c00 = d[1][1] * d[2][2] - d[1][2] * d[2][1], c01 = d[1][2] * d[2][0] - d[1][0] * d[2][2],
+                c02 = d[1][0] * d[2][1] - d[1][1] * d[2][0], c10 = d[0][2] * d[2][1] - d[0][1] * d[2][2],
+                c11 = d[0][0] * d[2][2] - d[0][2] * d[2][0], c12 = d[0][1] * d[2][0] - d[0][0] * d[2][1],
+                c20 = d[0][1] * d[1][2] - d[0][2] * d[1][1], c21 = d[0][2] * d[1][0] - d[0][0] * d[1][2],
+                c22 = d[0][0] * d[1][1] - d[0][1] * d[1][0];
+    const Lanes inv_det = one / ((d[0][0] * c00 + d[0][1] * c01) + d[0][2] * c02);
+    const Lanes delta[3] = {((c00 * r[0] + c10 * r[1]) + c20 * r[2]) * inv_det,
+                            ((c01 * r[0] + c11 * r[1]) + c21 * r[2]) * inv_det,
+                            ((c02 * r[0] + c12 * r[1]) + c22 * r[2]) * inv_det};
+    for (int k = 0; k < 3; ++k) u[k] = active ? u[k] - delta[k] : u[k];
+    iterations -= active;
+    const Lanes u_sum = (u[0] + u[1]) + u[2];
+    LaneMask u_finite;
+    finite_lanes(u_finite, u_sum);
+    failed |= active & ~u_finite;
+    active &= u_finite;
+    const Lanes d2 = (delta[0] * delta[0] + delta[1] * delta[1]) + delta[2] * delta[2];
+    active &= ~(quadratic_factor * d2 <= tol_b_scale);
+    Lanes delta_max, u_max;
+    max3_abs_lanes(delta_max, delta[0], delta[1], delta[2]);
+    max3_abs_lanes(u_max, u[0], u[1], u[2]);
+    active &= ~(delta_max <= tol * u_max);
+  }
+  // f_s = 1/sqrt(1 + |u|^2), f_v = f_s u.
+  Lanes fs = one + ((u[0] * u[0] + u[1] * u[1]) + u[2] * u[2]);
+  for (int l = 0; l < lanes; ++l) fs[l] = std::sqrt(fs[l]);
+  fs = one / fs;
+  failed |= used & ~(fs > zero);
+  for (int l = 0; l < lanes; ++l) {
+    batch.f[0][l] = fs[l];
+    for (int k = 0; k < 3; ++k) batch.f[k + 1][l] = fs[l] * u[k][l];
+    batch.iterations[l] = static_cast<int>(iterations[l]);
+    batch.residual_evaluations[l] = static_cast<int>(evaluations[l]);
+    batch.solved[l] = l < count && failed[l] == 0;
+  }
+}
+
+/// The solves for the baseline x86-64 (SSE2, two lanes per instruction):
+/// the code a processor without AVX2 runs (tests call it directly).
+inline void newton_cayley_lanes_baseline(RotationSolveBatch& batch, int count, double tolerance, int max_iterations) {
+  newton_cayley_lanes_body(batch, count, tolerance, max_iterations);
+}
+
+/// The solves, with a clone for AVX2 (four lanes per instruction) picked at
+/// run time where the processor has it.
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
+__attribute__((target_clones("avx2", "default")))
+#endif
+inline void newton_cayley_lanes(RotationSolveBatch& batch, int count, double tolerance, int max_iterations) {
+  newton_cayley_lanes_body(batch, count, tolerance, max_iterations);
+}
+
+}  // namespace detail
+
 /// Solves g(f) = b for f = exp(xi0). The initial guess and the result are
 /// held in `f` (in/out): a warm start from the previous step. Throws
 /// StepFailure if the iterate leaves the branch f_s > 0 (a rotation by pi in
@@ -249,6 +439,20 @@ class RotationSolver {
 
   const SolverOptions& options() const { return opt_; }
   const RotationEquation& equation() const { return eq_; }
+
+  /// Whether solve() can be done in a RotationSolveBatch (the default
+  /// solver, Newton in the Cayley chart).
+  bool batchable() const { return opt_.kind == SolverKind::Newton; }
+  /// Puts this body's solve of g(f) = b from `guess` into lane l of `batch`.
+  void load(RotationSolveBatch& batch, int lane, const Vector3<double>& b, const S3d& guess) const {
+    const auto l = static_cast<std::size_t>(lane);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) batch.inertia[3 * i + j][l] = eq_.inertia()(i, j);
+    batch.inertia_norm[l] = eq_.inertia_norm();
+    for (int i = 0; i < 3; ++i) batch.b[i][l] = b(i);
+    batch.guess[0][l] = guess.w();
+    for (int i = 0; i < 3; ++i) batch.guess[i + 1][l] = guess.vec()(i);
+  }
 
  private:
   static constexpr double half_pi = 1.5707963267948966;

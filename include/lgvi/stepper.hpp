@@ -59,18 +59,36 @@ inline std::string body_prefix(const System& sys, std::size_t a) {
   return "body " + std::to_string(a) + " (\"" + sys.name(a) + "\"): ";
 }
 
+/// Runs f() for body a: a StepFailure is reported with the body named
+/// (systems of more than one body).
+template <class F>
+void for_body(const System& sys, std::size_t a, F&& f) {
+  try {
+    f();
+  } catch (const StepFailure& e) {
+    if (sys.size() == 1) throw;
+    throw StepFailure(body_prefix(sys, a) + e.what(), e.hint());
+  }
+}
+
 /// Runs f(a) for every body on the stepper's threads; a StepFailure of a
 /// body is reported with the body named (systems of more than one body).
 template <class F>
 void for_each_body(const System& sys, const Parallelism& par, F&& f) {
-  parallel_for(sys.size(), par, [&](std::size_t a) {
-    try {
-      f(a);
-    } catch (const StepFailure& e) {
-      if (sys.size() == 1) throw;
-      throw StepFailure(body_prefix(sys, a) + e.what(), e.hint());
-    }
-  });
+  parallel_for(sys.size(), par, [&](std::size_t a) { for_body(sys, a, [&] { f(a); }); });
+}
+
+/// Runs f(first, count) for the bodies in consecutive batches of `lanes`
+/// (the last one may be shorter) on the stepper's threads, each batch's
+/// bodies on one thread, in order; threads as for as many bodies (each
+/// thread at least par.min_bodies_per_thread). f names a failing body
+/// itself (for_body).
+template <class F>
+void for_each_body_batch(const System& sys, const Parallelism& par, std::size_t lanes, F&& f) {
+  const std::size_t n = sys.size(), batches = (n + lanes - 1) / lanes;
+  Parallelism per_batch = par;
+  per_batch.min_bodies_per_thread = std::max<std::size_t>(1, par.min_bodies_per_thread / lanes);
+  parallel_for(batches, per_batch, [&](std::size_t k) { f(k * lanes, std::min(lanes, n - k * lanes)); });
 }
 
 /// Whether body a's state and evaluation are finite. One test on a sum: a
