@@ -469,9 +469,14 @@ class LennardJones {
     const std::size_t chunks = std::min<std::size_t>(n, list_chunks);
     chunk_lists_.resize(chunks);
     outer_start_.assign(m + 1, 0);
+    built_at_.resize(m);
     parallel_for(chunks, par_, [&](std::size_t chunk) {
       std::vector<std::size_t>& out = chunk_lists_[chunk];
       out.clear();
+      // Where the chunk's sites are now (the skin's reference).
+      std::copy(position_.begin() + static_cast<std::ptrdiff_t>(sites_.begin(chunk * n / chunks)),
+                position_.begin() + static_cast<std::ptrdiff_t>(sites_.begin((chunk + 1) * n / chunks)),
+                built_at_.begin() + static_cast<std::ptrdiff_t>(sites_.begin(chunk * n / chunks)));
       thread_local std::vector<std::size_t> near;
       for (std::size_t a = chunk * n / chunks; a < (chunk + 1) * n / chunks; ++a) {
         // A body of many sites (a wall, a long chain) goes site by site: its
@@ -540,15 +545,14 @@ class LennardJones {
       }
     });
     join_chunk_lists(outer_start_, outer_neighbours_);
-    built_at_ = position_;
-    prune_lists();
+    prune_lists(true);
   }
 
   /// The outer lists' entries within r_c + prune_margin_ now, per site in
   /// the same order: the lists the evaluation passes (neighbours_,
-  /// list_start_). Then the threads' ranges and the pairs that cross between
-  /// them (ranged_pass).
-  void prune_lists() const {
+  /// list_start_). Then the threads' ranges (`new_ranges`: split anew, at a
+  /// build; else kept) and the pairs that cross between them (ranged_pass).
+  void prune_lists(bool new_ranges = false) const {
     ++prunes_;
     const std::size_t n = sys_.size(), m = position_.size();
     // Generous by a relative 1e-9, as the build's filter: no pair within the
@@ -557,9 +561,12 @@ class LennardJones {
     const std::size_t chunks = std::min<std::size_t>(n, list_chunks);
     chunk_lists_.resize(chunks);
     list_start_.assign(m + 1, 0);
+    pruned_at_.resize(m);
     parallel_for(chunks, par_, [&](std::size_t chunk) {
       std::vector<std::size_t>& out = chunk_lists_[chunk];
       const std::size_t i0 = sites_.begin(chunk * n / chunks), i1 = sites_.begin((chunk + 1) * n / chunks);
+      std::copy(position_.begin() + static_cast<std::ptrdiff_t>(i0), position_.begin() + static_cast<std::ptrdiff_t>(i1),
+                pruned_at_.begin() + static_cast<std::ptrdiff_t>(i0));  // the margin's reference
       out.resize(outer_start_[i1] - outer_start_[i0]);  // room for all; cut to size below
       const Vector3<double>* const position = position_.data();
       const std::size_t* const outer = outer_neighbours_.data();
@@ -586,24 +593,34 @@ class LennardJones {
     // by their higher site (ranged_pass).
     const int threads = par_.threads_for(n);
     auto entries = [&](std::size_t a) { return list_start_[sites_.end(a)] - list_start_[sites_.begin(a)]; };
-    // The bodies with pairs into a higher range than theirs.
+    // The bodies with pairs into a higher range than theirs: each range's
+    // on a thread (the one that pruned its lists, whose cache holds them),
+    // then their offsets in order.
     auto find_crossing = [&] {
-      crossing_first_.assign(n, no_crossing);
-      crossing_bodies_.clear();
-      std::size_t pairs = 0;
-      for (std::size_t t = 0; t + 1 < range_bounds_.size(); ++t) {
+      const std::size_t ranges = range_bounds_.size() - 1;
+      crossing_first_.resize(n);
+      range_crossing_.resize(ranges);
+      parallel_for(ranges, Parallelism{par_.threads, 1}, [&](std::size_t t) {
+        std::vector<std::size_t>& found = range_crossing_[t];
+        found.clear();
         const std::size_t site_end = sites_.begin(range_bounds_[t + 1]);
         for (std::size_t a = range_bounds_[t]; a < range_bounds_[t + 1]; ++a) {
           bool crosses = false;  // each list is sorted: its last partner is its highest
           for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i)
             crosses =
                 crosses || (list_start_[i + 1] > list_start_[i] && neighbours_[list_start_[i + 1] - 1] >= site_end);
-          if (!crosses) continue;
+          crossing_first_[a] = no_crossing;
+          if (crosses) found.push_back(a);
+        }
+      });
+      crossing_bodies_.clear();
+      std::size_t pairs = 0;
+      for (const std::vector<std::size_t>& found : range_crossing_)
+        for (const std::size_t a : found) {
           crossing_first_[a] = pairs;
           crossing_bodies_.push_back(a);
           pairs += entries(a);
         }
-      }
       return pairs;
     };
     // First ranges of about equal pairs; then, as a crossing body's terms
@@ -615,13 +632,17 @@ class LennardJones {
     // 10^4). Which bodies cross is taken from the first split; the second
     // moves its bounds a little, and the crossing bodies are then found
     // again for it (an estimate: results do not depend on the split).
-    range_bounds_ = balanced_ranges(n, threads, [&](std::size_t a) { return list_start_[sites_.begin(a)]; });
-    if (threads > 1) {
-      find_crossing();
-      std::vector<std::size_t> work(n + 1, 0);
-      for (std::size_t a = 0; a < n; ++a)
-        work[a + 1] = work[a] + entries(a) * (crossing_first_[a] == no_crossing ? 3 : 1);
-      range_bounds_ = balanced_ranges(n, threads, [&](std::size_t a) { return work[a]; });
+    // Split at a build, kept at the prunings in between (the lists shrink
+    // about alike everywhere), which saves their serial cost.
+    if (new_ranges || range_bounds_.size() != static_cast<std::size_t>(threads) + 1) {
+      range_bounds_ = balanced_ranges(n, threads, [&](std::size_t a) { return list_start_[sites_.begin(a)]; });
+      if (threads > 1) {
+        find_crossing();
+        std::vector<std::size_t> work(n + 1, 0);
+        for (std::size_t a = 0; a < n; ++a)
+          work[a + 1] = work[a] + entries(a) * (crossing_first_[a] == no_crossing ? 3 : 1);
+        range_bounds_ = balanced_ranges(n, threads, [&](std::size_t a) { return work[a]; });
+      }
     }
     range_ids_.resize(static_cast<std::size_t>(threads) + 1);
     for (std::size_t t = 0; t < range_ids_.size(); ++t) range_ids_[t] = t;
@@ -647,13 +668,17 @@ class LennardJones {
     // Each site's crossing pairs (i, j), j this site, by increasing i: a
     // counting sort by j of the crossing bodies' pairs in list order.
     incoming_start_.assign(m + 1, 0);
+    // (A site's list is sorted, so its crossing pairs are its list's tail.)
     auto for_each_crossing_pair = [&](auto&& visit) {
       for (const std::size_t a : crossing_bodies_) {
         std::size_t t = 0;
         while (range_bounds_[t + 1] <= a) ++t;
         const std::size_t site_end = sites_.begin(range_bounds_[t + 1]), first = list_start_[sites_.begin(a)];
-        for (std::size_t k = first; k < list_start_[sites_.end(a)]; ++k)
-          if (neighbours_[k] >= site_end) visit(neighbours_[k], crossing_first_[a] + (k - first));
+        for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
+          std::size_t k = list_start_[i + 1];
+          while (k > list_start_[i] && neighbours_[k - 1] >= site_end) --k;
+          for (; k < list_start_[i + 1]; ++k) visit(neighbours_[k], crossing_first_[a] + (k - first));
+        }
       }
     };
     for_each_crossing_pair([&](std::size_t j, std::size_t) { ++incoming_start_[j + 1]; });
@@ -661,7 +686,6 @@ class LennardJones {
     fill_.assign(incoming_start_.begin(), incoming_start_.end() - 1);
     incoming_pair_.resize(incoming_start_[m]);
     for_each_crossing_pair([&](std::size_t j, std::size_t k) { incoming_pair_[fill_[j]++] = k; });
-    pruned_at_ = position_;
   }
 
   /// Joins the chunks' lists (chunk_lists_, per site counts in start[i + 1])
@@ -719,6 +743,7 @@ class LennardJones {
   /// its list entries' terms start in the crossing arrays (or no_crossing);
   /// the split of those bodies between threads.
   mutable std::vector<std::size_t> crossing_bodies_, crossing_first_, crossing_ranges_;
+  mutable std::vector<std::vector<std::size_t>> range_crossing_;  ///< find_crossing's, per range
   mutable std::vector<double> crossing_fx_, crossing_fy_, crossing_fz_;  ///< per entry: the force on its list's site
   /// The crossing bodies in batches [first, end) of consecutive bodies.
   mutable std::vector<std::pair<std::size_t, std::size_t>> crossing_batches_;
