@@ -468,11 +468,13 @@ class LennardJones {
     const double reach2 = reach * reach;
     const std::size_t chunks = std::min<std::size_t>(n, list_chunks);
     chunk_lists_.resize(chunks);
+    chunk_used_.resize(chunks);
     outer_start_.assign(m + 1, 0);
     built_at_.resize(m);
     parallel_for(chunks, par_, [&](std::size_t chunk) {
       std::vector<std::size_t>& out = chunk_lists_[chunk];
-      out.clear();
+      std::size_t& used = chunk_used_[chunk];  // out's entries in use (out only grows: no zero fill per site)
+      used = 0;
       // Where the chunk's sites are now (the skin's reference).
       std::copy(position_.begin() + static_cast<std::ptrdiff_t>(sites_.begin(chunk * n / chunks)),
                 position_.begin() + static_cast<std::ptrdiff_t>(sites_.begin((chunk + 1) * n / chunks)),
@@ -528,8 +530,8 @@ class LennardJones {
           }
           for (std::size_t i = g0; i < g1; ++i) {
             const double xi = position_[i](0), yi = position_[i](1), zi = position_[i](2);
-            const std::size_t first = out.size();
-            out.resize(first + kept);
+            const std::size_t first = used;
+            if (out.size() < first + kept) out.resize(2 * (first + kept));
             std::size_t* const list = out.data() + first;
             std::size_t count = 0;
             for (std::size_t k = 0; k < kept; ++k) {
@@ -538,7 +540,7 @@ class LennardJones {
               list[count] = j;
               count += static_cast<std::size_t>(dx * dx + dy * dy + dz * dz < reach2);
             }
-            out.resize(first + count);
+            used = first + count;
             outer_start_[i + 1] = count;  // summed below
           }
         }
@@ -560,6 +562,7 @@ class LennardJones {
     const double reach = (cutoff_ + prune_margin_) * (1.0 + 1e-9), reach2 = reach * reach;
     const std::size_t chunks = std::min<std::size_t>(n, list_chunks);
     chunk_lists_.resize(chunks);
+    chunk_used_.resize(chunks);
     list_start_.assign(m + 1, 0);
     pruned_at_.resize(m);
     parallel_for(chunks, par_, [&](std::size_t chunk) {
@@ -567,7 +570,7 @@ class LennardJones {
       const std::size_t i0 = sites_.begin(chunk * n / chunks), i1 = sites_.begin((chunk + 1) * n / chunks);
       std::copy(position_.begin() + static_cast<std::ptrdiff_t>(i0), position_.begin() + static_cast<std::ptrdiff_t>(i1),
                 pruned_at_.begin() + static_cast<std::ptrdiff_t>(i0));  // the margin's reference
-      out.resize(outer_start_[i1] - outer_start_[i0]);  // room for all; cut to size below
+      if (out.size() < outer_start_[i1] - outer_start_[i0]) out.resize(outer_start_[i1] - outer_start_[i0]);  // room for all
       const Vector3<double>* const position = position_.data();
       const std::size_t* const outer = outer_neighbours_.data();
       std::size_t* const list = out.data();
@@ -583,7 +586,7 @@ class LennardJones {
         }
         list_start_[i + 1] = count - first;  // summed below
       }
-      out.resize(count);
+      chunk_used_[chunk] = count;
     });
     join_chunk_lists(list_start_, neighbours_);
     // How the evaluation splits its work between threads (results do not
@@ -688,14 +691,15 @@ class LennardJones {
     for_each_crossing_pair([&](std::size_t j, std::size_t k) { incoming_pair_[fill_[j]++] = k; });
   }
 
-  /// Joins the chunks' lists (chunk_lists_, per site counts in start[i + 1])
-  /// into one list in site order: start becomes the sites' offsets.
+  /// Joins the chunks' lists (chunk_lists_, chunk_used_ entries each; per
+  /// site counts in start[i + 1]) into one list in site order: start
+  /// becomes the sites' offsets.
   void join_chunk_lists(std::vector<std::size_t>& start, std::vector<std::size_t>& list) const {
     const std::size_t n = sys_.size(), m = position_.size(), chunks = chunk_lists_.size();
     for (std::size_t i = 0; i < m; ++i) start[i + 1] += start[i];
     list.resize(start[m]);
     parallel_for(chunks, par_, [&](std::size_t chunk) {
-      std::copy(chunk_lists_[chunk].begin(), chunk_lists_[chunk].end(),
+      std::copy(chunk_lists_[chunk].begin(), chunk_lists_[chunk].begin() + static_cast<std::ptrdiff_t>(chunk_used_[chunk]),
                 list.begin() + static_cast<std::ptrdiff_t>(start[sites_.begin(chunk * n / chunks)]));
     });
   }
@@ -727,6 +731,7 @@ class LennardJones {
   mutable std::vector<double> cell_x_, cell_y_, cell_z_;  ///< the sites' positions in cell order
   mutable std::vector<std::size_t> cell_body_;            ///< and their bodies
   mutable std::vector<std::vector<std::size_t>> chunk_lists_;
+  mutable std::vector<std::size_t> chunk_used_;  ///< per chunk: its list's entries in use
   /// ranged_pass: each site's running force sum (x, y, z and a pad: one
   /// cache line holds two sites, a partner's three components are one access).
   mutable std::vector<double> site_force_;
