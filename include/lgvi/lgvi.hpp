@@ -209,8 +209,11 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
   LieGroupVariationalIntegrator(System system, I potential, SolverOptions solver = {}, Parallelism par = {})
       : Base(std::move(system), std::move(potential), solver, par), w_half_(this->system_.size()), f_(this->system_.size()) {
     for (const RigidBody& b : this->system_.bodies()) solvers_.emplace_back(b.inertia(), solver);
-    // In batches from two full ones on (one body alone is faster than a
-    // batch of one).
+    // In batches from two full ones on; fewer bodies keep the scalar solves
+    // (a batch pays for four lanes whatever it holds). At the first step a
+    // batch seeds all its bodies' predictors before solving: a body after
+    // one whose solve fails has its predictor seeded from this attempt,
+    // where the loop below would leave it empty.
     batched_ = solver.kind == SolverKind::Newton && this->system_.size() >= 2 * RotationSolveBatch::lanes;
   }
 
