@@ -57,21 +57,32 @@ inline constexpr const char* smaller_step_hint_pi =
 /// Solves a r = y for a 3x3 matrix by its adjugate (Cramer's rule): about 40
 /// flops and one division, several times faster than a general LU at this
 /// size. A singular or non-finite system gives non-finite values, which the
-/// solvers report as a failed step.
-inline Vector3<double> solve_3x3(const Matrix3<double>& a, const Vector3<double>& y) {
-  const double c00 = a(1, 1) * a(2, 2) - a(1, 2) * a(2, 1);
-  const double c01 = a(1, 2) * a(2, 0) - a(1, 0) * a(2, 2);
-  const double c02 = a(1, 0) * a(2, 1) - a(1, 1) * a(2, 0);
-  const double c10 = a(0, 2) * a(2, 1) - a(0, 1) * a(2, 2);
-  const double c11 = a(0, 0) * a(2, 2) - a(0, 2) * a(2, 0);
-  const double c12 = a(0, 1) * a(2, 0) - a(0, 0) * a(2, 1);
-  const double c20 = a(0, 1) * a(1, 2) - a(0, 2) * a(1, 1);
-  const double c21 = a(0, 2) * a(1, 0) - a(0, 0) * a(1, 2);
-  const double c22 = a(0, 0) * a(1, 1) - a(0, 1) * a(1, 0);
-  const double inv_det = 1.0 / (a(0, 0) * c00 + a(0, 1) * c01 + a(0, 2) * c02);
-  return Vector3<double>((c00 * y(0) + c10 * y(1) + c20 * y(2)) * inv_det,
-                         (c01 * y(0) + c11 * y(1) + c21 * y(2)) * inv_det,
-                         (c02 * y(0) + c12 * y(1) + c22 * y(2)) * inv_det);
+/// solvers report as a failed step. x = a^{-1} y, for T double or SIMD lanes
+/// of doubles (RotationSolveBatch): one operation order for both.
+template <class T>
+[[gnu::always_inline]] inline void solve_3x3_entries(const T (&a)[3][3], const T (&y)[3], T (&x)[3]) {
+  const T c00 = a[1][1] * a[2][2] - a[1][2] * a[2][1];
+  const T c01 = a[1][2] * a[2][0] - a[1][0] * a[2][2];
+  const T c02 = a[1][0] * a[2][1] - a[1][1] * a[2][0];
+  const T c10 = a[0][2] * a[2][1] - a[0][1] * a[2][2];
+  const T c11 = a[0][0] * a[2][2] - a[0][2] * a[2][0];
+  const T c12 = a[0][1] * a[2][0] - a[0][0] * a[2][1];
+  const T c20 = a[0][1] * a[1][2] - a[0][2] * a[1][1];
+  const T c21 = a[0][2] * a[1][0] - a[0][0] * a[1][2];
+  const T c22 = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+  const T inv_det = 1.0 / ((a[0][0] * c00 + a[0][1] * c01) + a[0][2] * c02);
+  x[0] = ((c00 * y[0] + c10 * y[1]) + c20 * y[2]) * inv_det;
+  x[1] = ((c01 * y[0] + c11 * y[1]) + c21 * y[2]) * inv_det;
+  x[2] = ((c02 * y[0] + c12 * y[1]) + c22 * y[2]) * inv_det;
+}
+
+/// The same for an Eigen matrix and vector.
+inline Vector3<double> solve_3x3(const Matrix3<double>& m, const Vector3<double>& v) {
+  const double a[3][3] = {{m(0, 0), m(0, 1), m(0, 2)}, {m(1, 0), m(1, 1), m(1, 2)}, {m(2, 0), m(2, 1), m(2, 2)}};
+  const double y[3] = {v(0), v(1), v(2)};
+  double x[3];
+  solve_3x3_entries(a, y, x);
+  return Vector3<double>(x[0], x[1], x[2]);
 }
 }  // namespace detail
 
@@ -276,6 +287,14 @@ using LaneMask = long long __attribute__((vector_size(32)));
   abs_lanes(magnitude, v);
   out = magnitude < Lanes{} + std::numeric_limits<double>::infinity();
 }
+/// Moves the active lanes where `sum` is not finite to `failed` (the sum of
+/// a lane's numbers: a NaN or infinity in any makes it so, as may an overflow).
+[[gnu::always_inline]] inline void fail_non_finite_lanes(LaneMask& active, LaneMask& failed, const Lanes& sum) {
+  LaneMask finite;
+  finite_lanes(finite, sum);
+  failed |= active & ~finite;
+  active &= finite;
+}
 
 /// RotationSolveBatch's solves of lanes [0, count): newton_cayley_chart
 /// written for vectors of lanes, operation for operation. Each Eigen
@@ -328,11 +347,7 @@ using LaneMask = long long __attribute__((vector_size(32)));
                         (ju[1] + (u[2] * ju[0] - u[0] * ju[2])) - s * b[1],
                         (ju[2] + (u[0] * ju[1] - u[1] * ju[0])) - s * b[2]};
     evaluations -= active;
-    const Lanes r_sum = (r[0] + r[1]) + r[2];
-    LaneMask r_finite;
-    finite_lanes(r_finite, r_sum);
-    failed |= active & ~r_finite;
-    active &= r_finite;
+    fail_non_finite_lanes(active, failed, (r[0] + r[1]) + r[2]);
     Lanes r_max;
     max3_abs_lanes(r_max, r[0], r[1], r[2]);
     active &= ~(r_max <= tol * (s * b_scale));
@@ -357,23 +372,11 @@ using LaneMask = long long __attribute__((vector_size(32)));
     d[1][2] += ju[0];
     d[2][0] += ju[1];
     d[2][1] -= ju[0];
-    // detail::solve_3x3(d, r).
-    const Lanes c00 = d[1][1] * d[2][2] - d[1][2] * d[2][1], c01 = d[1][2] * d[2][0] - d[1][0] * d[2][2],
-                c02 = d[1][0] * d[2][1] - d[1][1] * d[2][0], c10 = d[0][2] * d[2][1] - d[0][1] * d[2][2],
-                c11 = d[0][0] * d[2][2] - d[0][2] * d[2][0], c12 = d[0][1] * d[2][0] - d[0][0] * d[2][1],
-                c20 = d[0][1] * d[1][2] - d[0][2] * d[1][1], c21 = d[0][2] * d[1][0] - d[0][0] * d[1][2],
-                c22 = d[0][0] * d[1][1] - d[0][1] * d[1][0];
-    const Lanes inv_det = one / ((d[0][0] * c00 + d[0][1] * c01) + d[0][2] * c02);
-    const Lanes delta[3] = {((c00 * r[0] + c10 * r[1]) + c20 * r[2]) * inv_det,
-                            ((c01 * r[0] + c11 * r[1]) + c21 * r[2]) * inv_det,
-                            ((c02 * r[0] + c12 * r[1]) + c22 * r[2]) * inv_det};
+    Lanes delta[3];
+    solve_3x3_entries(d, r, delta);
     for (int k = 0; k < 3; ++k) u[k] = active ? u[k] - delta[k] : u[k];
     iterations -= active;
-    const Lanes u_sum = (u[0] + u[1]) + u[2];
-    LaneMask u_finite;
-    finite_lanes(u_finite, u_sum);
-    failed |= active & ~u_finite;
-    active &= u_finite;
+    fail_non_finite_lanes(active, failed, (u[0] + u[1]) + u[2]);
     const Lanes d2 = (delta[0] * delta[0] + delta[1] * delta[1]) + delta[2] * delta[2];
     active &= ~(quadratic_factor * d2 <= tol_b_scale);
     Lanes delta_max, u_max;
