@@ -221,8 +221,11 @@ PotentialSpec read_potential(const Reader& r, const toml::table& root) {
   if (kind == "none") {
     r.only_keys(t, "potential", {"kind"});
   } else if (kind == "central") {
-    r.only_keys(t, "potential", {"kind", "mu", "stop_at_contact", "j2", "reference_radius", "pole"});
+    r.only_keys(t, "potential", {"kind", "mu", "stop_at_contact", "j2", "reference_radius", "pole", "model"});
     p.kind = PotentialKind::Central;
+    // "extended" (default): balls as point masses, a mass + inertia body by its
+    // second-order (gravity-gradient) potential; "point": every body a point mass.
+    if (t.contains("model")) p.point_masses = r.string(t, "potential", "model", {"extended", "point"}) == "point";
     if (const toml::node* n = t.get("stop_at_contact")) {
       if (!n->is_boolean()) r.fail("potential.stop_at_contact", "must be true or false");
       p.stop_at_contact = n->value<bool>().value();
@@ -367,6 +370,15 @@ std::string convert_orbit_attitude(const Reader& r, toml::table& root, const Rig
     const double e = opt("eccentricity");
     if (!(e >= 0.0 && e < 1.0))
       r.fail("initial.orbit.eccentricity", "must be in [0, 1): orbit sets up closed (circular or elliptic) orbits");
+    // An orbit that starts inside the central body or passes through it: its
+    // periapsis a (1 - e) below the surface, where the reference radius gives one.
+    if (pot.reference_radius > 0.0 && a * (1.0 - e) < pot.reference_radius)
+      r.fail(e > 0.0 && a >= pot.reference_radius ? "initial.orbit.eccentricity" : a_key,
+             "the orbit's periapsis " + std::to_string(a * (1.0 - e)) +
+                 (e > 0.0 ? " (semi-major axis " + std::to_string(a) + " times 1 - eccentricity)" : std::string()) +
+                 " is below the central body's surface, potential.reference_radius " +
+                 std::to_string(pot.reference_radius) + "; give a periapsis above it (altitude > 0" +
+                 (e > 0.0 ? ", or a smaller eccentricity)" : ")"));
     if (!o.contains("inclination"))
       r.fail("initial.orbit.inclination", "missing (degrees from the scenario's x-y plane, e.g. inclination = 51.6)");
     const double inc = opt("inclination") * deg, raan = opt("raan") * deg, argp = opt("arg_periapsis") * deg,

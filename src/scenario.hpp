@@ -57,6 +57,7 @@ struct PotentialSpec {
   PotentialKind kind = PotentialKind::None;
   double mu = 0.0;                                   // central
   bool stop_at_contact = false;                      // central: stop when a ball touches the source
+  bool point_masses = false;                         // central: model = "point" (no gravity-gradient torque)
   double j2 = 0.0, reference_radius = 0.0;           // central: oblate source (J2 = 0: a point)
   Vector3<double> pole = Vector3<double>::UnitZ();   // central: the source's axis of symmetry
   Vector3<double> g = Vector3<double>::Zero();     // uniform, heavy-top

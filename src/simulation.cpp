@@ -22,7 +22,9 @@ ScenarioPotential body_potential(const Scenario& s, std::size_t a) {
   switch (s.potential.kind) {
     case PotentialKind::Central:
       return CentralGravity(body, s.potential.mu, s.potential.stop_at_contact, s.potential.j2,
-                            s.potential.reference_radius, s.potential.pole);
+                            s.potential.reference_radius, s.potential.pole,
+                            s.potential.point_masses ? CentralGravity::Model::PointMass
+                                                     : CentralGravity::Model::Extended);
     case PotentialKind::Uniform: return UniformGravity(body, s.potential.g);
     case PotentialKind::HeavyTop: return HeavyTop(body, s.potential.g, s.potential.pivot_to_com);
     case PotentialKind::None: break;

@@ -29,11 +29,20 @@ Json setup_json(const Scenario& s) {
   Json pot;
   pot["kind"] = to_string(s.potential.kind);
   if (s.potential.kind == PotentialKind::Central) {
+    // How the field acts on each kind of body, stated with the run (the model is a choice that changes
+    // the torque: a mass + inertia body as a point mass feels none).
+    pot["model"] = s.potential.point_masses ? "point" : "extended";
+    pot["model_acts"] = s.potential.point_masses
+                            ? "every body a point mass at its centre of mass (no gravity-gradient torque)"
+                            : "each ball a point mass; a body given by mass + inertia by its second-order "
+                              "(MacCullagh) potential, with the gravity-gradient torque";
     pot["mu"] = s.potential.mu;
     pot["stop_at_contact"] = s.potential.stop_at_contact;
   }
   if (s.potential.kind == PotentialKind::Central && s.potential.j2 != 0.0) {
     pot["j2"] = s.potential.j2;
+    pot["j2_acts"] = "on each ball; on the centre of mass of a body given by mass + inertia (its J2 torque, "
+                     "smaller than the gravity-gradient torque by J2 (R/r)^2, is not modelled)";
     pot["reference_radius"] = s.potential.reference_radius;
     pot["pole"] = to_vector(s.potential.pole);
   }

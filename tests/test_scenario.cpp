@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "scenario.hpp"
+#include "scenario_support.hpp"
 
 #include <lgvi/error.hpp>
 
@@ -84,20 +85,7 @@ std::string ball_entry(const std::string& position, const std::string& mass, con
   return "[[body.ball]]\nposition = " + position + "\nmass = " + mass + "\nradius = " + radius + "\n";
 }
 
-/// The message of the InvalidInput that parsing `text` throws; fails the
-/// test if it throws nothing or something else.
-std::string parse_error(const std::string& text, const std::string& name) {
-  try {
-    parse_scenario(text, name);
-  } catch (const InvalidInput& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "threw a " << typeid(e).name() << " that is not an InvalidInput: " << e.what();
-    return {};
-  }
-  ADD_FAILURE() << "parsed without error:\n" << text;
-  return {};
-}
+using lgvi::test::parse_error;
 
 std::string read_error(const std::string& path) {
   try {

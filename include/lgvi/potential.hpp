@@ -88,7 +88,22 @@ class HeavyTop {
 /// Central gravity of a point source of strength mu at the origin, summed
 /// over the body's balls:  V = -mu sum_i m_i / |x + pi(q) rho_i|.
 /// (A uniform ball attracts as a point mass, so this is exact for balls
-/// outside the source.) A body with no balls is a point mass m at x.
+/// outside the source.)
+///
+/// A body given by mass and inertia (no balls) feels the second-order
+/// (MacCullagh) potential of its mass distribution, the same model as
+/// MutualGravityInertia between bodies:
+///   V = -mu m / r - (mu / 2 r^3) (tr I - 3 rhat^T I rhat),  I = R J R^T,
+/// r = x, R = pi(q), J the standard inertia (body axes). With u = R^T rhat
+/// (rhat in body axes) the force and the body torque are
+///   -dV/dx = -mu m x / r^3 - (3 mu / 2 r^4) [(tr J - 5 u^T J u) rhat + 2 R J u],
+///   M = (3 mu / r^3) u x J u  (the gravity-gradient torque),
+/// the torque from delta(u^T J u) = -2 theta . (u x J u) under R -> R exp(hat theta)
+/// (checked against finite differences of V in tests/test_gravity_gradient.cpp).
+/// The neglected terms are those of the third and higher moments: relative
+/// to the gradient term O(size / r), and O((size / r)^2) for a body whose mass
+/// is symmetric about its centre. `Model::PointMass` drops the gradient term
+/// (every body, balls included, a point mass m at x: no torque).
 ///
 /// Close encounters: a ball (or point mass) whose centre reaches the source
 /// makes the evaluation throw StepFailure naming the ball and the distance,
@@ -107,16 +122,24 @@ class HeavyTop {
 /// checked against finite differences of V in tests/test_j2.cpp). The field is
 /// symmetric about the pole, so the angular momentum about the pole, k . L,
 /// is conserved by the discrete flow (discrete Noether); the other components
-/// of L change.
+/// of L change. On a body given by mass and inertia the J2 term acts on the
+/// centre of mass (its torque on the body, smaller than the central term's
+/// gradient torque by J2 (R / r)^2, is not modelled).
 class CentralGravity {
  public:
+  /// How the field acts on a body given by mass and inertia (bodies of balls:
+  /// each ball a point mass, with either model unless PointMass is asked for).
+  enum class Model {
+    Extended,  ///< balls as point masses; a mass + inertia body by its second-order potential
+    PointMass  ///< every body a point mass m at its centre of mass (no torque)
+  };
   /// A point source (J2 = 0).
-  CentralGravity(const RigidBody& body, double mu, bool stop_at_contact = false)
-      : CentralGravity(body, mu, stop_at_contact, 0.0, 0.0, Vector3<double>::UnitZ()) {}
+  CentralGravity(const RigidBody& body, double mu, bool stop_at_contact = false, Model model = Model::Extended)
+      : CentralGravity(body, mu, stop_at_contact, 0.0, 0.0, Vector3<double>::UnitZ(), model) {}
   /// An oblate source: J2, reference radius R > 0 and pole k (normalized here;
   /// InvalidInput if it is zero or R is not > 0 while J2 != 0).
   CentralGravity(const RigidBody& body, double mu, bool stop_at_contact, double j2, double reference_radius,
-                 const Vector3<double>& pole)
+                 const Vector3<double>& pole, Model model = Model::Extended)
       : mu_(mu), j2_(j2), radius2_ref_(reference_radius * reference_radius) {
     if (j2_ != 0.0) {
       if (!(reference_radius > 0.0 && std::isfinite(reference_radius)))
@@ -124,10 +147,15 @@ class CentralGravity {
       if (!(pole.norm() > 0.0 && pole.allFinite())) throw InvalidInput("potential.pole: must be a non-zero vector");
       pole_ = pole.normalized();
     }
-    if (body.balls().empty()) {
+    if (body.balls().empty() || model == Model::PointMass) {
       rho_.emplace_back(Vector3<double>::Zero());
       mass_.push_back(body.mass());
       radius2_.push_back(0.0);
+      if (body.balls().empty() && model == Model::Extended) {
+        gradient_ = true;
+        inertia_ = body.inertia();
+        trace_inertia_ = inertia_.trace();
+      }
     } else {
       for (const Ball& b : body.balls()) {
         rho_.push_back(b.position);
@@ -161,10 +189,28 @@ class CentralGravity {
       torque_inertial += arm.cross(f);
     }
     e.torque = r.transpose() * torque_inertial;
+    if (gradient_) add_gradient_term(x, r, e);
     return e;
   }
 
+  /// Whether the body feels the gravity-gradient (second-order) term.
+  bool has_gradient_term() const { return gradient_; }
+
  private:
+  /// The second-order term of a mass + inertia body at x with R = pi(q) (the
+  /// class comment's formulas), added to e; x != 0 was checked by evaluate.
+  void add_gradient_term(const Vector3<double>& x, const Matrix3<double>& r, PotentialEvaluation& e) const {
+    const double inv_d = 1.0 / x.norm();
+    const Vector3<double> rhat = inv_d * x;
+    const Vector3<double> u = r.transpose() * rhat;  // rhat in body axes
+    const Vector3<double> ju = inertia_ * u;
+    const double uju = u.dot(ju);
+    const double c = mu_ * inv_d * inv_d * inv_d;  // mu / r^3
+    e.energy -= 0.5 * c * (trace_inertia_ - 3.0 * uju);
+    e.force -= (1.5 * c * inv_d) * ((trace_inertia_ - 5.0 * uju) * rhat + 2.0 * (r * ju));
+    e.torque += (3.0 * c) * u.cross(ju);
+  }
+
   [[noreturn]] void close_encounter(std::size_t i, double d2) const {
     if (std::isnan(d2)) throw StepFailure("the state became non-finite", "try a smaller step");
     throw StepFailure((rho_.size() == 1 && radius2_[0] == 0.0 ? std::string("the point-mass body")
@@ -182,6 +228,9 @@ class CentralGravity {
   std::vector<Vector3<double>> rho_;
   std::vector<double> mass_;
   std::vector<double> radius2_;
+  bool gradient_ = false;  ///< a mass + inertia body in the Extended model
+  Matrix3<double> inertia_ = Matrix3<double>::Zero();
+  double trace_inertia_ = 0.0;
 };
 
 /// A potential given by a user's C++ callable (x, q) -> PotentialEvaluation.

@@ -453,7 +453,7 @@ class Scenario:
     @property
     def potential(self):
         """The built-in potential as a dict, every key as the scenario gives it: {"kind": "none"},
-        {"kind": "central", "mu": .., and j2, reference_radius, pole, stop_at_contact where given},
+        {"kind": "central", "mu": .., and j2, reference_radius, pole, stop_at_contact, model where given},
         {"kind": "uniform", "g": [..]} or {"kind": "heavy-top", "g": [..], "pivot_to_com": [..]}.
         ``Scenario(potential=scenario.potential)`` gives the same potential."""
         # From the scenario's own table, so that no key is dropped (an earlier

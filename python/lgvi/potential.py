@@ -20,10 +20,12 @@ import numpy as np
 
 from . import _check
 
-__all__ = ["none", "central", "uniform", "heavy_top", "PythonPotential", "KINDS"]
+__all__ = ["none", "central", "uniform", "heavy_top", "PythonPotential", "KINDS", "CENTRAL_MODELS"]
 
 #: The built-in potentials' kinds.
 KINDS = ("none", "central", "uniform", "heavy-top")
+#: How a central field acts on a body given by mass and inertia (see central()).
+CENTRAL_MODELS = ("extended", "point")
 
 
 def none():
@@ -31,11 +33,15 @@ def none():
     return {"kind": "none"}
 
 
-def central(mu, stop_at_contact=False, j2=None, reference_radius=None, pole=None):
+def central(mu, stop_at_contact=False, j2=None, reference_radius=None, pole=None, model="extended"):
     """Central gravity of a source of strength mu > 0 at the origin, optionally oblate.
 
     V = -mu sum_i m_i / |x + R rho_i| over the body's balls (rho_i relative
-    to the centre of mass, R = pi(q)); a body without balls is a point mass.
+    to the centre of mass, R = pi(q)); a body given by mass and inertia J
+    feels the second-order (MacCullagh) potential V = -mu m / r - (mu / 2 r^3)
+    (tr J - 3 u^T J u), u the direction to the body in body axes, whose
+    gravity-gradient torque is (3 mu / r^3) u x J u. ``model="point"`` makes
+    every body a point mass at its centre of mass instead (no torque).
     With ``j2`` (and its ``reference_radius`` R_e > 0, the source's equatorial
     radius) each ball feels V = -mu m / r [1 - J2 (R_e / r)^2 P2(pole . r/r)]
     about ``pole`` (3,), a unit vector (default z). With ``stop_at_contact``
@@ -51,6 +57,8 @@ def central(mu, stop_at_contact=False, j2=None, reference_radius=None, pole=None
     if stop_at_contact:
         out["stop_at_contact"] = True
     out.update(_oblate_keys(dict(j2=j2, reference_radius=reference_radius, pole=pole), "potential"))
+    if _check.choice(model, "model", CENTRAL_MODELS) != "extended":
+        out["model"] = model
     return out
 
 
@@ -99,7 +107,8 @@ def spec(potential, name="potential"):
         raise ValueError(f"{name}: must be lgvi.potential.none(), central(mu), uniform(g), a dict like "
                          f"{{'kind': 'central', 'mu': 1.0}} or \"none\"; got {potential!r}")
     kind = _check.choice(potential.get("kind"), f"{name}.kind", KINDS)
-    allowed = {"none": set(), "central": {"mu", "stop_at_contact", "j2", "reference_radius", "pole"}, "uniform": {"g"},
+    allowed = {"none": set(), "central": {"mu", "stop_at_contact", "j2", "reference_radius", "pole", "model"},
+               "uniform": {"g"},
                "heavy-top": {"g", "pivot_to_com"}}[kind]
     extra = set(potential) - {"kind"} - allowed
     if extra:
@@ -113,6 +122,8 @@ def spec(potential, name="potential"):
                 raise ValueError(f"{name}.stop_at_contact: must be True or False")
             out["stop_at_contact"] = potential["stop_at_contact"]
         out.update(_oblate_keys(potential, name))
+        if "model" in potential:
+            out["model"] = _check.choice(potential["model"], f"{name}.model", CENTRAL_MODELS)
         return out
     if kind == "heavy-top":
         for key in ("g", "pivot_to_com"):

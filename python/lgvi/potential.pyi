@@ -6,6 +6,7 @@ import numpy as np
 import numpy.typing as npt
 
 KINDS: Tuple[str, ...]
+CENTRAL_MODELS: Tuple[str, ...]
 
 Vector3 = Union[Sequence[float], npt.NDArray[np.float64]]
 #: x (3,), q (4,) scalar-first (w, x, y, z)
@@ -15,8 +16,8 @@ def none() -> Dict[str, Any]:
     """The free body, {"kind": "none"}."""
     ...
 def central(mu: float, stop_at_contact: bool = ..., j2: Optional[float] = ..., reference_radius: Optional[float] = ...,
-            pole: Optional[Sequence[float]] = ...) -> Dict[str, Any]:
-    """Central gravity, {"kind": "central", "mu": mu}."""
+            pole: Optional[Sequence[float]] = ..., model: str = ...) -> Dict[str, Any]:
+    """Central gravity, {"kind": "central", "mu": mu}; model "extended" (default) or "point"."""
     ...
 def heavy_top(g: Vector3, pivot_to_com: Vector3) -> Dict[str, Any]:
     """A heavy top about a fixed pivot, {"kind": "heavy-top", "g": [...], "pivot_to_com": [...]}."""
