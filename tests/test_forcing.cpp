@@ -313,6 +313,42 @@ TEST(Forcing, TooStiffVelocityDependentForcingFailsNamingTheStep) {
   }
 }
 
+// A user's forcing that draws new values on every call (noise) is not a
+// function of (t, state), which the end-of-step fixed point needs: the run
+// stops with a message that says so and how to draw noise instead of blaming
+// the step. Caught where it shows: at the first evaluation (called twice at
+// the initial state), and, for a function that repeats itself there but not
+// later, when the momentum iteration does not converge.
+TEST(Forcing, NonRepeatableForcingIsNamedAsSuch) {
+  const System sys(sphere(0.1));
+  const SystemState s0 = one_body(V3::Zero(), S3d(), V3::Zero(), V3(0.1, 0.2, 0.3));
+  auto message = [&](auto&& f) {
+    ForcingSet set;
+    set.add_callable(f);
+    auto lgvi = with_forcing(lgvi::LieGroupVariationalIntegrator<Free>(sys, free_field(1)), set);
+    try {
+      run(lgvi, s0, 0.01, 10);
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  int calls = 0;
+  const std::string every_call = message([&](double, std::size_t, const lgvi::RigidBodyState&) {
+    return lgvi::Wrench{V3::Zero(), V3(1e-3 * (++calls % 7), 0, 0)};
+  });
+  EXPECT_NE(every_call.find("the forcing returned different values for the same time and state (t = 0.0"),
+            std::string::npos)
+      << every_call;
+  const std::string later = message([&](double t, std::size_t, const lgvi::RigidBodyState&) {
+    return lgvi::Wrench{V3::Zero(), V3(t > 0.0 ? 1e-3 * (++calls % 7) : 0.0, 0, 0)};
+  });
+  EXPECT_NE(later.find("the forcing returned different values for the same time and state (t = 0.01"),
+            std::string::npos)
+      << later;
+  EXPECT_EQ(later.find("too stiff"), std::string::npos) << later;
+}
+
 // A checkpoint's internal state (work, forcing at the current state, held
 // samples) continues a forced, sampled, composed run bit for bit.
 TEST(Forcing, ResumeContinuesBitForBit) {

@@ -202,6 +202,13 @@ class ForcingSet {
 
   bool empty() const { return terms_.empty(); }
   std::size_t size() const { return terms_.size(); }
+  /// Whether a term is a user's function (CallableForcing), whose values
+  /// lgvi cannot know to be a function of (t, state) alone.
+  bool has_callable() const {
+    for (const Entry& e : terms_)
+      if (std::holds_alternative<CallableForcing>(e.term)) return true;
+    return false;
+  }
 
   /// Whether any term reads the momenta (then the end of a step iterates).
   bool depends_on_velocity() const {

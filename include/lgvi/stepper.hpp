@@ -166,6 +166,7 @@ class StepperBase {
     forcing_.sample(t, s, system_);
     work_ = 0.0;
     evaluate_forcing(t, s);
+    if (forcing_.has_callable()) require_repeatable_forcing(t, s, ext_force_, ext_torque_);
   }
 
  protected:
@@ -235,12 +236,19 @@ class StepperBase {
         if (change <= 4 * eps * scale) break;
         // Round-off stagnation: the iteration stopped contracting a few ulps away.
         if (change >= previous && change <= 1e3 * eps * scale) break;
-        if (it == max_iterations || !std::isfinite(change))
+        if (it == max_iterations || !std::isfinite(change)) {
+          // A user's function that draws new values on every call (noise) has no fixed point to
+          // converge to: say that rather than blame the step.
+          if (forcing_.has_callable()) {
+            forcing_.evaluate(t1, s, system_, p_iterate_, w_iterate_);
+            require_repeatable_forcing(t1, s, p_iterate_, w_iterate_);
+          }
           throw StepFailure("the forcing depends on the momenta and the end-of-step momenta did not converge in " +
                                 std::to_string(max_iterations) + " iterations (relative change " +
                                 std::to_string(scale > 0.0 ? change / scale : change) + ")",
                             "the forcing is too stiff for this step (e.g. h c / j not small for damping): "
                             "use a smaller step");
+        }
         previous = change;
       }
     }
@@ -283,6 +291,26 @@ class StepperBase {
   SolveReport report_;
 
  private:
+  /// Evaluates the forcing at (t, s) once more and requires the same values,
+  /// bit for bit, as `force` and `torque` from an evaluation there. The
+  /// discrete Lagrange-d'Alembert step evaluates the forcing at a state more
+  /// than once (the end-of-step momenta are a fixed point), so a function that
+  /// draws fresh noise on every call gives it nothing to converge to.
+  void require_repeatable_forcing(double t, const SystemState& s, const std::vector<Vector3<double>>& force,
+                                  const std::vector<Vector3<double>>& torque) {
+    std::vector<Vector3<double>> again_force, again_torque;
+    forcing_.evaluate(t, s, system_, again_force, again_torque);
+    for (std::size_t a = 0; a < s.size(); ++a)
+      if (again_force[a] != force[a] || again_torque[a] != torque[a])
+        throw StepFailure(body_prefix(system_, a) +
+                              "the forcing returned different values for the same time and state (t = " +
+                              std::to_string(t) +
+                              "); lgvi may evaluate it more than once per step, at the same state",
+                          "draw noise once per control sample (a seeded generator indexed by the sample number, "
+                          "e.g. numpy.random.default_rng([seed, int(t // period)])), see the README's "
+                          "\"Forcing and control\" and examples/gyro_noise.py");
+  }
+
   /// The forcing at (t, s) into ext_*, and the totals potential + forcing.
   void evaluate_forcing(double t, const SystemState& s) {
     forcing_.evaluate(t, s, system_, ext_force_, ext_torque_);

@@ -143,3 +143,32 @@ def test_bad_forcing_fails_clearly():
     rk4 = scenario().replace(method="rk4-normalized")
     with pytest.raises(ValueError, match="does not take"):
         lgvi.simulate(rk4, forcing=lambda t, x, q, p, w: ((0, 0, 0), (0, 0, 0)))
+
+
+def test_forcing_with_fresh_noise_on_every_call_is_named():
+    """Noise drawn anew on every call is not a function of (t, state): the run stops at once with a
+    message that says so and how to draw noise (once per control sample), not "too stiff"."""
+    rng = np.random.default_rng(3)
+
+    def noisy(t, x, q, p, w):
+        return np.zeros(3), rng.normal(0.0, 1e-3, 3)
+
+    for velocity_dependent in (True, False):
+        with pytest.raises(Exception, match="different values for the same time and state") as info:
+            lgvi.simulate(scenario(), forcing=lgvi.PythonForcing(noisy, velocity_dependent=velocity_dependent))
+        assert "once per control sample" in str(info.value)
+
+
+def test_noise_drawn_per_control_sample_runs():
+    """The pattern of examples/gyro_noise.py: a generator seeded by (seed, sample number) gives the
+    same noise at every call within a sample, so the run completes, and its rows repeat exactly."""
+    period = 0.05
+
+    def sampled(t, x, q, p, w):
+        sample = int(np.floor(t / period + 1e-9))
+        return np.zeros(3), -0.1 * (0.5 * J_INV @ w) + np.random.default_rng([5, sample]).normal(0.0, 1e-3, 3)
+
+    a = lgvi.simulate(scenario(), forcing=lgvi.PythonForcing(sampled))
+    b = lgvi.simulate(scenario(), forcing=lgvi.PythonForcing(sampled))
+    assert a.completed
+    assert np.array_equal(a.data, b.data)

@@ -684,7 +684,8 @@ def test_draw_figures_from_memory(tmp_path):
 EXAMPLES = [("paper_experiment.py", ["--duration", "3"], ["paper-orbit/trajectory.png", "paper/body_motion.png",
                                                            "paper-orbit/trajectory.csv"]),
             ("step_size_study.py", ["--duration", "2"], ["energy_error_vs_step.png"]),
-            ("control_loop.py", ["--duration", "2"], [])]
+            ("control_loop.py", ["--duration", "2"], []),
+            ("gyro_noise.py", ["--duration", "5"], [])]
 
 
 @pytest.mark.parametrize("script, args, outputs", EXAMPLES, ids=[e[0] for e in EXAMPLES])
