@@ -3,6 +3,7 @@
 #include "ensemble.hpp"
 
 #include "formats/formats.hpp"
+#include "json_io.hpp"
 
 #include "output.hpp"
 #include "run.hpp"
@@ -467,6 +468,14 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
                        plan.varied[static_cast<std::size_t>(m)][c]);
       throw InvalidInput(fmt::format("{}: member {} ({}): {}", name, m, values, e.what()));
     }
+    const ConservationLaws laws = conservation_laws(sc);
+    auto change = [&](const char* column) {
+      if (std::find(plan.changes_not_errors.begin(), plan.changes_not_errors.end(), column) ==
+          plan.changes_not_errors.end())
+        plan.changes_not_errors.emplace_back(column);
+    };
+    if (laws.angular_momentum != ConservationLaws::Angular::Conserved) change("max_momentum_error");
+    if (!laws.linear_momentum) change("max_linear_momentum_error");
     if (m == 0) {
       plan.output_format = sc.output_format;
       bodies = sc.bodies();
@@ -708,6 +717,10 @@ Prepared prepare(const std::string& sweep_path, const EnsembleOptions& opt) {
       fs::create_directories(p.dir);
       write_file_atomically((fs::path(p.dir) / "sweep.toml").string(), p.plan.sweep_text);
       write_file_atomically((fs::path(p.dir) / "scenario.toml").string(), p.plan.scenario_text);
+      // Which members.csv columns are changes, not errors, for the figures (drawn by Python
+      // from the folder, without the compiled module that reads the sweep).
+      write_file_atomically((fs::path(p.dir) / "changes_not_errors.json").string(),
+                            json_text(Json(p.plan.changes_not_errors)) + "\n");
       std::ofstream(fs::path(p.dir) / "journal.csv", std::ios::binary | std::ios::trunc);
     } catch (const std::exception& e) {
       throw InvalidInput("--out: '" + p.dir + "' cannot be written: " + e.what());
@@ -827,10 +840,14 @@ void show_ensemble(const std::string& dir, std::ostream& out) {
     }
     for (std::size_t e = 0; e < errors.size(); ++e) values[e].push_back(std::strtod(f[column(errors[e])].c_str(), nullptr));
   }
-  // The planned size from the folder's sweep copy; members.csv alone: what it holds.
+  // The planned size from the folder's sweep copy (members.csv alone: what it
+  // holds), and which columns are changes rather than errors.
   std::int64_t planned = 0;
+  std::vector<std::string> changes;
   try {
-    planned = ensemble_detail::plan_of_folder(dir, false).members();
+    const EnsemblePlan plan = ensemble_detail::plan_of_folder(dir, false);
+    planned = plan.members();
+    changes = plan.changes_not_errors;
   } catch (const std::exception&) {
     planned = rows;
   }
@@ -842,11 +859,17 @@ void show_ensemble(const std::string& dir, std::ostream& out) {
   row("failed", fmt::format("{}", failed));
   for (const auto& [message, count] : messages) row("  " + std::to_string(count) + " x", message);
   row("quantiles (completed)", "min / median / 90% / max");
+  bool marked = false;
   for (std::size_t e = 0; e < errors.size(); ++e) {
     std::sort(values[e].begin(), values[e].end());
-    row("  " + errors[e], fmt::format("{:.3e} / {:.3e} / {:.3e} / {:.3e}", quantile(values[e], 0.0),
+    const bool change = std::find(changes.begin(), changes.end(), errors[e]) != changes.end();
+    marked = marked || change;
+    row("  " + errors[e] + (change ? " (a change)" : ""), fmt::format("{:.3e} / {:.3e} / {:.3e} / {:.3e}", quantile(values[e], 0.0),
                                       quantile(values[e], 0.5), quantile(values[e], 0.9), quantile(values[e], 1.0)));
   }
+  if (marked)
+    row("  (a change)", "not conserved by these members' dynamics (forcing, a uniform field, J2): the column "
+                        "measures how much the quantity changed, not an error of the method");
 }
 
 namespace {

@@ -52,6 +52,11 @@ struct EnsemblePlan {
   std::vector<std::string> varied_columns;  ///< header names of the varied values (key or key[i])
   std::vector<std::vector<double>> varied;  ///< per member, the varied values in column order
   std::string header;                       ///< members.csv's header line (no newline)
+  /// The members.csv columns named "..._error" that measure a change, not an
+  /// error of the method: a momentum that some member's dynamics does not
+  /// conserve (forcing, a uniform field, J2; conservation_laws), as
+  /// summary.json's conserved.changes_not_errors says for one run.
+  std::vector<std::string> changes_not_errors;
   TrajectoryFormat output_format = TrajectoryFormat::Csv;  ///< the base scenario's: members.npz / .h5 beside the CSV
 
   std::int64_t members() const { return static_cast<std::int64_t>(varied.size()); }

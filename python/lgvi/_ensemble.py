@@ -71,10 +71,13 @@ class EnsembleResult:
     ``text`` is members.csv's content, byte for byte the CLI's; ``header`` its column names;
     ``columns`` maps each name to a numpy array (one entry per member, in member order), except
     ``error``, a list of str ("" for members that completed). ``completed`` is a bool array.
+    ``changes_not_errors``: the "..._error" columns that measure the change of a quantity the
+    members' dynamics does not conserve (forcing, a uniform field, J2), not an error of the method.
     """
 
-    def __init__(self, text):
+    def __init__(self, text, changes_not_errors=()):
         self.text = text
+        self.changes_not_errors = tuple(changes_not_errors)
         reader = csv.reader(io.StringIO(text))
         self.header = next(reader)
         rows = list(reader)
@@ -122,7 +125,7 @@ def ensemble(scenario, vary, members=None, seed=None, executor=None, trajectorie
         rows = [_run_member(w) for w in work]
     else:
         rows = list(executor.map(_run_member, work))
-    return EnsembleResult(plan.header + "\n" + "".join(r + "\n" for r in rows))
+    return EnsembleResult(plan.header + "\n" + "".join(r + "\n" for r in rows), plan.changes_not_errors)
 
 
 def _plan(sc, vary, members, seed, trajectories):

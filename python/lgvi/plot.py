@@ -10,6 +10,7 @@ Needs numpy and matplotlib only (not the compiled lgvi._core).
 """
 
 import argparse
+import json
 import os
 import sys
 
@@ -237,6 +238,16 @@ def _system_result(source):
 MAX_PATHS = 50  # bodies whose paths are drawn (a gas of thousands would be a blot)
 
 
+def _momentum_words(summary):
+    """("error" or "change", a note) for the angular and the linear momentum: a change where the
+    run's dynamics does not conserve the quantity (summary["conserved"]["changes_not_errors"]: a
+    forcing, a uniform field, J2), so that a figure does not call it an error of the method."""
+    changes = (summary or {}).get("conserved", {}).get("changes_not_errors", [])
+    angular = "change" if "max_momentum_error" in changes else "error"
+    linear = "change" if "max_linear_momentum_error" in changes else "error"
+    return angular, linear
+
+
 def _draw_system(plt, r, out_dir, written):
     """The figures of a many-body run: the system's energy and momentum errors,
     the bodies' |q| - 1, their paths (projected), and for two bodies the
@@ -254,8 +265,13 @@ def _draw_system(plt, r, out_dir, written):
     ax.semilogy(t, np.maximum(rel, 1e-18), label="|L - L0| / sum |x x p| + |w|/2")
     ax.semilogy(t, np.maximum(r.linear_momentum_error, 1e-18), label="|P - P0| / sum |p_a0|")
     ax.set_xlabel("t")
-    ax.set_ylabel("relative error (floor 1e-18)")
-    ax.set_title(f"Total angular and linear momentum (max {_max_abs(rel):.2e}, {_max_abs(r.linear_momentum_error):.2e})")
+    angular, linear = _momentum_words(r.summary)
+    ax.set_ylabel(f"relative {angular} / {linear} (floor 1e-18)" if angular != linear else
+                  f"relative {angular} (floor 1e-18)")
+    notes = ", ".join(f"{n} momentum: a change, not conserved here"
+                      for n, w in (("angular", angular), ("linear", linear)) if w == "change")
+    ax.set_title(f"Total angular and linear momentum (max {_max_abs(rel):.2e}, {_max_abs(r.linear_momentum_error):.2e})"
+                 + (f"\n{notes}" if notes else ""))
     ax.legend(loc="best", fontsize="small")
     _save(fig, out_dir, "momentum_error.png", written)
     fig, ax = plt.subplots(figsize=FIGSIZE)
@@ -304,7 +320,15 @@ def _ensemble_table(source):
         if os.path.basename(csv_path) == "members.csv" and os.path.exists(csv_path):
             from ._ensemble import EnsembleResult
             with open(csv_path, newline="") as f:
-                return EnsembleResult(f.read())
+                text = f.read()
+            # Which columns are changes, not errors: lgvi ensemble's changes_not_errors.json beside
+            # it (a members.csv alone does not say: its columns are then labelled by name).
+            changes = ()
+            marks = os.path.join(os.path.dirname(csv_path) or ".", "changes_not_errors.json")
+            if os.path.exists(marks):
+                with open(marks, encoding="utf-8") as f:
+                    changes = json.load(f)
+            return EnsembleResult(text, changes)
     return None
 
 
@@ -313,11 +337,14 @@ _ENSEMBLE_ERRORS = (("max_abs_energy_error", "max |E - E0|"), ("max_abs_quat_nor
 
 
 def _draw_ensemble(plt, e, out_dir, written):
-    """error_distribution.png: each error's histogram over the completed members (log scale);
-    error_vs_varied.png: the energy error against each varied value."""
+    """error_distribution.png: each error's histogram over the completed members (log scale), a
+    quantity the members do not conserve labelled as a change; error_vs_varied.png: the energy
+    error against each varied value."""
     ok = e.completed
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
     for ax, (name, label) in zip(axes, _ENSEMBLE_ERRORS):
+        if name in getattr(e, "changes_not_errors", ()):
+            label += " (a change: not conserved here)"
         v = np.asarray(e.columns[name])[ok]
         v = v[np.isfinite(v)]
         floor = np.finfo(float).tiny
@@ -424,7 +451,9 @@ def draw_figures(source, out_dir=None):
                 "quaternion_error.png", out_dir, written)
     l0 = float(np.linalg.norm([c["Lx"][0], c["Ly"][0], c["Lz"][0]]))
     err = c["momentum_error"]
-    title = f"Momentum error |L(t) - L(0)| (max = {_max_abs(err):.3e}"
+    angular, _ = _momentum_words(summary)
+    title = ("Momentum error" if angular == "error" else "Angular momentum change (not conserved here)") + \
+        f" |L(t) - L(0)| (max = {_max_abs(err):.3e}"
     title += f", relative {_max_abs(err) / l0:.3e})" if l0 > 0.0 else ")"
     _error_plot(plt, t, err, "|L(t) - L(0)|", title, "momentum_error.png",
                 out_dir, written, scale=l0 if l0 > 0.0 else None)

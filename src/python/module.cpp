@@ -787,7 +787,10 @@ PYBIND11_MODULE(_core, m) {
                              "The base scenario's name.")
       .def("varied", [](const lgvi::app::EnsemblePlan& p, std::int64_t i) { return p.varied.at(static_cast<std::size_t>(i)); },
            py::arg("i"), "Member i's varied values, in the header's order.")
-      .def("member_toml", &lgvi::app::EnsemblePlan::member_toml, py::arg("i"), "Member i's scenario (TOML text).");
+      .def("member_toml", &lgvi::app::EnsemblePlan::member_toml, py::arg("i"), "Member i's scenario (TOML text).")
+      .def_property_readonly(
+          "changes_not_errors", [](const lgvi::app::EnsemblePlan& p) { return p.changes_not_errors; },
+          "The '..._error' columns that measure a change of a quantity the members do not conserve.");
   m.def(
       "ensemble_plan",
       [](const std::string& sweep_text, const std::string& name, const std::string& scenario_text) {

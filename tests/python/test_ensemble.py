@@ -325,6 +325,36 @@ def test_show_prints_the_quantiles_of_members_csv_and_reads_a_journal_alone(tmp_
             np.testing.assert_allclose(printed, expected, rtol=5e-4)  # printed with 4 significant digits
 
 
+def test_a_momentum_the_members_do_not_conserve_is_labelled_a_change(tmp_path):
+    """Under a forcing the angular momentum is not conserved: its column measures a change, not an error
+    of the method. lgvi ensemble lists it in changes_not_errors.json, lgvi show marks its row "(a change)"
+    and the figures' EnsembleResult carries it; the unforced base marks only the linear momentum (a central
+    field does not conserve it), and max_momentum_error stays an error there."""
+    import json
+
+    from lgvi import plot
+
+    def run(out, forced):
+        path = sweep(tmp_path, members=4, duration=2.0)
+        if forced:
+            scenario = tmp_path / "paper-orbit.toml"
+            scenario.write_text(scenario.read_text() + '\n[[forcing]]\nkind = "torque"\nvalue = [0.0, 0.0, 0.01]\n')
+        proc = ensemble(path, "--out", tmp_path / out)
+        assert proc.returncode == 0, proc.stderr
+        shown = subprocess.run([BINARY, "show", str(tmp_path / out)], capture_output=True, text=True)
+        assert shown.returncode == 0, shown.stderr
+        marks = json.loads((tmp_path / out / "changes_not_errors.json").read_text())
+        assert plot._ensemble_table(str(tmp_path / out)).changes_not_errors == tuple(marks)
+        return shown.stdout, marks
+
+    text, marks = run("forced", True)
+    assert marks == ["max_momentum_error", "max_linear_momentum_error"]
+    assert "  max_momentum_error (a change) " in text and "not an error of the method" in text
+    text, marks = run("free", False)
+    assert marks == ["max_linear_momentum_error"]
+    assert "  max_momentum_error " in text and "(a change)" not in text
+
+
 def test_figures_of_an_ensemble(tmp_path):
     """Without --no-figures, a completed ensemble draws error_distribution.png and error_vs_varied.png (lgvi.plot).
     This sweep varies 7 values (w: 3, the quaternion: 4), all of them panels, four a row: a 2 x 4 grid, whose
