@@ -122,6 +122,20 @@ SystemState lattice_state(std::size_t n, double a, double momentum) {
 // while any error of a formula (a factor, a sign, a frame) shows as O(1).
 constexpr double derivative_tolerance = 1e-8;
 
+// Names must be unique: the first repeated one is named with the index of the
+// body that has it first (the same pair an all-pairs search reports first),
+// and 10^5 generated names are checked in linear time.
+TEST(System, RepeatedNamesAreNamedWithTheirFirstOwner) {
+  const RigidBody b(1.0, lgvi::Matrix3<double>::Identity());
+  try {
+    lgvi::System(std::vector<RigidBody>(5, b), {"a", "b", "c", "b", "a"});
+    FAIL() << "expected an InvalidInput";
+  } catch (const lgvi::InvalidInput& e) {
+    EXPECT_STREQ(e.what(), "bodies[3].name: \"b\" is already the name of bodies[1]; names must be unique");
+  }
+  EXPECT_EQ(lgvi::System(std::vector<RigidBody>(100000, b)).name(99999), "body99999");
+}
+
 TEST(MutualInteractions, ForcesAndTorquesMatchFiniteDifferences) {
   const System sys = three_bodies();
   const SystemState s = three_body_state();
