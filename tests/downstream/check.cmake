@@ -6,6 +6,12 @@ execute_process(COMMAND ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${WORK_
 if(rc)
   message(FATAL_ERROR "cmake --install failed: ${rc}")
 endif()
+# The licence and the notices come with every install.
+foreach(doc LICENSE THIRD-PARTY-NOTICES.md CITATION.cff)
+  if(NOT EXISTS ${WORK_DIR}/prefix/share/doc/lgvi/${doc})
+    message(FATAL_ERROR "cmake --install did not install share/doc/lgvi/${doc}")
+  endif()
+endforeach()
 execute_process(COMMAND ${CMAKE_COMMAND} -S ${SOURCE_DIR} -B ${WORK_DIR}/build -DCMAKE_BUILD_TYPE=Release
                         -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
