@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Gyro noise on a sampled attitude controller, written as an lgvi.PythonForcing.
+"""Gyro noise, drawn once per control sample, in a PD attitude controller (an lgvi.PythonForcing).
 
 A spacecraft (mass + inertia) detumbles under a PD law that reads a noisy gyro:
     M = -k_p e_v - k_d (Omega + n_k),  e = q_target^* q (e_s >= 0),

@@ -16,7 +16,10 @@ namespace {
 
 // Checkpoint file: magic, version, then fixed fields and length-prefixed arrays.
 constexpr char checkpoint_magic[8] = {'L', 'G', 'V', 'I', 'C', 'K', 'P', 'T'};
-constexpr std::int64_t checkpoint_version = 3;  // 3: N bodies, linear momentum statistics
+// 3: N bodies, linear momentum statistics; 4: the same layout, written by an lgvi whose
+// central field gives a body of mass + inertia its gravity-gradient term (resume_run
+// refuses to continue an older one with the new model unless the scenario says model = "point").
+constexpr std::int64_t checkpoint_version = 4;
 
 }  // namespace
 
@@ -82,10 +85,11 @@ Checkpoint read_checkpoint(const std::string& path) {
   pos = sizeof checkpoint_magic;
   std::int64_t version = 0;
   get(version);
-  // Version 2 (one body, no linear momentum statistics) still resumes.
-  if (version != checkpoint_version && version != 2)
+  // Versions 2 (one body, no linear momentum statistics) and 3 still resume.
+  if (version != checkpoint_version && version != 2 && version != 3)
     throw InvalidInput(path + ": checkpoint version " + std::to_string(version) + " is not supported by this lgvi");
   Checkpoint c;
+  c.version = version;
   get(c.k);
   std::vector<double> st;
   get_vec(st);

@@ -50,6 +50,7 @@ struct Checkpoint {
   SinkPosition sink;
   std::int64_t checkpoint_every = 0;
   std::string scenario_name;  ///< the original file's stem (the copy in the run folder is scenario.toml)
+  std::int64_t version = 0;   ///< the file's format version (read_checkpoint sets it; written: the current)
 };
 
 /// Writes `path` atomically (temporary file + rename). Binary, native

@@ -704,8 +704,21 @@ EnsemblePlan plan_of_folder(const std::string& dir, bool check_members) {
 Prepared prepare(const std::string& sweep_path, const EnsembleOptions& opt) {
   Prepared p;
   p.dir = opt.out_dir;
+  // Read once p.dir is known (a new ensemble's default folder is the sweep's stem).
+  auto changes_file = [&p] { return fs::path(p.dir) / "changes_not_errors.json"; };
   if (opt.resume) {
     p.plan = plan_of_folder(p.dir);
+    if (!fs::exists(changes_file())) {
+      // A folder begun by an lgvi before changes_not_errors.json, which ran a body given by mass +
+      // inertia in a central field as a point mass: its members must not continue with the
+      // gravity-gradient model (members.csv would mix the two physics).
+      if (has_gravity_gradient_body(parse_scenario(p.plan.member_toml(0), p.plan.scenario_name)))
+        throw InvalidInput("--resume: '" + p.dir + "' was begun by an lgvi that ran a body given by mass + inertia "
+                           "as a point mass in the central field; this one gives it the gravity-gradient torque. Add "
+                           "model = \"point\" to [potential] in " + (fs::path(p.dir) / "scenario.toml").string() +
+                           " to continue as it began, or run the ensemble again");
+      write_file_atomically(changes_file().string(), json_text(Json(p.plan.changes_not_errors)) + "\n");
+    }
     cut_torn_line(p.dir);
   } else {
     p.plan = read_ensemble(sweep_path);
@@ -719,8 +732,7 @@ Prepared prepare(const std::string& sweep_path, const EnsembleOptions& opt) {
       write_file_atomically((fs::path(p.dir) / "scenario.toml").string(), p.plan.scenario_text);
       // Which members.csv columns are changes, not errors, for the figures (drawn by Python
       // from the folder, without the compiled module that reads the sweep).
-      write_file_atomically((fs::path(p.dir) / "changes_not_errors.json").string(),
-                            json_text(Json(p.plan.changes_not_errors)) + "\n");
+      write_file_atomically(changes_file().string(), json_text(Json(p.plan.changes_not_errors)) + "\n");
       std::ofstream(fs::path(p.dir) / "journal.csv", std::ios::binary | std::ios::trunc);
     } catch (const std::exception& e) {
       throw InvalidInput("--out: '" + p.dir + "' cannot be written: " + e.what());
@@ -868,7 +880,7 @@ void show_ensemble(const std::string& dir, std::ostream& out) {
                                       quantile(values[e], 0.5), quantile(values[e], 0.9), quantile(values[e], 1.0)));
   }
   if (marked)
-    row("  (a change)", "not conserved by these members' dynamics (forcing, a uniform field, J2): the column "
+    row("  (a change)", "not conserved by these members' dynamics (a forcing or an external field): the column "
                         "measures how much the quantity changed, not an error of the method");
 }
 

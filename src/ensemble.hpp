@@ -54,7 +54,7 @@ struct EnsemblePlan {
   std::string header;                       ///< members.csv's header line (no newline)
   /// The members.csv columns named "..._error" that measure a change, not an
   /// error of the method: a momentum that some member's dynamics does not
-  /// conserve (forcing, a uniform field, J2; conservation_laws), as
+  /// conserve (a forcing or an external field; conservation_laws), as
   /// summary.json's conserved.changes_not_errors says for one run.
   std::vector<std::string> changes_not_errors;
   TrajectoryFormat output_format = TrajectoryFormat::Csv;  ///< the base scenario's: members.npz / .h5 beside the CSV

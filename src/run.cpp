@@ -277,6 +277,11 @@ int resume_run(const std::string& dir, RunOptions opt) {
   if (c.k > sc.integrator.steps)
     throw InvalidInput(dir + "/checkpoint.bin: step " + std::to_string(c.k) + " is beyond the scenario's " +
                        std::to_string(sc.integrator.steps) + " steps");
+  if (c.version < 4 && has_gravity_gradient_body(sc))
+    throw InvalidInput(dir + "/checkpoint.bin: written by an lgvi that ran a body given by mass + inertia as a point "
+                       "mass in the central field; this one gives it the gravity-gradient torque, and continuing would "
+                       "change the physics mid-run. Add model = \"point\" to [potential] in " + dir +
+                       "/scenario.toml to continue as it began, or run the scenario again from the start");
   return execute(sc, dir, opt, &c);
 }
 

@@ -3,6 +3,7 @@
 
 #include <lgvi/error.hpp>
 
+#include <fmt/format.h>
 #include <toml++/toml.h>
 
 #include <Eigen/Cholesky>
@@ -223,8 +224,9 @@ PotentialSpec read_potential(const Reader& r, const toml::table& root) {
   } else if (kind == "central") {
     r.only_keys(t, "potential", {"kind", "mu", "stop_at_contact", "j2", "reference_radius", "pole", "model"});
     p.kind = PotentialKind::Central;
-    // "extended" (default): balls as point masses, a mass + inertia body by its
-    // second-order (gravity-gradient) potential; "point": every body a point mass.
+    // How a body given by mass + inertia feels the field: "extended" (default), its
+    // second-order (gravity-gradient) potential; "point", a point mass (lgvi before
+    // that model). Balls are point masses in both.
     if (t.contains("model")) p.point_masses = r.string(t, "potential", "model", {"extended", "point"}) == "point";
     if (const toml::node* n = t.get("stop_at_contact")) {
       if (!n->is_boolean()) r.fail("potential.stop_at_contact", "must be true or false");
@@ -372,13 +374,17 @@ std::string convert_orbit_attitude(const Reader& r, toml::table& root, const Rig
       r.fail("initial.orbit.eccentricity", "must be in [0, 1): orbit sets up closed (circular or elliptic) orbits");
     // An orbit that starts inside the central body or passes through it: its
     // periapsis a (1 - e) below the surface, where the reference radius gives one.
-    if (pot.reference_radius > 0.0 && a * (1.0 - e) < pot.reference_radius)
-      r.fail(e > 0.0 && a >= pot.reference_radius ? "initial.orbit.eccentricity" : a_key,
-             "the orbit's periapsis " + std::to_string(a * (1.0 - e)) +
-                 (e > 0.0 ? " (semi-major axis " + std::to_string(a) + " times 1 - eccentricity)" : std::string()) +
-                 " is below the central body's surface, potential.reference_radius " +
-                 std::to_string(pot.reference_radius) + "; give a periapsis above it (altitude > 0" +
-                 (e > 0.0 ? ", or a smaller eccentricity)" : ")"));
+    if (pot.reference_radius > 0.0 && a * (1.0 - e) < pot.reference_radius) {
+      const bool too_eccentric = e > 0.0 && a >= pot.reference_radius;
+      r.fail(too_eccentric ? "initial.orbit.eccentricity" : a_key,
+             fmt::format("the orbit's periapsis {}{} is below the central body's surface, "
+                         "potential.reference_radius {}; {}",
+                         a * (1.0 - e), e > 0.0 ? fmt::format(" (semi-major axis {} times 1 - eccentricity)", a) : "",
+                         pot.reference_radius,
+                         too_eccentric                          ? "give a smaller eccentricity or a larger orbit"
+                         : a_key == "initial.orbit.altitude" ? "give an altitude above 0 (and the periapsis above it)"
+                                                               : "give a radius above it"));
+    }
     if (!o.contains("inclination"))
       r.fail("initial.orbit.inclination", "missing (degrees from the scenario's x-y plane, e.g. inclination = 51.6)");
     const double inc = opt("inclination") * deg, raan = opt("raan") * deg, argp = opt("arg_periapsis") * deg,
@@ -1059,6 +1065,13 @@ ConservationLaws conservation_laws(const Scenario& sc) {
     laws.angular_momentum = ConservationLaws::Angular::AlongPole;
   laws.linear_momentum = !laws.forced && k == PotentialKind::None;
   return laws;
+}
+
+bool has_gravity_gradient_body(const Scenario& sc) {
+  if (sc.potential.kind != PotentialKind::Central || sc.potential.point_masses) return false;
+  for (const RigidBody& b : sc.system.bodies())
+    if (b.balls().empty()) return true;
+  return false;
 }
 
 const char* to_string(PotentialKind k) {

@@ -57,7 +57,7 @@ struct PotentialSpec {
   PotentialKind kind = PotentialKind::None;
   double mu = 0.0;                                   // central
   bool stop_at_contact = false;                      // central: stop when a ball touches the source
-  bool point_masses = false;                         // central: model = "point" (no gravity-gradient torque)
+  bool point_masses = false;                         // central: model = "point" (mass + inertia bodies: no torque)
   double j2 = 0.0, reference_radius = 0.0;           // central: oblate source (J2 = 0: a point)
   Vector3<double> pole = Vector3<double>::UnitZ();   // central: the source's axis of symmetry
   Vector3<double> g = Vector3<double>::Zero();     // uniform, heavy-top
@@ -122,6 +122,12 @@ struct ConservationLaws {
   bool linear_momentum = false;
 };
 ConservationLaws conservation_laws(const Scenario& sc);
+
+/// Whether a body given by mass + inertia feels a central field's
+/// gravity-gradient term ([potential] kind = "central" without model =
+/// "point"): what lgvi before that model ran as a point mass, so that a run or
+/// an ensemble begun by such an lgvi must not be continued with it.
+bool has_gravity_gradient_body(const Scenario& sc);
 
 /// Reads and validates a scenario file. Throws InvalidInput with a message
 /// "FILE: KEY: what is wrong; how to fix it".

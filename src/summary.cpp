@@ -33,7 +33,8 @@ Json setup_json(const Scenario& s) {
     // the torque: a mass + inertia body as a point mass feels none).
     pot["model"] = s.potential.point_masses ? "point" : "extended";
     pot["model_acts"] = s.potential.point_masses
-                            ? "every body a point mass at its centre of mass (no gravity-gradient torque)"
+                            ? "each ball a point mass; a body given by mass + inertia a point mass at its centre "
+                              "of mass (no gravity-gradient torque)"
                             : "each ball a point mass; a body given by mass + inertia by its second-order "
                               "(MacCullagh) potential, with the gravity-gradient torque";
     pot["mu"] = s.potential.mu;

@@ -102,8 +102,10 @@ class HeavyTop {
 /// (checked against finite differences of V in tests/test_gravity_gradient.cpp).
 /// The neglected terms are those of the third and higher moments: relative
 /// to the gradient term O(size / r), and O((size / r)^2) for a body whose mass
-/// is symmetric about its centre. `Model::PointMass` drops the gradient term
-/// (every body, balls included, a point mass m at x: no torque).
+/// is symmetric about its centre; the model holds for r much larger than the
+/// body (a satellite, not a close pass). `Model::PointMass` drops the gradient
+/// term: a mass + inertia body is then a point mass m at x (no torque), the
+/// model of lgvi before this term; bodies of balls are the same in both.
 ///
 /// Close encounters: a ball (or point mass) whose centre reaches the source
 /// makes the evaluation throw StepFailure naming the ball and the distance,
@@ -127,11 +129,11 @@ class HeavyTop {
 /// gradient torque by J2 (R / r)^2, is not modelled).
 class CentralGravity {
  public:
-  /// How the field acts on a body given by mass and inertia (bodies of balls:
-  /// each ball a point mass, with either model unless PointMass is asked for).
+  /// How the field acts on a body given by mass and inertia. A body of balls
+  /// is the same in both: each ball a point mass (a uniform ball attracts as one).
   enum class Model {
-    Extended,  ///< balls as point masses; a mass + inertia body by its second-order potential
-    PointMass  ///< every body a point mass m at its centre of mass (no torque)
+    Extended,  ///< its second-order (MacCullagh) potential, with the gravity-gradient torque
+    PointMass  ///< a point mass m at its centre of mass (no torque)
   };
   /// A point source (J2 = 0).
   CentralGravity(const RigidBody& body, double mu, bool stop_at_contact = false, Model model = Model::Extended)
@@ -147,11 +149,11 @@ class CentralGravity {
       if (!(pole.norm() > 0.0 && pole.allFinite())) throw InvalidInput("potential.pole: must be a non-zero vector");
       pole_ = pole.normalized();
     }
-    if (body.balls().empty() || model == Model::PointMass) {
+    if (body.balls().empty()) {
       rho_.emplace_back(Vector3<double>::Zero());
       mass_.push_back(body.mass());
       radius2_.push_back(0.0);
-      if (body.balls().empty() && model == Model::Extended) {
+      if (model == Model::Extended) {
         gradient_ = true;
         inertia_ = body.inertia();
         trace_inertia_ = inertia_.trace();
@@ -213,8 +215,9 @@ class CentralGravity {
 
   [[noreturn]] void close_encounter(std::size_t i, double d2) const {
     if (std::isnan(d2)) throw StepFailure("the state became non-finite", "try a smaller step");
-    throw StepFailure((rho_.size() == 1 && radius2_[0] == 0.0 ? std::string("the point-mass body")
-                                                             : "ball " + std::to_string(i)) +
+    throw StepFailure((gradient_ ? std::string("the body's centre of mass")
+                       : rho_.size() == 1 && radius2_[0] == 0.0 ? std::string("the point-mass body")
+                                                                : "ball " + std::to_string(i)) +
                           " reached the centre of the central field (distance " + std::to_string(std::sqrt(d2)) +
                           (radius2_[i] > 0.0 ? " <= its radius " + std::to_string(std::sqrt(radius2_[i])) : "") +
                           "): a collision with the attracting point, where the potential is not defined",

@@ -72,7 +72,7 @@ class EnsembleResult:
     ``columns`` maps each name to a numpy array (one entry per member, in member order), except
     ``error``, a list of str ("" for members that completed). ``completed`` is a bool array.
     ``changes_not_errors``: the "..._error" columns that measure the change of a quantity the
-    members' dynamics does not conserve (forcing, a uniform field, J2), not an error of the method.
+    members' dynamics does not conserve (a forcing or an external field), not an error of the method.
     """
 
     def __init__(self, text, changes_not_errors=()):

@@ -239,9 +239,9 @@ MAX_PATHS = 50  # bodies whose paths are drawn (a gas of thousands would be a bl
 
 
 def _momentum_words(summary):
-    """("error" or "change", a note) for the angular and the linear momentum: a change where the
+    """("error" or "change") for the angular and for the linear momentum: a change where the
     run's dynamics does not conserve the quantity (summary["conserved"]["changes_not_errors"]: a
-    forcing, a uniform field, J2), so that a figure does not call it an error of the method."""
+    forcing or an external field), so that a figure does not call it an error of the method."""
     changes = (summary or {}).get("conserved", {}).get("changes_not_errors", [])
     angular = "change" if "max_momentum_error" in changes else "error"
     linear = "change" if "max_linear_momentum_error" in changes else "error"

@@ -4,8 +4,9 @@ Built in (compiled, as in scenario files; pass them as ``Scenario(potential=...)
 
 * ``none()``: the free body, V = 0;
 * ``central(mu)``: central gravity V = -mu sum_i m_i / |x + R rho_i| over the
-  body's balls (a body without balls is a point mass), optionally oblate
-  (``j2``, ``reference_radius``, ``pole``);
+  body's balls (a body given by mass and inertia: its second-order potential,
+  with the gravity-gradient torque), optionally oblate (``j2``,
+  ``reference_radius``, ``pole``);
 * ``uniform(g)``: uniform gravity V = -m g . x.
 
 They are plain dicts, ``{"kind": "central", "mu": 1.0}``, the [potential]
@@ -41,7 +42,8 @@ def central(mu, stop_at_contact=False, j2=None, reference_radius=None, pole=None
     feels the second-order (MacCullagh) potential V = -mu m / r - (mu / 2 r^3)
     (tr J - 3 u^T J u), u the direction to the body in body axes, whose
     gravity-gradient torque is (3 mu / r^3) u x J u. ``model="point"`` makes
-    every body a point mass at its centre of mass instead (no torque).
+    such a body a point mass at its centre of mass instead (no torque; balls
+    are point masses either way).
     With ``j2`` (and its ``reference_radius`` R_e > 0, the source's equatorial
     radius) each ball feels V = -mu m / r [1 - J2 (R_e / r)^2 P2(pole . r/r)]
     about ``pole`` (3,), a unit vector (default z). With ``stop_at_contact``

@@ -545,3 +545,29 @@ def test_members_table_in_the_output_format_equals_the_csv_and_is_identical_for_
         else:
             assert arrays[name].dtype == np.float64
             np.testing.assert_array_equal(arrays[name], np.array([float(v) for v in column]), err_msg=name)
+
+
+def test_resuming_a_folder_from_before_the_labels_writes_them_and_refuses_a_change_of_model(tmp_path):
+    """A folder begun by an lgvi without changes_not_errors.json: --resume writes the file (so the
+    figures drawn at the end label the changes). If its members have a body given by mass + inertia in a
+    central field, which that lgvi ran as a point mass, --resume refuses in one line: finishing them with
+    the gravity-gradient model would mix two physics in one members.csv."""
+    path = sweep(tmp_path, members=4, duration=2.0)
+    out = tmp_path / "balls"
+    assert ensemble(path, "--out", out).returncode == 0
+    (out / "changes_not_errors.json").unlink()
+    proc = ensemble("--resume", out)
+    assert proc.returncode == 0, proc.stderr
+    assert (out / "changes_not_errors.json").read_text() == '["max_linear_momentum_error"]\n'
+
+    satellite = (tmp_path / "paper-orbit.toml").read_text()
+    start, end = satellite.index("[body]"), satellite.index("[potential]")
+    (tmp_path / "paper-orbit.toml").write_text(
+        satellite[:start] + "[body]\nmass = 3.0\ninertia = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.5]]\n\n"
+        + satellite[end:])
+    out = tmp_path / "satellite"
+    assert ensemble(path, "--out", out).returncode == 0
+    (out / "changes_not_errors.json").unlink()
+    proc = ensemble("--resume", out)
+    assert proc.returncode == 2
+    assert proc.stderr.count("\n") == 1 and "gravity-gradient" in proc.stderr and 'model = "point"' in proc.stderr

@@ -180,3 +180,45 @@ def test_progress_line_only_on_a_terminal(tmp_path):
     piped = subprocess.run([BINARY, "run", str(scenario(tmp_path)), "--out", str(tmp_path / "pipe"), "--no-figures"],
                            capture_output=True, text=True)
     assert piped.returncode == 0 and "steps/s" not in piped.stderr and piped.stderr == ""
+
+
+SATELLITE = """[body]
+mass = 30.0
+inertia = [[2.98, 0.0, 0.0], [0.0, 20.48, 0.0], [0.0, 0.0, 22.98]]
+[potential]
+kind = "central"
+mu = 3.986004418e14
+[initial]
+position = [6878137.0, 0.0, 0.0]
+quaternion = [0.9987502603949663, 0.0, 0.0, 0.04997916927067833]
+velocity = [0.0, 7612.608173223869, 0.0]
+omega = [0.0, 0.0, 1.1067834463349404e-3]
+[integrator]
+step = 10.0
+duration = 200.0
+"""
+
+
+def test_a_checkpoint_from_before_the_gravity_gradient_model_does_not_resume_with_it(tmp_path):
+    """A checkpoint of version 3 was written by an lgvi that ran a body given by mass + inertia as a
+    point mass in a central field: resuming it with the gravity-gradient model would change the physics
+    mid-run, so it is refused in one line naming the fix; with model = "point" added to the run's scenario
+    copy it resumes (and a version 4 checkpoint resumes as it is)."""
+    path = tmp_path / "sat.toml"
+    path.write_text(SATELLITE)
+    out = tmp_path / "sat"
+    proc = run(path, "--out", out, "--checkpoint-every", "5")
+    assert proc.returncode == 0, proc.stderr
+    checkpoint = out / "checkpoint.bin"
+    data = bytearray(checkpoint.read_bytes())
+    assert data[:8] == b"LGVICKPT" and int.from_bytes(data[8:16], "little") == 4
+    assert run("--resume", out).returncode == 0
+    data[8:16] = (3).to_bytes(8, "little")
+    checkpoint.write_bytes(bytes(data))
+    proc = run("--resume", out)
+    assert proc.returncode == 2
+    assert proc.stderr.count("\n") == 1 and "gravity-gradient" in proc.stderr and 'model = \\"point\\"' not in proc.stderr
+    assert 'add model = "point" to [potential]' in proc.stderr.lower()
+    scenario_copy = out / "scenario.toml"
+    scenario_copy.write_text(scenario_copy.read_text().replace('kind = "central"', 'kind = "central"\nmodel = "point"'))
+    assert run("--resume", out).returncode == 0

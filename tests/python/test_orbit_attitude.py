@@ -92,8 +92,8 @@ def test_leo_initial_lvlh_angles_and_rotational_summary(tmp_path):
 
 
 def co_rotating(step, orbits=1.0):
-    """A point mass (no balls: no gravity-gradient torque) with an isotropic
-    inertia (so that a constant Omega is a free motion whatever its axis) on a
+    """A body given by mass and an isotropic inertia (no gravity-gradient
+    torque, u x J u = 0, and a constant Omega is a free motion whatever its axis) on a
     circular orbit, set turning with the LVLH frame at roll, pitch, yaw =
     (10, 20, 30) deg."""
     T = 2 * math.pi * math.sqrt(7.0e6 ** 3 / 3.986004418e14)
