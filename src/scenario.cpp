@@ -203,8 +203,10 @@ RigidBody read_shape(const Reader& r, const toml::table& t, const std::string& p
   }
   try {
     return sphere ? RigidBody::sphere(mass, axes.x()) : RigidBody::ellipsoid(mass, axes);
-  } catch (const InvalidInput& e) {  // an inertia that overflows or underflows
-    r.fail("", renamed(e.what(), prefix));
+  } catch (const InvalidInput&) {  // an inertia that overflows or underflows
+    r.fail(prefix + (sphere ? ".radius" : ".semi_axes"),
+           "gives no finite, positive-definite inertia with mass " + fmt::format("{}", mass) +
+               " (m r^2 overflows or underflows); give the body in other units");
   }
 }
 

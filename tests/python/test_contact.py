@@ -67,6 +67,8 @@ def test_infall_stops_at_the_first_step_of_overlap_with_a_whole_partial_output(t
     assert ball_gap(rows[-2:], balls) < 0.0
     contact = summary["contacts"][0]
     assert contact["first_step"] == k and contact["bodies"] == ["primary", "secondary"]
+    show = subprocess.run([BINARY, "show", str(out)], capture_output=True, text=True).stdout
+    assert f"1 episode(s); the first: primary and secondary, steps {k} to {k}" in show
     assert contact["max_depth"] == pytest.approx(-ball_gap(rows[-2:], balls), abs=1e-12)
 
 
