@@ -216,6 +216,35 @@ TEST(ContactDetector, FindsExactlyThePairsOfOverlappingBallsOfAllPairs) {
   }
 }
 
+TEST(ContactDetector, TwoRubblePilesThroughEachOtherGiveTheDeepestPairOfAllBalls) {
+  // Two bodies of 400 balls each (radii 0.02 to 0.1 in a ball of radius 1),
+  // their centres 0.5 apart: the balls swept along x find the deepest
+  // overlap that a test of all 160000 pairs of balls finds.
+  std::vector<lgvi::Ball> balls;
+  for (int i = 0; i < 400; ++i) {
+    V3 p = t::random_vector();
+    while (p.norm() > 1.0) p = t::random_vector();
+    balls.push_back({p, 1.0, t::uniform(0.02, 0.1)});
+  }
+  const System sys({RigidBody::from_balls(balls), RigidBody::from_balls(balls)});
+  SystemState s(2);
+  s.x[1] = V3(0.5, 0.1, -0.2);
+  s.q = {t::random_unit_quaternion(), t::random_unit_quaternion()};
+  double deepest = -1.0;
+  for (const lgvi::Ball& u : sys.body(0).balls())
+    for (const lgvi::Ball& v : sys.body(1).balls()) {
+      const double d = ((s.x[1] + s.q[1].matrix() * v.position) - (s.x[0] + s.q[0].matrix() * u.position)).norm();
+      if (d < u.radius + v.radius) deepest = std::max(deepest, u.radius + v.radius - d);
+    }
+  ASSERT_GT(deepest, 0.0);
+  const ContactDetector detector(sys);
+  const std::vector<Contact>& found = detector.find(s);
+  ASSERT_EQ(found.size(), 1u);
+  // The same rotations (matrices) and sums: equal to round-off of the order
+  // of the positions (a few eps); 1e-14 allowed.
+  EXPECT_NEAR(found[0].depth(), deepest, 1e-14);
+}
+
 TEST(ContactDetector, EllipsoidsAndABallJustApartAndJustOverlapping) {
   // Ellipsoid B placed to touch A on the side n (as above), a body of two
   // balls on the side -n with its ball 0 touching A (its centre rb out along

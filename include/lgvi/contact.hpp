@@ -11,7 +11,8 @@
 // with it). Every body is first bounded by a sphere about its centre of mass
 // (RigidBody::bounding_radius); the bounding spheres are sorted along x and
 // swept (O(N log N) per call), and only pairs whose bounding spheres meet are
-// tested exactly, piece by piece (ball by ball for bodies of balls):
+// tested exactly, piece by piece (ball by ball for bodies of balls, the
+// balls of one swept along x against those of the other):
 //
 //  * two spheres (balls, spheres, points as spheres of radius 0) overlap when
 //    the distance d of their centres is below r_a + r_b (or is 0);
@@ -136,6 +137,7 @@ class ContactDetector {
     bool ellipsoid = false;
     Matrix3<double> m;
     std::ptrdiff_t ball = -1;
+    double bound = 0.0;  ///< a radius about the centre that holds the piece (the largest semi-axis)
   };
 
   /// The pieces of body a at `s` within `range` of `near` (every piece of a
@@ -145,12 +147,16 @@ class ContactDetector {
     out.clear();
     const RigidBody& body = sys_.body(a);
     switch (body.extent()) {
-      case Extent::Point: out.push_back({s.x[a], 0.0, false, Matrix3<double>::Zero(), -1}); break;
-      case Extent::Sphere: out.push_back({s.x[a], body.semi_axes().x(), false, Matrix3<double>::Zero(), -1}); break;
+      case Extent::Point: out.push_back({s.x[a], 0.0, false, Matrix3<double>::Zero(), -1, 0.0}); break;
+      case Extent::Sphere: {
+        const double r = body.semi_axes().x();
+        out.push_back({s.x[a], r, false, Matrix3<double>::Zero(), -1, r});
+        break;
+      }
       case Extent::Ellipsoid: {
         const Matrix3<double> r = s.q[a].matrix();
         const Vector3<double> s2 = body.semi_axes().cwiseProduct(body.semi_axes());
-        out.push_back({s.x[a], 0.0, true, r * s2.asDiagonal() * r.transpose(), -1});
+        out.push_back({s.x[a], 0.0, true, r * s2.asDiagonal() * r.transpose(), -1, body.semi_axes().maxCoeff()});
         break;
       }
       case Extent::Balls: {
@@ -159,7 +165,8 @@ class ContactDetector {
         for (std::size_t i = 0; i < balls.size(); ++i) {
           const Vector3<double> c = s.x[a] + r * balls[i].position;
           if ((c - near).norm() <= balls[i].radius + range)
-            out.push_back({c, balls[i].radius, false, Matrix3<double>::Zero(), static_cast<std::ptrdiff_t>(i)});
+            out.push_back({c, balls[i].radius, false, Matrix3<double>::Zero(), static_cast<std::ptrdiff_t>(i),
+                           balls[i].radius});
         }
         break;
       }
@@ -170,25 +177,37 @@ class ContactDetector {
   bool pair(const SystemState& s, std::size_t a, std::size_t b, Contact& c) const {
     pieces(s, a, s.x[b], radius_[b], pieces_a_);
     pieces(s, b, s.x[a], radius_[a], pieces_b_);
+    // b's pieces sorted along x (ties by ball): each piece of a is tested
+    // only against those within reach along x, so that two bodies of many
+    // balls cost O(S log S), not O(S_a S_b).
+    std::sort(pieces_b_.begin(), pieces_b_.end(), [](const Piece& u, const Piece& v) {
+      return u.centre.x() != v.centre.x() ? u.centre.x() < v.centre.x() : u.ball < v.ball;
+    });
+    double bound_b = 0.0;
+    for (const Piece& v : pieces_b_) bound_b = std::max(bound_b, v.bound);
     bool any = false;
-    for (const Piece& u : pieces_a_)
-      for (const Piece& v : pieces_b_) {
-        const Vector3<double> r = v.centre - u.centre;
+    for (const Piece& u : pieces_a_) {
+      const double from = u.centre.x() - u.bound - bound_b, to = u.centre.x() + u.bound + bound_b;
+      auto v = std::lower_bound(pieces_b_.begin(), pieces_b_.end(), from,
+                                [](const Piece& p, double x) { return p.centre.x() < x; });
+      for (; v != pieces_b_.end() && v->centre.x() <= to; ++v) {
+        const Vector3<double> r = v->centre - u.centre;
         const double d = r.norm();
-        double reach = u.radius + v.radius;
-        if (u.ellipsoid || v.ellipsoid) {
+        double reach = u.radius + v->radius;
+        if (u.ellipsoid || v->ellipsoid) {
           // A sphere is M = r^2 I; along the x axis when the centres coincide.
           const Vector3<double> dir = d > 0.0 ? Vector3<double>(r / d) : Vector3<double>::UnitX();
           auto shape = [](const Piece& p) {
             return p.ellipsoid ? p.m : Matrix3<double>(Matrix3<double>::Identity() * (p.radius * p.radius));
           };
-          reach = contact_reach(dir, shape(u), !u.ellipsoid && u.radius == 0.0, shape(v),
-                                !v.ellipsoid && v.radius == 0.0);
+          reach = contact_reach(dir, shape(u), !u.ellipsoid && u.radius == 0.0, shape(*v),
+                                !v->ellipsoid && v->radius == 0.0);
         }
         if (!(d < reach || d == 0.0)) continue;
-        if (!any || reach - d > c.depth()) c = Contact{a, b, u.ball, v.ball, d, reach};
+        if (!any || reach - d > c.depth()) c = Contact{a, b, u.ball, v->ball, d, reach};
         any = true;
       }
+    }
     return any;
   }
 
