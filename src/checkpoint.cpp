@@ -59,6 +59,20 @@ void write_checkpoint(const std::string& path, const Checkpoint& c) {
   put(c.checkpoint_every);
   put(static_cast<std::int64_t>(c.scenario_name.size()));
   bytes += c.scenario_name;
+  // Contact episodes: a trailer that checkpoints written before it lack (they
+  // resume with none).
+  put(s.contact_episodes);
+  put(static_cast<std::int64_t>(s.contacts.size()));
+  for (const ContactEpisode& e : s.contacts) {
+    put(e.a);
+    put(e.b);
+    put(e.first_k);
+    put(e.last_k);
+    put(e.first_t);
+    put(e.last_t);
+    put(e.max_depth);
+    put(e.distance);
+  }
   write_file_atomically(path, bytes);
 }
 
@@ -152,8 +166,26 @@ Checkpoint read_checkpoint(const std::string& path) {
   get(c.checkpoint_every);
   std::int64_t name_size = 0;
   get(name_size);
-  if (name_size < 0 || pos + static_cast<std::size_t>(name_size) != bytes.size()) fail();
+  if (name_size < 0 || pos + static_cast<std::size_t>(name_size) > bytes.size()) fail();
   c.scenario_name = bytes.substr(pos, static_cast<std::size_t>(name_size));
+  pos += static_cast<std::size_t>(name_size);
+  if (pos == bytes.size()) return c;  // written before contact episodes were recorded
+  std::int64_t listed = 0;
+  get(r.contact_episodes);
+  get(listed);
+  if (listed < 0 || static_cast<std::size_t>(listed) > RunStatistics::max_listed_contacts) fail();
+  r.contacts.resize(static_cast<std::size_t>(listed));
+  for (ContactEpisode& e : r.contacts) {
+    get(e.a);
+    get(e.b);
+    get(e.first_k);
+    get(e.last_k);
+    get(e.first_t);
+    get(e.last_t);
+    get(e.max_depth);
+    get(e.distance);
+  }
+  if (pos != bytes.size()) fail();
   return c;
 }
 

@@ -15,6 +15,17 @@
 
 namespace lgvi::app {
 
+/// A contact episode of two bodies a < b: the steps first_k..last_k, one
+/// after the other, at which they overlap (contact.hpp), and the deepest
+/// overlap over them.
+struct ContactEpisode {
+  std::int64_t a = 0, b = 0;
+  std::int64_t first_k = 0, last_k = 0;
+  double first_t = 0.0, last_t = 0.0;
+  double max_depth = 0.0;
+  double distance = 0.0;  ///< the pieces' centre distance at the deepest overlap
+};
+
 /// Diagnostics over every step, written or not.
 struct RunStatistics {
   double energy0 = 0.0;
@@ -37,6 +48,12 @@ struct RunStatistics {
   Vector3<double> spin0 = Vector3<double>::Zero();
   double min_spin = 0.0, max_spin = 0.0, max_spin_change = 0.0;
   double work = 0.0;  ///< [[forcing]]: the work done up to last_k (not checkpointed: the stepper keeps it)
+  /// Contact episodes (on_contact "warn", or the one that stopped a run), in
+  /// the order they began; at most max_listed_contacts of them,
+  /// contact_episodes counts them all.
+  std::vector<ContactEpisode> contacts;
+  std::int64_t contact_episodes = 0;
+  static constexpr std::size_t max_listed_contacts = 10000;
 };
 
 /// Everything needed to continue a run bit-identically: the step index, the

@@ -165,9 +165,59 @@ std::string renamed(const std::string& message, const std::string& prefix) {
   return prefix + message.substr(4);
 }
 
-/// A body from a table with mass + inertia or balls; `prefix` names it in
-/// messages ("body" or "bodies[2]").
+/// A body given by a shape (`shape` = "sphere" with `radius`, or
+/// "ellipsoid" with `semi_axes` along the body axes), uniform, with `density`
+/// or `mass`: its mass and inertia computed (RigidBody::sphere, ellipsoid).
+RigidBody read_shape(const Reader& r, const toml::table& t, const std::string& prefix) {
+  const std::string shape = r.string(t, prefix, "shape", {"sphere", "ellipsoid"});
+  for (const char* k : {"inertia", "ball", "physical"})
+    if (t.contains(k))
+      r.fail(prefix + "." + k, "a shape's mass and inertia are computed (uniform density): give shape with "
+                               "density or mass, without inertia, balls or physical");
+  if (t.contains("density") == t.contains("mass"))
+    r.fail(prefix, "a shape needs exactly one of density (mass = density x volume) or mass");
+  const bool sphere = shape == "sphere";
+  const char* other = sphere ? "semi_axes" : "radius";
+  if (t.contains(other))
+    r.fail(prefix + "." + other, sphere ? "belongs to shape = \"ellipsoid\"; a sphere has radius"
+                                        : "belongs to shape = \"sphere\"; an ellipsoid has semi_axes = [a, b, c]");
+  Vector3<double> axes;
+  if (sphere) {
+    const double radius = r.number(t, prefix, "radius");
+    if (!(radius > 0.0)) r.fail(prefix + ".radius", "must be a number > 0");
+    axes.setConstant(radius);
+  } else {
+    axes = r.vector<3>(t, prefix, "semi_axes");
+    if (!(axes.minCoeff() > 0.0)) r.fail(prefix + ".semi_axes", "must be 3 numbers > 0 (along the body axes)");
+  }
+  double mass = 0.0;
+  if (t.contains("density")) {
+    const double density = r.number(t, prefix, "density");
+    if (!(density > 0.0)) r.fail(prefix + ".density", "must be a number > 0");
+    mass = density * ellipsoid_volume(axes);
+    if (!(std::isfinite(mass) && mass > 0.0))
+      r.fail(prefix + ".density", "density x volume = " + std::to_string(mass) + " is not a finite mass > 0");
+  } else {
+    mass = r.number(t, prefix, "mass");
+    if (!(mass > 0.0)) r.fail(prefix + ".mass", "must be a number > 0");
+  }
+  try {
+    return sphere ? RigidBody::sphere(mass, axes.x()) : RigidBody::ellipsoid(mass, axes);
+  } catch (const InvalidInput&) {  // an inertia that overflows or underflows
+    r.fail(prefix + (sphere ? ".radius" : ".semi_axes"),
+           "gives no finite, positive-definite inertia with mass " + fmt::format("{}", mass) +
+               " (m r^2 overflows or underflows); give the body in other units");
+  }
+}
+
+/// A body from a table with mass + inertia (and optionally a bounding
+/// radius), balls, or a shape; `prefix` names it in messages ("body" or
+/// "bodies[2]").
 RigidBody read_body_table(const Reader& r, const toml::table& t, const std::string& prefix) {
+  const std::string ball_table = "[[" + prefix.substr(0, prefix.find('[')) + ".ball]]";
+  if (t.contains("shape")) return read_shape(r, t, prefix);
+  for (const char* k : {"semi_axes", "density"})
+    if (t.contains(k)) r.fail(prefix + "." + k, "belongs to a shape: give shape = \"sphere\" or \"ellipsoid\" too");
   bool physical = true;
   if (const toml::node* n = t.get("physical")) {
     if (!n->is_boolean()) r.fail(prefix + ".physical", "must be true or false");
@@ -175,8 +225,10 @@ RigidBody read_body_table(const Reader& r, const toml::table& t, const std::stri
   }
   const bool has_balls = t.contains("ball");
   const bool has_mass = t.contains("mass") || t.contains("inertia");
-  if (has_balls && has_mass)
-    r.fail(prefix, "give either mass + inertia or [[" + prefix.substr(0, prefix.find('[')) + ".ball]] entries, not both");
+  if (has_balls && has_mass) r.fail(prefix, "give either mass + inertia or " + ball_table + " entries, not both");
+  if (has_balls && t.contains("radius"))
+    r.fail(prefix + ".radius", "a body of balls is bounded by its balls; radius belongs to mass + inertia (a "
+                               "bounding sphere) or to shape = \"sphere\"");
   // The library's messages name the field ("body.inertia: ...") but not the file.
   auto checked = [&](auto&& make) -> RigidBody {
     try {
@@ -187,17 +239,23 @@ RigidBody read_body_table(const Reader& r, const toml::table& t, const std::stri
   };
   if (!has_balls) {
     if (!has_mass)
-      r.fail(prefix, "missing: give mass + inertia, or one or more [[" + prefix.substr(0, prefix.find('[')) + ".ball]]");
+      r.fail(prefix, "missing: give mass + inertia, one or more " + ball_table + ", or shape = \"sphere\" | "
+                     "\"ellipsoid\" with density or mass");
     const double mass = r.number(t, prefix, "mass");
     const Matrix3<double> inertia = r.matrix3(t, prefix, "inertia");
-    return checked([&] {
+    RigidBody body = checked([&] {
       return RigidBody(mass, inertia,
                        physical ? RigidBody::TriangleInequality::Require : RigidBody::TriangleInequality::Waive);
     });
+    if (!t.contains("radius")) return body;
+    const double radius = r.number(t, prefix, "radius");
+    if (!(radius > 0.0)) r.fail(prefix + ".radius", "must be a number > 0 (a sphere about the centre of mass that "
+                                                     "holds the body)");
+    return body.bounded_by(radius);
   }
   const toml::array* arr = t.get("ball")->as_array();
   if (!arr || arr->empty() || !arr->is_array_of_tables())
-    r.fail(prefix + ".ball", "must be one or more [[" + prefix.substr(0, prefix.find('[')) + ".ball]] tables");
+    r.fail(prefix + ".ball", "must be one or more " + ball_table + " tables");
   if (arr->size() > 100000) r.fail(prefix + ".ball", "more than 100000 balls; merge them into mass + inertia");
   std::vector<Ball> balls;
   for (std::size_t i = 0; i < arr->size(); ++i) {
@@ -211,7 +269,7 @@ RigidBody read_body_table(const Reader& r, const toml::table& t, const std::stri
 
 RigidBody read_body(const Reader& r, const toml::table& root) {
   const toml::table& t = r.table(root, "", "body");
-  r.only_keys(t, "body", {"mass", "inertia", "ball", "physical"});
+  r.only_keys(t, "body", {"mass", "inertia", "ball", "physical", "radius", "shape", "semi_axes", "density"});
   return read_body_table(r, t, "body");
 }
 
@@ -538,8 +596,9 @@ void read_bodies(const Reader& r, const toml::table& root, std::vector<RigidBody
   for (std::size_t i = 0; i < arr->size(); ++i) {
     const toml::table& t = *arr->get(i)->as_table();
     const std::string prefix = "bodies[" + std::to_string(i) + "]";
-    r.only_keys(t, prefix, {"name", "mass", "inertia", "ball", "physical", "position", "quaternion", "momentum",
-                            "velocity", "w", "omega", "count", "spacing", "seed", "temperature"});
+    r.only_keys(t, prefix, {"name", "mass", "inertia", "ball", "physical", "radius", "shape", "semi_axes", "density",
+                            "position", "quaternion", "momentum", "velocity", "w", "omega", "count", "spacing", "seed",
+                            "temperature"});
     std::string name;
     if (const toml::node* n = t.get("name")) {
       if (!n->is_string()) r.fail(prefix + ".name", "must be a string");
@@ -576,46 +635,21 @@ void read_bodies(const Reader& r, const toml::table& root, std::vector<RigidBody
   for (std::size_t a = 0; a < bodies.size(); ++a) state.set_body(a, states[a]);
 }
 
-/// Bodies made of balls must not overlap at the start: a ball of one body
-/// inside a ball of another (distance below the sum of the radii). A sweep
-/// over the balls sorted along x keeps this O(S log S) for S balls.
-void require_no_overlap(const Reader& r, const std::vector<RigidBody>& bodies, const SystemState& s) {
-  struct Site {
-    Vector3<double> x;
-    double radius;
-    std::size_t body, ball;
+/// Bodies must not overlap at the start (ContactDetector: balls, spheres,
+/// ellipsoids; a body given by mass + inertia without radius is its centre of
+/// mass, which must not lie inside another body). The message names the
+/// deepest overlap of the first pair, by body index.
+void require_no_overlap(const Reader& r, const System& system, const SystemState& s) {
+  const ContactDetector detector(system);
+  const std::vector<Contact>& found = detector.find(s);
+  if (found.empty()) return;
+  const Contact& c = found.front();
+  auto what = [&](std::size_t a, std::ptrdiff_t ball) {
+    return "bodies[" + std::to_string(a) + "]" + (ball >= 0 ? ".ball[" + std::to_string(ball) + "]" : "");
   };
-  std::vector<Site> sites;
-  double max_radius = 0.0;
-  for (std::size_t a = 0; a < bodies.size(); ++a) {
-    const Matrix3<double> rot = s.q[a].matrix();
-    const std::vector<Ball>& balls = bodies[a].balls();
-    if (balls.empty()) {
-      sites.push_back({s.x[a], 0.0, a, 0});
-      continue;
-    }
-    for (std::size_t i = 0; i < balls.size(); ++i) {
-      sites.push_back({s.x[a] + rot * balls[i].position, balls[i].radius, a, i});
-      max_radius = std::max(max_radius, balls[i].radius);
-    }
-  }
-  std::sort(sites.begin(), sites.end(), [](const Site& u, const Site& v) { return u.x.x() < v.x.x(); });
-  for (std::size_t i = 0; i < sites.size(); ++i)
-    for (std::size_t j = i + 1; j < sites.size() && sites[j].x.x() - sites[i].x.x() < sites[i].radius + max_radius; ++j) {
-      const Site &u = sites[i], &v = sites[j];
-      if (u.body == v.body) continue;
-      const double d = (u.x - v.x).norm();
-      if (d < u.radius + v.radius || d == 0.0) {
-        auto what = [&](const Site& w) {
-          return bodies[w.body].balls().empty() ? "bodies[" + std::to_string(w.body) + "]"
-                                                : "bodies[" + std::to_string(w.body) + "].ball[" + std::to_string(w.ball) + "]";
-        };
-        const auto [first, second] = u.body < v.body ? std::pair(u, v) : std::pair(v, u);
-        r.fail(what(second), "overlaps " + what(first) + " at the start (distance " + std::to_string(d) +
-                                  " < the sum of the radii " + std::to_string(u.radius + v.radius) +
+  r.fail(what(c.b, c.ball_b), "overlaps " + what(c.a, c.ball_a) + " at the start (centre distance " +
+                                  fmt::format("{}", c.distance) + ", " + describe_reach(system, c) +
                                   "); move the bodies apart");
-      }
-    }
 }
 
 InteractionSpec read_interaction(const Reader& r, const toml::table& root) {
@@ -955,7 +989,6 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   if (!bodies_format) initial = SystemState(read_initial(r, root, bodies[0]));
   const InteractionSpec interaction = read_interaction(r, root);
   IntegratorSpec integrator = read_integrator(r, root);
-  if (bodies_format) require_no_overlap(r, bodies, initial);
   if (bodies.size() > 1 && potential.kind == PotentialKind::HeavyTop)
     r.fail("potential.kind", "\"heavy-top\" is a single body on a pivot; this scenario has " +
                                  std::to_string(bodies.size()) + " bodies");
@@ -985,12 +1018,20 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
                                     std::to_string(integrator.step / rotation * 0.1) + " (0.1 rad per step)");
   }
   int threads = 0;
+  std::optional<OnContact> on_contact;
   if (const toml::table* run = r.optional_table(root, "", "run")) {
-    r.only_keys(*run, "run", {"threads"});
+    r.only_keys(*run, "run", {"threads", "on_contact"});
     if (run->contains("threads")) {
       const std::int64_t n = r.integer(*run, "run", "threads");
       if (n < 1 || n > 1024) r.fail("run.threads", "must be an integer in [1, 1024] (default: all cores)");
       threads = static_cast<int>(n);
+    }
+    if (run->contains("on_contact")) {
+      if (!bodies_format)
+        r.fail("run.on_contact", "is about contact between [[bodies]]; a single body has none (a central field's "
+                                 "own contact: potential.stop_at_contact)");
+      const std::string v = r.string(*run, "run", "on_contact", {"stop", "warn", "ignore"});
+      on_contact = v == "stop" ? OnContact::Stop : v == "warn" ? OnContact::Warn : OnContact::Ignore;
     }
   }
   std::int64_t every = 1;
@@ -1018,6 +1059,14 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   } catch (const InvalidInput& e) {
     r.fail("", e.what());
   }
+  if (bodies_format) require_no_overlap(r, sc.system, initial);
+  // Contact between bodies is checked at every step unless [run] on_contact
+  // says otherwise; a Lennard-Jones system is exempt unless it says so (its
+  // balls' radii only shape the inertia: the potential keeps molecules apart).
+  sc.on_contact_given = on_contact.has_value();
+  sc.on_contact = on_contact.value_or(!bodies_format || interaction.kind == InteractionKind::LennardJones
+                                          ? OnContact::Ignore
+                                          : OnContact::Stop);
   bool inlined = false;
   sc.forcing = read_forcing(r, root, sc.system, static_cast<double>(integrator.steps) * integrator.step,
                             std::filesystem::path(name).parent_path(), inlined);
@@ -1072,6 +1121,34 @@ bool has_gravity_gradient_body(const Scenario& sc) {
   for (const RigidBody& b : sc.system.bodies())
     if (b.balls().empty()) return true;
   return false;
+}
+
+std::string describe_reach(const System& system, const Contact& c) {
+  auto radius = [&](std::size_t a, std::ptrdiff_t ball) {
+    const RigidBody& b = system.body(a);
+    return ball >= 0 ? b.balls()[static_cast<std::size_t>(ball)].radius
+                     : b.extent() == Extent::Sphere ? b.semi_axes().x() : 0.0;
+  };
+  auto piece = [&](std::size_t a, std::ptrdiff_t ball) {
+    const RigidBody& b = system.body(a);
+    if (ball < 0 && b.extent() == Extent::Ellipsoid)
+      return fmt::format("the ellipsoid ({}, {}, {})", b.semi_axes().x(), b.semi_axes().y(), b.semi_axes().z());
+    const double r = radius(a, ball);
+    return r > 0.0 ? fmt::format("the {} of radius {}", ball >= 0 ? "ball" : "sphere", r) : std::string("a point");
+  };
+  if (system.body(c.a).extent() != Extent::Ellipsoid && system.body(c.b).extent() != Extent::Ellipsoid)
+    return fmt::format("radii {} + {}", radius(c.a, c.ball_a), radius(c.b, c.ball_b));
+  return fmt::format("{} and {} would just touch at centre distance {} along their line", piece(c.a, c.ball_a),
+                     piece(c.b, c.ball_b), c.reach);
+}
+
+const char* to_string(OnContact c) {
+  switch (c) {
+    case OnContact::Stop: return "stop";
+    case OnContact::Warn: return "warn";
+    case OnContact::Ignore: return "ignore";
+  }
+  return "?";
 }
 
 const char* to_string(PotentialKind k) {

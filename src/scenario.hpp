@@ -4,6 +4,7 @@
 #pragma once
 
 #include <lgvi/composition.hpp>
+#include <lgvi/contact.hpp>
 #include <lgvi/forcing.hpp>
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/rotation_solver.hpp>
@@ -74,6 +75,15 @@ struct InteractionSpec {
   double skin = 0.0;                                 // lennard-jones: Verlet list skin
 };
 
+/// What a run does when two bodies overlap (`[run] on_contact`): the model
+/// has no contact forces, so from there on it does not describe what it
+/// simulates.
+enum class OnContact {
+  Stop,   ///< "stop" (default): stop at the first step with an overlap, completed: false
+  Warn,   ///< "warn": record every contact episode in the summary and go on
+  Ignore  ///< "ignore": no check during the run (the default for Lennard-Jones systems and single bodies)
+};
+
 struct IntegratorSpec {
   Method method = Method::Hamiltonian;
   SolverOptions solver;
@@ -96,6 +106,8 @@ struct Scenario {
   /// with [body] + [initial] (one body, the single-body format).
   bool bodies_format = false;
   int threads = 0;  ///< [run] threads; 0: all cores
+  OnContact on_contact = OnContact::Ignore;  ///< [run] on_contact, or its default for this scenario
+  bool on_contact_given = false;             ///< whether [run] on_contact was given
   IntegratorSpec integrator;
   std::int64_t output_every = 1;
   TrajectoryFormat output_format = TrajectoryFormat::Csv;
@@ -137,6 +149,13 @@ Scenario read_scenario(const std::string& path);
 Scenario parse_scenario(const std::string& toml_text, const std::string& name);
 
 const char* to_string(PotentialKind k);
+const char* to_string(OnContact c);
+
+/// What a contact's reach (Contact::reach) is, for messages: "radii 0.3 +
+/// 0.1" for two spheres (balls; a point has radius 0), else the centre
+/// distance at which the two pieces, named by their semi-axes, radius or as
+/// a point, would just touch along their line.
+std::string describe_reach(const System& system, const Contact& c);
 const char* to_string(InteractionKind k);
 const char* to_string(Method m);
 

@@ -76,6 +76,18 @@ void show_run(const std::string& dir, std::ostream& out) {
   if (n > 1) {
     row("bodies", fmt::format("{} (the final state of each is in summary.json, final_bodies)", n));
     row("linear momentum", fmt::format("max |P - P0| / sum |p_a0| = {:.3e}", number(field("max_linear_momentum_error"))));
+    // Contact episodes, where the run checked for them ([run] on_contact "stop" or "warn").
+    const Json* contacts = field("contacts");
+    if (contacts && contacts->is_array() && contacts->empty()) row("contacts", "none");
+    if (contacts && contacts->is_array() && !contacts->empty()) {
+      const Json& c = contacts->front();
+      const Json* names = member(&c, "bodies");
+      row("contacts", fmt::format("{} episode(s); the first: {} and {}, steps {} to {}, deepest {:.4g} (all in "
+                                  "summary.json, contacts)",
+                                  text(field("contact_episodes")), names && names->size() == 2 ? text(&(*names)[0]) : "-",
+                                  names && names->size() == 2 ? text(&(*names)[1]) : "-", text(member(&c, "first_step")),
+                                  text(member(&c, "last_step")), number(member(&c, "max_depth"))));
+    }
   }
   row("solver iterations", fmt::format("{:.6g} per {} (max {})", number(field("solver_iterations_mean")),
                                        std::string(n > 1 ? "body and " : "") + (order ? "sub-step" : "step"),

@@ -8,8 +8,10 @@
 #include <lgvi/lgvi.hpp>
 #include <lgvi/potential.hpp>
 
-#include <chrono>
+#include <fmt/format.h>
+
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <variant>
 
@@ -84,15 +86,108 @@ TrajectoryLayout scenario_layout(const Scenario& s) {
 
 namespace {
 
+/// Contact between bodies after every step, under [run] on_contact "stop" or
+/// "warn" (contact.hpp): it only reads the state. Episodes go to the
+/// statistics; under "stop" the first contact ends the run.
+class ContactWatch {
+ public:
+  ContactWatch(const Scenario& sc, RunStatistics& stats)
+      : sc_(sc), stats_(stats), active_(sc.on_contact != OnContact::Ignore && sc.bodies() > 1) {
+    if (active_) detector_ = ContactDetector(sc.system);
+  }
+
+  /// Checks the state of step k (time t); true if the run must stop here.
+  bool observe(std::int64_t k, double t, const SystemState& s) {
+    if (!active_) return false;
+    const std::vector<Contact>& found = detector_.find(s);
+    if (found.empty()) {
+      open_.clear();
+      return false;
+    }
+    // Both lists are in the order of (a, b): a merge continues the episodes
+    // of the previous step and begins the others.
+    next_open_.clear();
+    std::size_t o = 0;
+    for (const Contact& c : found) {
+      const auto key = std::pair(static_cast<std::int64_t>(c.a), static_cast<std::int64_t>(c.b));
+      while (o < open_.size() && open_[o].key < key) ++o;
+      std::size_t index = none;
+      if (o < open_.size() && open_[o].key == key) {
+        index = open_[o].index;
+      } else {
+        ++stats_.contact_episodes;
+        if (stats_.contacts.size() < RunStatistics::max_listed_contacts) {
+          index = stats_.contacts.size();
+          stats_.contacts.push_back({key.first, key.second, k, k, t, t, c.depth(), c.distance});
+        }
+      }
+      if (index != none) {
+        ContactEpisode& e = stats_.contacts[index];
+        e.last_k = k;
+        e.last_t = t;
+        if (c.depth() > e.max_depth) {
+          e.max_depth = c.depth();
+          e.distance = c.distance;
+        }
+      }
+      next_open_.push_back({key, index});
+    }
+    std::swap(open_, next_open_);
+    if (sc_.on_contact != OnContact::Stop) return false;
+    stop_message_ = stop_message(found.front(), k, t);
+    return true;
+  }
+
+  /// On resume from step k: the listed episodes that were going on at k.
+  void resume_at(std::int64_t k) {
+    open_.clear();
+    for (std::size_t i = 0; i < stats_.contacts.size(); ++i)
+      if (stats_.contacts[i].last_k == k) open_.push_back({{stats_.contacts[i].a, stats_.contacts[i].b}, i});
+    std::sort(open_.begin(), open_.end(), [](const Open& u, const Open& v) { return u.key < v.key; });
+  }
+
+  /// Why the run stopped (empty if it did not stop at a contact).
+  const std::string& stopped() const { return stop_message_; }
+
+ private:
+  static constexpr std::size_t none = static_cast<std::size_t>(-1);
+  struct Open {
+    std::pair<std::int64_t, std::int64_t> key;
+    std::size_t index;  ///< in stats.contacts, or none (beyond the listed ones)
+  };
+
+  std::string stop_message(const Contact& c, std::int64_t k, double t) const {
+    auto body = [&](std::size_t a, std::ptrdiff_t ball) {
+      return (ball >= 0 ? "ball " + std::to_string(ball) + " of " : std::string()) + "bodies[" + std::to_string(a) +
+             "] (\"" + sc_.system.name(a) + "\")";
+    };
+    return fmt::format("contact: {} and {} overlap at t = {} (step {}): centre distance {}, contact depth {} ({}); the "
+                       "model (no contact forces) does not hold from here; [run] on_contact = \"warn\" records "
+                       "contacts and goes on",
+                       body(c.a, c.ball_a), body(c.b, c.ball_b), t, k, c.distance, c.depth(),
+                       describe_reach(sc_.system, c));
+  }
+
+  const Scenario& sc_;
+  RunStatistics& stats_;
+  bool active_;
+  ContactDetector detector_;
+  std::vector<Open> open_, next_open_;
+  std::string stop_message_;
+};
+
 /// The observer: diagnostics at every step, rows every `output_every` steps
-/// (one row per body in the long layout).
+/// (one row per body in the long layout), and the last row of a run stopped
+/// at a contact.
 struct Recorder {
   const Scenario& scenario;
   TrajectorySink& sink;
   RunStatistics& stats;
+  ContactWatch& contact;
 
   void operator()(const SystemStepInfo& i) {
     const SystemState& s = i.state;
+    const bool contact_stop = i.k > 0 && contact.observe(i.k, i.t, s);
     const std::size_t n = s.size();
     // Every diagnostic in one pass over the bodies (not one pass each), each
     // sum in body order from body 0's term as total_energy, angular_momentum
@@ -159,7 +254,7 @@ struct Recorder {
     stats.last_t = i.t;
     stats.last_k = i.k;
     stats.observed = true;
-    if (i.k % scenario.output_every != 0 && i.k != scenario.integrator.steps) return;
+    if (i.k % scenario.output_every != 0 && i.k != scenario.integrator.steps && !contact_stop) return;
     if (!scenario.bodies_format) {
       const SingleBodyRow row(i.t, s.body(0), energy, de, dq, L, dl, forced ? std::optional(i.work) : std::nullopt);
       sink.row(row.values);  // the layout's columns: the work only when forced
@@ -191,7 +286,9 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, TrajectorySink& 
       throw InvalidInput("checkpoint: " + std::to_string(state.size()) + " bodies, the scenario has " +
                          std::to_string(sc.bodies()));
   }
-  Recorder recorder{sc, sink, stats};
+  ContactWatch contact(sc, stats);
+  if (opt.resume) contact.resume_at(k0);
+  Recorder recorder{sc, sink, stats, contact};
   const double h = sc.integrator.step;
   const auto start = std::chrono::steady_clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
@@ -232,7 +329,7 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, TrajectorySink& 
       if (opt.progress) e = std::min(e, (k / opt.progress_every + 1) * opt.progress_every);
       return e;
     };
-    auto stop_requested = [&] { return opt.stop_flag && *opt.stop_flag != 0; };
+    auto stop_requested = [&] { return (opt.stop_flag && *opt.stop_flag != 0) || !contact.stopped().empty(); };
     while (reached < n) {
       const std::int64_t end = next_stop(reached);
       reached = integrate_range(stepper, state, 0.0, h, reached, end, recorder, stop_requested);
@@ -240,7 +337,12 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, TrajectorySink& 
       if (opt.checkpoint_every > 0 && reached % opt.checkpoint_every == 0 && reached < n) checkpoint(reached);
       if (opt.progress) opt.progress(reached, static_cast<double>(reached) * h);
     }
-    if (reached < n) {
+    if (!contact.stopped().empty()) {
+      // Stopped at the step of a contact (the last row written): as a failed
+      // run, with a checkpoint there when checkpointing.
+      result.error = contact.stopped();
+      if (opt.checkpoint_every > 0) checkpoint(reached);
+    } else if (reached < n) {
       result.interrupted = true;
       if (opt.checkpoint_every > 0) checkpoint(reached);
     } else {

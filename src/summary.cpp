@@ -25,6 +25,27 @@ Json balls_json(const RigidBody& b) {
   return balls;
 }
 
+/// A body's mass, inertia and balls, and its extent where it is a shape or
+/// has a bounding radius (mass + inertia + radius).
+Json body_json(const RigidBody& b) {
+  Json o = {{"mass", b.mass()}, {"inertia", inertia_json(b)}, {"balls", balls_json(b)}};
+  if (b.extent() == Extent::Sphere) o["radius"] = b.semi_axes().x();
+  if (b.extent() == Extent::Ellipsoid) o["semi_axes"] = to_vector(b.semi_axes());
+  return o;
+}
+
+/// What is checked for contact between bodies, in words.
+std::string contact_check(const Scenario& s) {
+  if (s.on_contact == OnContact::Ignore)
+    return s.on_contact_given ? "not checked during the run ([run] on_contact = \"ignore\"); overlaps at the start are "
+                                "errors"
+                              : "not checked during the run: a Lennard-Jones system, whose balls' radii only shape "
+                                "the inertia (give [run] on_contact to check); overlaps at the start are errors";
+  return "after every step: bounding spheres swept along x, then exactly: balls and spheres by their radii, "
+         "ellipsoids by the Perram-Wertheim contact function; a body given by mass + inertia without radius is its "
+         "centre of mass";
+}
+
 Json setup_json(const Scenario& s) {
   Json pot;
   pot["kind"] = to_string(s.potential.kind);
@@ -63,13 +84,13 @@ Json setup_json(const Scenario& s) {
   }
   Json o;
   if (!s.bodies_format) {
-    o["body"] = {{"mass", s.body().mass()}, {"inertia", inertia_json(s.body())}, {"balls", balls_json(s.body())}};
+    o["body"] = body_json(s.body());
   } else {
     Json bodies = Json::array();
     for (std::size_t a = 0; a < s.bodies(); ++a) {
-      const RigidBody& b = s.system.body(a);
-      bodies.push_back(
-          {{"name", s.system.name(a)}, {"mass", b.mass()}, {"inertia", inertia_json(b)}, {"balls", balls_json(b)}});
+      Json b = {{"name", s.system.name(a)}};
+      b.update(body_json(s.system.body(a)));
+      bodies.push_back(std::move(b));
     }
     o["bodies"] = std::move(bodies);
   }
@@ -88,6 +109,8 @@ Json setup_json(const Scenario& s) {
       inter["skin"] = s.interaction.skin;
     }
     o["interaction"] = std::move(inter);
+    o["on_contact"] = to_string(s.on_contact);
+    o["contact_check"] = contact_check(s);
   }
   o["integrator"] = std::move(integ);
   o["output_every"] = s.output_every;
@@ -181,6 +204,21 @@ std::string summary_json(const Scenario& sc, const SimulationResult& r) {
   s["potential_evaluations"] = st.potential_evaluations;
   s["final"] = state_json(r.final_state.body(0));
   s["final_bodies"] = std::move(final_bodies);
+  if (sc.bodies_format && sc.on_contact != OnContact::Ignore) {
+    // The episodes of overlap (the one that stopped the run under "stop").
+    Json contacts = Json::array();
+    for (const ContactEpisode& e : st.contacts)
+      contacts.push_back({{"bodies", {sc.system.name(static_cast<std::size_t>(e.a)),
+                                      sc.system.name(static_cast<std::size_t>(e.b))}},
+                          {"first_time", e.first_t},
+                          {"last_time", e.last_t},
+                          {"first_step", e.first_k},
+                          {"last_step", e.last_k},
+                          {"max_depth", e.max_depth},
+                          {"distance_at_max_depth", e.distance}});
+    s["contact_episodes"] = st.contact_episodes;
+    s["contacts"] = std::move(contacts);
+  }
   s["setup"] = setup_json(sc);
   if (!sc.forcing.empty()) {
     // energy errors above are E - E0 - W; angular and linear momentum
@@ -190,7 +228,7 @@ std::string summary_json(const Scenario& sc, const SimulationResult& r) {
     s["momentum_error_is"] = "the change of L and P, which the forcing does not conserve";
   }
   // The two short diagnostics on one line each, the lists of bodies one body a line.
-  return json_text(s, {{"rotation", "conserved"}, {"bodies", "final_bodies"}}) + "\n";
+  return json_text(s, {{"rotation", "conserved"}, {"bodies", "final_bodies", "contacts"}}) + "\n";
 }
 
 }  // namespace lgvi::app

@@ -155,6 +155,9 @@ lgvi::app::SimulationResult fixed_result(const lgvi::app::Scenario& sc) {
   st.max_spin = 3.75;
   st.max_spin_change = 1e-9;
   st.work = std::nan("");
+  // A contact episode (written for [[bodies]] scenarios checked for contact).
+  st.contacts = {{0, 1, 5, 7, 0.05, 0.07, 1.0 / 3.0, 0.5}};
+  st.contact_episodes = 1;
   return r;
 }
 

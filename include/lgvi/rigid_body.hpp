@@ -1,6 +1,8 @@
 // A rigid body: total mass m, standard inertia J about the centre of mass,
-// and optionally the uniform balls it is made of (used by potentials that
-// integrate over the body, such as CentralGravity).
+// optionally the uniform balls it is made of (used by potentials that
+// integrate over the body, such as CentralGravity), and what is known of its
+// extent (for contact detection, contact.hpp): its balls, a uniform sphere or
+// ellipsoid, a bounding sphere, or nothing (a point at the centre of mass).
 //
 // The paper's kinetic energy T = m|xdot|^2/2 + Omega^T J Omega / 2 assumes the
 // body frame's origin is the centre of mass (its eq. for T uses
@@ -14,6 +16,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -26,6 +29,20 @@ struct Ball {
   double mass = 0.0;
   double radius = 0.0;
 };
+
+/// What is known of a body's extent, in body axes about its centre of mass.
+enum class Extent {
+  Point,      ///< given by mass and inertia alone: nothing is known, it is treated as its centre of mass
+  Sphere,     ///< within the sphere of radius r (a uniform sphere, or a bounding sphere given with mass + inertia)
+  Ellipsoid,  ///< the uniform solid ellipsoid of semi-axes (a, b, c) along the body axes
+  Balls       ///< the union of its balls
+};
+
+/// The volume 4/3 pi a b c of the ellipsoid of semi-axes (a, b, c) (a
+/// sphere: a = b = c = r).
+inline double ellipsoid_volume(const Vector3<double>& semi_axes) {
+  return 4.0 / 3.0 * std::numbers::pi * semi_axes.x() * semi_axes.y() * semi_axes.z();
+}
 
 class RigidBody {
  public:
@@ -76,6 +93,39 @@ class RigidBody {
     return body;
   }
 
+  /// A uniform solid sphere of mass m and radius r: J = 2/5 m r^2 I.
+  static RigidBody sphere(double mass, double radius) {
+    require_length(radius, "body.radius");
+    RigidBody body(mass, Matrix3<double>::Identity() * (0.4 * mass * radius * radius));
+    body.extent_ = Extent::Sphere;
+    body.semi_axes_ = Vector3<double>::Constant(radius);
+    return body;
+  }
+
+  /// A uniform solid ellipsoid of mass m with semi-axes (a, b, c) along the
+  /// body axes: J = m/5 diag(b^2 + c^2, a^2 + c^2, a^2 + b^2).
+  static RigidBody ellipsoid(double mass, const Vector3<double>& semi_axes) {
+    for (int i = 0; i < 3; ++i) require_length(semi_axes(i), "body.semi_axes");
+    const Vector3<double> s2 = semi_axes.cwiseProduct(semi_axes);
+    const Vector3<double> moments(s2.y() + s2.z(), s2.x() + s2.z(), s2.x() + s2.y());
+    RigidBody body(mass, Matrix3<double>(((mass / 5.0) * moments).asDiagonal()));
+    body.extent_ = Extent::Ellipsoid;
+    body.semi_axes_ = semi_axes;
+    return body;
+  }
+
+  /// This body (given by mass and inertia) with a bounding sphere of radius
+  /// r about its centre of mass: it lies within it, and contact detection
+  /// treats it as that sphere (a conservative test).
+  RigidBody bounded_by(double radius) const {
+    if (extent_ != Extent::Point) throw InvalidInput("body.radius: only a body given by mass + inertia takes a radius");
+    require_length(radius, "body.radius");
+    RigidBody body = *this;
+    body.extent_ = Extent::Sphere;
+    body.semi_axes_ = Vector3<double>::Constant(radius);
+    return body;
+  }
+
   double mass() const { return mass_; }
   /// Standard inertia J (the paper's J = tr[J_d] I - J_d).
   const Matrix3<double>& inertia() const { return inertia_; }
@@ -94,10 +144,28 @@ class RigidBody {
   /// body given by mass and inertia.
   const std::vector<Ball>& balls() const { return balls_; }
 
+  Extent extent() const { return extent_; }
+  /// The semi-axes of a Sphere (r, r, r) or an Ellipsoid (a, b, c); zero otherwise.
+  const Vector3<double>& semi_axes() const { return semi_axes_; }
+  /// The radius of the smallest sphere about the centre of mass known to
+  /// hold the body: max_i |rho_i| + r_i over its balls, the largest
+  /// semi-axis, the sphere's radius; 0 for a Point.
+  double bounding_radius() const {
+    if (extent_ != Extent::Balls) return semi_axes_.maxCoeff();
+    double r = 0.0;
+    for (const Ball& b : balls_) r = std::max(r, b.position.norm() + b.radius);
+    return r;
+  }
+
  private:
   RigidBody(double mass, const Matrix3<double>& inertia, std::vector<Ball> balls)
-      : mass_(mass), inertia_(inertia), balls_(std::move(balls)) {
+      : mass_(mass), inertia_(inertia), balls_(std::move(balls)), extent_(Extent::Balls) {
     validate();
+  }
+
+  static void require_length(double v, const char* key) {
+    if (!(std::isfinite(v) && v > 0.0))
+      throw InvalidInput(std::string(key) + ": must be a finite number > 0, got " + std::to_string(v));
   }
 
   void validate() {
@@ -135,6 +203,8 @@ class RigidBody {
   bool require_triangle_ = true;
   Matrix3<double> inertia_inverse_;
   std::vector<Ball> balls_;
+  Extent extent_ = Extent::Point;
+  Vector3<double> semi_axes_ = Vector3<double>::Zero();
 };
 
 }  // namespace lgvi

@@ -118,14 +118,23 @@ class Body:
     centre of mass is moved to the body origin; J = sum m_i (|rho_i|^2 I -
     rho_i rho_i^T) + 2/5 m_i r_i^2 I. Central gravity acts on each ball.
 
+    ``Body(mass=m, inertia=J, radius=r)``: the same, within a bounding sphere
+    of radius r about the centre of mass (checked for contact as that sphere;
+    without it such a body is a point for contact).
+
+    ``Body.sphere(radius, density=..)`` and ``Body.ellipsoid((a, b, c),
+    density=..)`` (or ``mass=..`` instead of density): uniform solids, mass
+    and inertia computed by the exact formulas (semi-axes along the body
+    axes).
+
     Invalid input raises ValueError naming the argument (``mass``,
     ``inertia``, ``balls[1].radius``, ...).
     """
 
-    def __init__(self, mass=None, inertia=None, balls=None):
+    def __init__(self, mass=None, inertia=None, balls=None, radius=None):
         if balls is not None:
-            if mass is not None or inertia is not None:
-                raise ValueError("balls: give either mass and inertia, or balls, not both")
+            if mass is not None or inertia is not None or radius is not None:
+                raise ValueError("balls: give either mass and inertia (and radius), or balls, not both")
             if isinstance(balls, (str, bytes, dict)) or not hasattr(balls, "__len__") or len(balls) == 0:
                 raise ValueError(f"balls: must be a non-empty list of (position, mass, radius), got {balls!r}")
             spec = {"ball": [_ball(b, i) for i, b in enumerate(balls)]}
@@ -144,6 +153,9 @@ class Body:
                 core = _core.Body(m, J)
             except ValueError as e:
                 raise _value_error(str(e).replace("body.inertia", "inertia").replace("body.mass", "mass")) from None
+            if radius is not None:
+                spec["radius"] = _check.positive(radius, "radius")
+                core = core.bounded_by(spec["radius"])
         self._spec = spec
         self._core = core
 
@@ -153,11 +165,49 @@ class Body:
         return cls(balls=balls)
 
     @classmethod
+    def sphere(cls, radius, density=None, mass=None):
+        """A uniform solid sphere of the radius, with density (mass = density 4/3 pi r^3) or mass: J = 2/5 m r^2 I."""
+        r = _check.positive(radius, "radius")
+        return cls._shape({"shape": "sphere", "radius": r}, (r, r, r), density, mass,
+                          lambda m: _core.Body.sphere(m, r))
+
+    @classmethod
+    def ellipsoid(cls, semi_axes, density=None, mass=None):
+        """A uniform solid ellipsoid of semi-axes (a, b, c) along the body axes, with density (mass = density
+        4/3 pi a b c) or mass: J = m/5 diag(b^2 + c^2, a^2 + c^2, a^2 + b^2)."""
+        axes = _floats(_check.vector3(semi_axes, "semi_axes"))
+        if min(axes) <= 0:
+            raise ValueError(f"semi_axes: must be 3 numbers > 0, got {axes!r}")
+        return cls._shape({"shape": "ellipsoid", "semi_axes": axes}, axes, density, mass,
+                          lambda m: _core.Body.ellipsoid(m, axes))
+
+    @classmethod
+    def _shape(cls, spec, axes, density, mass, make):
+        if (density is None) == (mass is None):
+            raise ValueError("density, mass: give exactly one of them")
+        if density is not None:
+            spec["density"] = _check.positive(density, "density")
+            m = spec["density"] * _core.ellipsoid_volume(axes)  # as the scenario reader computes it
+        else:
+            m = spec["mass"] = _check.positive(mass, "mass")
+        self = cls.__new__(cls)
+        try:
+            self._core = make(m)
+        except ValueError as e:
+            raise _value_error(str(e).replace("body.", "")) from None
+        self._spec = spec
+        return self
+
+    @classmethod
     def _from_table(cls, table):
         """From a scenario's [body] table (as read by tomllib)."""
         if "ball" in table:
             return cls(balls=[dict(b) for b in table["ball"]])
-        return cls(mass=table["mass"], inertia=table["inertia"])
+        if "shape" in table:
+            size = table["radius"] if table["shape"] == "sphere" else table["semi_axes"]
+            make = cls.sphere if table["shape"] == "sphere" else cls.ellipsoid
+            return make(size, density=table.get("density"), mass=table.get("mass"))
+        return cls(mass=table["mass"], inertia=table["inertia"], radius=table.get("radius"))
 
     @property
     def mass(self):
@@ -179,9 +229,23 @@ class Body:
         """The balls as dicts {"position": (3,) relative to the centre of mass, "mass", "radius"}; [] if none."""
         return self._core.balls
 
+    @property
+    def extent(self):
+        """What is known of its extent: "balls", "sphere" (a sphere, or mass + inertia with radius), "ellipsoid",
+        or "point" (mass + inertia only: contact tests treat it as its centre of mass)."""
+        return self._core.extent
+
+    @property
+    def semi_axes(self):
+        """(a, b, c) of an ellipsoid, (r, r, r) of a sphere or bounding sphere; zeros otherwise."""
+        return self._core.semi_axes
+
     def __repr__(self):
         if "ball" in self._spec:
             return f"lgvi.Body(balls={len(self._spec['ball'])} balls, mass={self.mass!r})"
+        if "shape" in self._spec:
+            size = {k: self._spec[k] for k in ("radius", "semi_axes") if k in self._spec}
+            return f"lgvi.Body.{self._spec['shape']}(**{size!r}, mass={self.mass!r})"
         return f"lgvi.Body(mass={self.mass!r}, inertia={self.inertia.tolist()!r})"
 
 
@@ -385,7 +449,7 @@ class Scenario:
     @classmethod
     def from_arrays(cls, *, bodies, positions, quaternions, step, duration, momenta=None, velocities=None,
                     w=None, omegas=None, names=None, potential=None, interaction=None, method="lgvi", order=None,
-                    every=1, threads=None, name="scenario"):
+                    every=1, threads=None, on_contact=None, name="scenario"):
         """A scenario of N bodies from numpy arrays (a ``[[bodies]]`` scenario file, written and read).
 
         ``bodies``: one lgvi.Body for every row, or a list of N of them;
@@ -398,7 +462,12 @@ class Scenario:
         1.0, "model": "balls" | "inertia"}`` or ``{"kind": "lennard-jones",
         "epsilon": .., "sigma": .., "cutoff": .., "skin": ..}``; ``method``,
         ``order``, ``step``, ``duration``, ``every`` as for Scenario;
-        ``threads`` for the per-body loops (default: all cores).
+        ``threads`` for the per-body loops (default: all cores);
+        ``on_contact`` ([run] on_contact): "stop" (the default; lgvi.simulate
+        then raises lgvi.IntegrationError at the first step where two bodies
+        overlap, its ``result`` the run up to that step), "warn" (contact
+        episodes in ``summary["contacts"]``) or "ignore" (the default of
+        Lennard-Jones systems).
 
         Validated by the reader of ``lgvi run`` (overlapping bodies, duplicate
         names, ...): ValueError naming the argument or the scenario key
@@ -407,7 +476,7 @@ class Scenario:
         return _from_arrays(cls, bodies=bodies, positions=positions, quaternions=quaternions, step=step,
                             duration=duration, momenta=momenta, velocities=velocities, w=w, omegas=omegas,
                             names=names, potential=potential, interaction=interaction, method=method, order=order,
-                            every=every, threads=threads, name=name)
+                            every=every, threads=threads, on_contact=on_contact, name=name)
 
     def replace(self, **changes):
         """A copy with some arguments changed, e.g. ``scenario.replace(step=0.005, duration=10)``.
@@ -519,6 +588,12 @@ class Scenario:
         return self._core.solver
 
     @property
+    def on_contact(self):
+        """What a run does when two bodies overlap, as it applies: "stop", "warn" or "ignore" ([run] on_contact,
+        or its default: "stop" for [[bodies]], "ignore" for Lennard-Jones systems and a single body)."""
+        return self._core.on_contact
+
+    @property
     def tolerance(self):
         """The solver's relative tolerance (default 4 eps)."""
         return self._core.tolerance
@@ -610,7 +685,7 @@ def _rows(value, name, n, width):
     return a
 
 
-def _system_toml(bodies, rows, names, potential, interaction, integrator, every, threads):
+def _system_toml(bodies, rows, names, potential, interaction, integrator, every, run):
     """TOML text of a [[bodies]] scenario."""
     lines = []
     for a, body in enumerate(bodies):
@@ -624,12 +699,11 @@ def _system_toml(bodies, rows, names, potential, interaction, integrator, every,
             for ball in spec["ball"]:
                 lines.append("[[bodies.ball]]")
                 lines.extend(f"{k} = {_toml_value(v)}" for k, v in ball.items())
-        else:
-            lines.append(f"mass = {_toml_value(spec['mass'])}")
-            lines.append(f"inertia = {_toml_value(spec['inertia'])}")
+        else:  # mass + inertia (+ radius), or a shape
+            lines.extend(f"{k} = {_toml_value(v)}" for k, v in spec.items())
         lines.append("")
     for table, t in (("potential", potential), ("interaction", interaction), ("integrator", integrator),
-                     ("output", {"every": every}), ("run", {"threads": threads} if threads else None)):
+                     ("output", {"every": every}), ("run", run or None)):
         if t is None:
             continue
         lines.append(f"[{table}]")
@@ -640,7 +714,7 @@ def _system_toml(bodies, rows, names, potential, interaction, integrator, every,
 
 def _from_arrays(cls, *, bodies, positions, quaternions, step, duration, momenta=None, velocities=None, w=None,
                  omegas=None, names=None, potential=None, interaction=None, method="lgvi", order=None,
-                 every=1, threads=None, name="scenario"):
+                 every=1, threads=None, on_contact=None, name="scenario"):
     if isinstance(bodies, dict):
         bodies = Body(**bodies)
     if isinstance(bodies, Body):
@@ -679,10 +753,13 @@ def _from_arrays(cls, *, bodies, positions, quaternions, step, duration, momenta
              "duration": _check.non_negative(duration, "duration")}
     if order is not None:
         integ["order"] = _check.integer(order, "order", 2, 8)
+    run = {}
     if threads is not None:
-        threads = _check.integer(threads, "threads", 1)
+        run["threads"] = _check.integer(threads, "threads", 1)
+    if on_contact is not None:
+        run["on_contact"] = _check.choice(on_contact, "on_contact", ("stop", "warn", "ignore"))
     text = _system_toml(bodies, rows, names, _potential.spec(potential), _interaction(interaction), integ,
-                        _check.integer(every, "every", 1), threads)
+                        _check.integer(every, "every", 1), run)
     return cls._wrap(_parse(text, _check_name(name)))
 
 

@@ -631,7 +631,38 @@ PYBIND11_MODULE(_core, m) {
                              "J^-1 (3x3).")
       .def_property_readonly("balls", &balls_list,
                              "The balls as dicts {position (3,) relative to the centre of mass, mass, radius}; "
-                             "empty for a body given by mass and inertia.");
+                             "empty for a body given by mass and inertia.")
+      .def_static(
+          "sphere", [](py::object mass, py::object radius) {
+            return RigidBody::sphere(number(mass, "mass"), number(radius, "radius"));
+          },
+          py::arg("mass"), py::arg("radius"), "A uniform solid sphere: J = 2/5 m r^2 I.")
+      .def_static(
+          "ellipsoid", [](py::object mass, py::object semi_axes) {
+            return RigidBody::ellipsoid(number(mass, "mass"), vec3(semi_axes, "semi_axes"));
+          },
+          py::arg("mass"), py::arg("semi_axes"),
+          "A uniform solid ellipsoid, semi-axes (a, b, c) along the body axes: J = m/5 diag(b^2 + c^2, a^2 + c^2, "
+          "a^2 + b^2).")
+      .def("bounded_by", &RigidBody::bounded_by, py::arg("radius"),
+           "This body (mass + inertia) within a bounding sphere of the radius, for contact detection.")
+      .def_property_readonly(
+          "extent",
+          [](const RigidBody& b) {
+            switch (b.extent()) {
+              case Extent::Sphere: return "sphere";
+              case Extent::Ellipsoid: return "ellipsoid";
+              case Extent::Balls: return "balls";
+              case Extent::Point: break;
+            }
+            return "point";
+          },
+          "What is known of its extent: \"balls\", \"sphere\", \"ellipsoid\", or \"point\" (mass + inertia only).")
+      .def_property_readonly("semi_axes", [](const RigidBody& b) { return array3(b.semi_axes()); },
+                             "The semi-axes (a, b, c) of an ellipsoid, (r, r, r) of a sphere; zeros otherwise.");
+  m.def(
+      "ellipsoid_volume", [](py::object semi_axes) { return ellipsoid_volume(vec3(semi_axes, "semi_axes")); },
+      py::arg("semi_axes"), "4/3 pi a b c.");
 
   py::class_<Scenario>(m, "Scenario",
                        "A parsed and validated scenario (C++ lgvi::app::Scenario), as the CLI reads it. Created by "
@@ -656,6 +687,8 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("duration", [](const Scenario& s) { return s.integrator.duration; }, "Duration.")
       .def_property_readonly("steps", [](const Scenario& s) { return s.integrator.steps; },
                              "Number of steps, ceil(duration / step).")
+      .def_property_readonly("on_contact", [](const Scenario& s) { return std::string(to_string(s.on_contact)); },
+                             "[run] on_contact as it applies: \"stop\", \"warn\" or \"ignore\".")
       .def_property_readonly("method", [](const Scenario& s) { return std::string(to_string(s.integrator.method)); },
                              "The method's name (one of lgvi.METHODS).")
       .def_property_readonly("solver",

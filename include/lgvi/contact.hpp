@@ -1,0 +1,220 @@
+// Contact between the bodies of a system: which pairs overlap at a state.
+//
+// The integrators have no contact forces: bodies pass through each other, and
+// from the first overlap on the model (rigid bodies that interact only through
+// their potentials) no longer describes what it simulates. This finds those
+// overlaps; it only reads the state.
+//
+// Each body is known by its extent (rigid_body.hpp): its balls, a sphere, an
+// ellipsoid, or nothing, in which case it is its centre of mass (a point: it
+// overlaps a body only by lying inside it, another point only by coinciding
+// with it). Every body is first bounded by a sphere about its centre of mass
+// (RigidBody::bounding_radius); the bounding spheres are sorted along x and
+// swept (O(N log N) per call), and only pairs whose bounding spheres meet are
+// tested exactly, piece by piece (ball by ball for bodies of balls, the
+// balls of one swept along x against those of the other):
+//
+//  * two spheres (balls, spheres, points as spheres of radius 0) overlap when
+//    the distance d of their centres is below r_a + r_b (or is 0);
+//  * where an ellipsoid is involved, by the Perram-Wertheim contact function
+//    (J. W. Perram and M. S. Wertheim, J. Comput. Phys. 58, 409 (1985)): with
+//    M = R diag(a^2, b^2, c^2) R^T for an ellipsoid (r^2 I for a sphere) and
+//    r the vector between the centres,
+//      F(lambda) = lambda (1 - lambda) r^T [(1 - lambda) M_a + lambda M_b]^-1 r,
+//    concave on [0, 1]; mu^2 = max F is the factor by which both pieces,
+//    scaled about their centres, just touch (mu < 1: they overlap). F is
+//    quadratic in r, so along the line of centres they would just touch at
+//    the centre distance D = d / mu: the "reach" of the pair (r_a + r_b for
+//    two spheres, exactly). The maximum is found by bisection on the sign of
+//    F' (decreasing, F concave) down to adjacent doubles: mu to round-off.
+//    A point against an ellipsoid is the limit M_b = 0: mu^2 = r^T M_a^-1 r.
+//
+// What a contact reports: the pieces' centre distance d and the depth D - d,
+// how far they would have to move apart along their line of centres to just
+// touch (r_a + r_b - d for two spheres); of all overlapping pieces of a pair,
+// the deepest.
+#pragma once
+
+#include <lgvi/rigid_body.hpp>
+#include <lgvi/s3.hpp>
+#include <lgvi/system.hpp>
+
+#include <Eigen/Cholesky>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <vector>
+
+namespace lgvi {
+
+/// The centre distance D at which two convex pieces just touch when moved
+/// apart along the unit vector `u` from one centre to the other: both given
+/// by M = R diag(s^2) R^T (s their semi-axes; a sphere r^2 I, a point 0). At
+/// most one of them may be a point (M = 0); two points never touch (D = 0).
+inline double contact_reach(const Vector3<double>& u, const Matrix3<double>& ma, bool a_point,
+                            const Matrix3<double>& mb, bool b_point) {
+  if (a_point && b_point) return 0.0;
+  if (a_point || b_point) {
+    // The limit lambda -> 1 (the point's side): F = r^T M^-1 r.
+    const Matrix3<double>& m = a_point ? mb : ma;
+    return 1.0 / std::sqrt(u.dot(m.llt().solve(u)));
+  }
+  const Matrix3<double> diff = mb - ma;
+  // F'(lambda) = (1 - 2 lambda) r^T x - lambda (1 - lambda) x^T (M_b - M_a) x,
+  // x = G^-1 r: positive at 0, negative at 1, decreasing between.
+  auto slope = [&](double l, double& f) {
+    const Vector3<double> x = ((1.0 - l) * ma + l * mb).llt().solve(u);
+    const double rx = u.dot(x);
+    f = l * (1.0 - l) * rx;
+    return (1.0 - 2.0 * l) * rx - l * (1.0 - l) * x.dot(diff * x);
+  };
+  double lo = 0.0, hi = 1.0, f = 0.0, best = 0.0;
+  for (int i = 0; i < 64; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    if (mid <= lo || mid >= hi) break;  // adjacent doubles
+    const double s = slope(mid, f);
+    best = std::max(best, f);
+    if (s > 0.0) lo = mid;
+    else if (s < 0.0) hi = mid;
+    else break;
+  }
+  return 1.0 / std::sqrt(best);
+}
+
+/// An overlap of bodies a < b at a state: of their overlapping pieces (balls,
+/// or the body's sphere, ellipsoid or point), the deepest.
+struct Contact {
+  std::size_t a = 0, b = 0;
+  /// The overlapping ball of a (of b) in a body of balls; -1 for other extents.
+  std::ptrdiff_t ball_a = -1, ball_b = -1;
+  double distance = 0.0;  ///< between the centres of the two pieces
+  double reach = 0.0;     ///< the centre distance at which the pieces just touch, along their line (r_a + r_b)
+  double depth() const { return reach - distance; }
+};
+
+/// Finds the overlapping pairs of a system's bodies at a state (see the top
+/// of this file). Not thread-safe: one detector per thread (its buffers are
+/// reused from call to call).
+class ContactDetector {
+ public:
+  ContactDetector() = default;
+  explicit ContactDetector(const System& sys) : sys_(sys) {
+    for (std::size_t a = 0; a < sys.size(); ++a) radius_.push_back(sys.body(a).bounding_radius());
+  }
+
+  /// Every overlapping pair at `s`, in the order of (a, b). The reference
+  /// stays valid until the next call.
+  const std::vector<Contact>& find(const SystemState& s) const {
+    const std::size_t n = radius_.size();
+    found_.clear();
+    order_.resize(n);
+    for (std::size_t a = 0; a < n; ++a) order_[a] = a;
+    auto low = [&](std::size_t a) { return s.x[a].x() - radius_[a]; };
+    std::sort(order_.begin(), order_.end(), [&](std::size_t u, std::size_t v) { return low(u) < low(v); });
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t a = order_[i];
+      const double high = s.x[a].x() + radius_[a];
+      for (std::size_t j = i + 1; j < n && low(order_[j]) <= high; ++j) {
+        const std::size_t b = order_[j];
+        if ((s.x[b] - s.x[a]).norm() > radius_[a] + radius_[b]) continue;
+        Contact c;
+        if (a < b ? pair(s, a, b, c) : pair(s, b, a, c)) found_.push_back(c);
+      }
+    }
+    std::sort(found_.begin(), found_.end(),
+              [](const Contact& u, const Contact& v) { return u.a != v.a ? u.a < v.a : u.b < v.b; });
+    return found_;
+  }
+
+ private:
+  /// One piece of a body in inertial axes: a sphere (radius 0: a point) or
+  /// an ellipsoid (m = R diag(s^2) R^T).
+  struct Piece {
+    Vector3<double> centre;
+    double radius = 0.0;
+    bool ellipsoid = false;
+    Matrix3<double> m;
+    std::ptrdiff_t ball = -1;
+    double bound = 0.0;  ///< a radius about the centre that holds the piece (the largest semi-axis)
+  };
+
+  /// The pieces of body a at `s` within `range` of `near` (every piece of a
+  /// body that is not made of balls; its balls that may reach that far).
+  void pieces(const SystemState& s, std::size_t a, const Vector3<double>& near, double range,
+              std::vector<Piece>& out) const {
+    out.clear();
+    const RigidBody& body = sys_.body(a);
+    switch (body.extent()) {
+      case Extent::Point: out.push_back({s.x[a], 0.0, false, Matrix3<double>::Zero(), -1, 0.0}); break;
+      case Extent::Sphere: {
+        const double r = body.semi_axes().x();
+        out.push_back({s.x[a], r, false, Matrix3<double>::Zero(), -1, r});
+        break;
+      }
+      case Extent::Ellipsoid: {
+        const Matrix3<double> r = s.q[a].matrix();
+        const Vector3<double> s2 = body.semi_axes().cwiseProduct(body.semi_axes());
+        out.push_back({s.x[a], 0.0, true, r * s2.asDiagonal() * r.transpose(), -1, body.semi_axes().maxCoeff()});
+        break;
+      }
+      case Extent::Balls: {
+        const Matrix3<double> r = s.q[a].matrix();
+        const std::vector<Ball>& balls = body.balls();
+        for (std::size_t i = 0; i < balls.size(); ++i) {
+          const Vector3<double> c = s.x[a] + r * balls[i].position;
+          if ((c - near).norm() <= balls[i].radius + range)
+            out.push_back({c, balls[i].radius, false, Matrix3<double>::Zero(), static_cast<std::ptrdiff_t>(i),
+                           balls[i].radius});
+        }
+        break;
+      }
+    }
+  }
+
+  /// Whether bodies a < b overlap at `s`; if so, their deepest overlap in `c`.
+  bool pair(const SystemState& s, std::size_t a, std::size_t b, Contact& c) const {
+    pieces(s, a, s.x[b], radius_[b], pieces_a_);
+    pieces(s, b, s.x[a], radius_[a], pieces_b_);
+    // b's pieces sorted along x (ties by ball): each piece of a is tested
+    // only against those within reach along x, so that two bodies of many
+    // balls cost O(S log S), not O(S_a S_b).
+    std::sort(pieces_b_.begin(), pieces_b_.end(), [](const Piece& u, const Piece& v) {
+      return u.centre.x() != v.centre.x() ? u.centre.x() < v.centre.x() : u.ball < v.ball;
+    });
+    double bound_b = 0.0;
+    for (const Piece& v : pieces_b_) bound_b = std::max(bound_b, v.bound);
+    bool any = false;
+    for (const Piece& u : pieces_a_) {
+      const double from = u.centre.x() - u.bound - bound_b, to = u.centre.x() + u.bound + bound_b;
+      auto v = std::lower_bound(pieces_b_.begin(), pieces_b_.end(), from,
+                                [](const Piece& p, double x) { return p.centre.x() < x; });
+      for (; v != pieces_b_.end() && v->centre.x() <= to; ++v) {
+        const Vector3<double> r = v->centre - u.centre;
+        const double d = r.norm();
+        double reach = u.radius + v->radius;
+        if (u.ellipsoid || v->ellipsoid) {
+          // A sphere is M = r^2 I; along the x axis when the centres coincide.
+          const Vector3<double> dir = d > 0.0 ? Vector3<double>(r / d) : Vector3<double>::UnitX();
+          auto shape = [](const Piece& p) {
+            return p.ellipsoid ? p.m : Matrix3<double>(Matrix3<double>::Identity() * (p.radius * p.radius));
+          };
+          reach = contact_reach(dir, shape(u), !u.ellipsoid && u.radius == 0.0, shape(*v),
+                                !v->ellipsoid && v->radius == 0.0);
+        }
+        if (!(d < reach || d == 0.0)) continue;
+        if (!any || reach - d > c.depth()) c = Contact{a, b, u.ball, v->ball, d, reach};
+        any = true;
+      }
+    }
+    return any;
+  }
+
+  System sys_;
+  std::vector<double> radius_;
+  mutable std::vector<std::size_t> order_;
+  mutable std::vector<Contact> found_;
+  mutable std::vector<Piece> pieces_a_, pieces_b_;
+};
+
+}  // namespace lgvi

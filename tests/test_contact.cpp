@@ -1,0 +1,441 @@
+// Bodies of known extent: shapes (mass and inertia of uniform spheres and
+// ellipsoids against the exact formulas), the contact test (two spheres,
+// ellipsoids placed to touch by construction, the sweep against all pairs),
+// and runs that meet a contact: "stop" at the step computed from the free
+// motion, "warn" recording the episode, "ignore" running through.
+#include "scenario.hpp"
+#include "simulation.hpp"
+#include "memory_sink.hpp"
+#include "summary.hpp"
+#include "test_support.hpp"
+
+#include <lgvi/contact.hpp>
+#include <lgvi/error.hpp>
+#include <lgvi/rigid_body.hpp>
+#include <lgvi/system.hpp>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+namespace {
+
+using lgvi::Contact;
+using lgvi::ContactDetector;
+using lgvi::RigidBody;
+using lgvi::S3d;
+using lgvi::System;
+using lgvi::SystemState;
+using M3 = lgvi::Matrix3<double>;
+using V3 = lgvi::Vector3<double>;
+namespace t = lgvi::test;
+constexpr double eps = std::numeric_limits<double>::epsilon();
+
+/// M = R diag(s^2) R^T of an ellipsoid of semi-axes s turned by q.
+M3 shape_matrix(const V3& s, const S3d& q) {
+  const M3 r = q.matrix();
+  return r * s.cwiseProduct(s).asDiagonal() * r.transpose();
+}
+
+/// Two [[bodies]] "left" at the origin moving at +v/2 along x and "right" at
+/// (d0, 0, 0) moving at -v/2, given by the body keys `left` and `right`; no
+/// field, no interaction: free motion, x(t) exact up to round-off.
+std::string head_on(const std::string& left, const std::string& right, double d0, double v, double step,
+                    double duration, const std::string& run = "", const std::string& right_quaternion = "[1.0, 0.0, 0.0, 0.0]") {
+  auto body = [&](const std::string& name, double x, double vx, const std::string& keys, const std::string& q) {
+    return "[[bodies]]\nname = \"" + name + "\"\nposition = [" + std::to_string(x) + ", 0.0, 0.0]\nquaternion = " + q +
+           "\nvelocity = [" + std::to_string(vx) + ", 0.0, 0.0]\nomega = [0.0, 0.0, 0.0]\n" + keys + "\n";
+  };
+  return body("left", 0.0, 0.5 * v, left, "[1.0, 0.0, 0.0, 0.0]") + body("right", d0, -0.5 * v, right, right_quaternion) +
+         "[potential]\nkind = \"none\"\n[integrator]\nstep = " + std::to_string(step) +
+         "\nduration = " + std::to_string(duration) + "\n[output]\nevery = 25\n" + run;
+}
+
+const std::string ball_of_radius_1 = "[[bodies.ball]]\nposition = [0.0, 0.0, 0.0]\nmass = 1.0\nradius = 1.0";
+
+struct Outcome {
+  lgvi::app::SimulationResult result;
+  std::vector<double> rows;  // row-major, bodies_trajectory_columns a row
+  nlohmann::json summary;
+};
+
+Outcome run(const std::string& text) {
+  const lgvi::app::Scenario sc = lgvi::app::parse_scenario(text, "collision.toml");
+  lgvi::app::MemorySink sink(0, lgvi::app::scenario_layout(sc));
+  Outcome r;
+  r.result = lgvi::app::simulate(sc, sink);
+  r.rows = sink.take();
+  r.summary = nlohmann::json::parse(lgvi::app::summary_json(sc, r.result));
+  return r;
+}
+
+constexpr int columns = lgvi::app::bodies_trajectory_columns;
+
+// ---------------------------------------------------------------------------
+// Shapes
+
+TEST(Shapes, EllipsoidMassAndInertiaAreTheExactFormulas) {
+  const double a = 3.0, b = 2.0, c = 0.7, density = 2.5;
+  const lgvi::app::Scenario sc = lgvi::app::parse_scenario(
+      "[[bodies]]\nshape = \"ellipsoid\"\nsemi_axes = [3.0, 2.0, 0.7]\ndensity = 2.5\nposition = [0.0, 0.0, 0.0]\n"
+      "quaternion = [1.0, 0.0, 0.0, 0.0]\nmomentum = [0.0, 0.0, 0.0]\nw = [0.0, 0.0, 0.0]\n"
+      "[[bodies]]\nshape = \"sphere\"\nradius = 0.4\nmass = 7.0\nposition = [10.0, 0.0, 0.0]\n"
+      "quaternion = [1.0, 0.0, 0.0, 0.0]\nmomentum = [0.0, 0.0, 0.0]\nw = [0.0, 0.0, 0.0]\n"
+      "[potential]\nkind = \"none\"\n[integrator]\nstep = 0.1\nduration = 1.0\n",
+      "shapes.toml");
+  // m = rho 4/3 pi a b c, J = m/5 diag(b^2 + c^2, a^2 + c^2, a^2 + b^2); the
+  // code multiplies in another order: a few eps relative.
+  const double m = density * 4.0 * std::numbers::pi * a * b * c / 3.0;
+  const RigidBody& e = sc.system.body(0);
+  EXPECT_NEAR(e.mass(), m, 4 * eps * m);
+  const V3 exact(m * (b * b + c * c) / 5.0, m * (a * a + c * c) / 5.0, m * (a * a + b * b) / 5.0);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(e.inertia()(i, i), exact(i), 8 * eps * exact(i)) << i;
+    for (int j = 0; j < 3; ++j) {
+      if (j != i) {
+        EXPECT_EQ(e.inertia()(i, j), 0.0);
+      }
+    }
+  }
+  EXPECT_EQ(e.extent(), lgvi::Extent::Ellipsoid);
+  EXPECT_EQ(e.bounding_radius(), a);
+  // The sphere given by its mass: J = 2/5 m r^2.
+  const RigidBody& s = sc.system.body(1);
+  EXPECT_EQ(s.mass(), 7.0);
+  EXPECT_NEAR(s.inertia()(0, 0), 2.0 * 7.0 * 0.16 / 5.0, 4 * eps);
+  EXPECT_EQ(s.extent(), lgvi::Extent::Sphere);
+  EXPECT_EQ(s.bounding_radius(), 0.4);
+  // And the summary's setup reports them.
+  lgvi::app::SimulationResult none;
+  none.final_state = sc.initial_state;
+  const nlohmann::json setup = nlohmann::json::parse(lgvi::app::summary_json(sc, none))["setup"];
+  EXPECT_EQ(setup["bodies"][0]["mass"].get<double>(), e.mass());
+  EXPECT_EQ(setup["bodies"][0]["semi_axes"], nlohmann::json({3.0, 2.0, 0.7}));
+  EXPECT_EQ(setup["bodies"][1]["radius"].get<double>(), 0.4);
+  EXPECT_EQ(setup["on_contact"], "stop");
+}
+
+TEST(Shapes, MassAndInertiaWithRadiusIsABoundingSphere) {
+  const RigidBody body = RigidBody(2.0, M3(V3(1.0, 2.0, 2.5).asDiagonal())).bounded_by(1.5);
+  EXPECT_EQ(body.extent(), lgvi::Extent::Sphere);
+  EXPECT_EQ(body.bounding_radius(), 1.5);
+  EXPECT_EQ(body.inertia()(2, 2), 2.5);  // the inertia as given
+  EXPECT_THROW(body.bounded_by(2.0), lgvi::InvalidInput);       // only a body of unknown extent takes one
+  EXPECT_EQ(RigidBody(2.0, M3::Identity()).bounding_radius(), 0.0);  // a point
+}
+
+// ---------------------------------------------------------------------------
+// The contact test
+
+TEST(ContactReach, TwoSpheresReachTheSumOfTheirRadii) {
+  // The Perram-Wertheim maximum for two spheres is d^2 / (r_a + r_b)^2 in
+  // closed form; the bisection finds it to round-off of the 3x3 solves (a
+  // few eps; 16 eps allowed).
+  for (int i = 0; i < 20; ++i) {
+    const double ra = t::uniform(0.1, 3.0), rb = t::uniform(0.1, 3.0);
+    const V3 u = t::random_vector().normalized();
+    const double reach = lgvi::contact_reach(u, M3::Identity() * (ra * ra), false, M3::Identity() * (rb * rb), false);
+    EXPECT_NEAR(reach, ra + rb, 16 * eps * (ra + rb)) << ra << " " << rb;
+  }
+}
+
+TEST(ContactReach, EllipsoidsPlacedToTouchReachTheirCentreDistance) {
+  // A touches the plane through P with normal n at its support point P =
+  // c_a + M_a n / sqrt(n^T M_a n); B, placed with its support point in the
+  // direction -n at P, touches it from the other side: they touch at P, so
+  // the reach along their line of centres is |c_b - c_a|. Semi-axes up to
+  // 5:1 (shape matrices of condition 25): the construction and the solves
+  // are good to ~25 eps relative; 1e-13 allowed.
+  for (int i = 0; i < 50; ++i) {
+    const V3 sa(t::uniform(0.2, 1.0), t::uniform(0.2, 1.0), t::uniform(0.2, 1.0));
+    const V3 sb(t::uniform(0.2, 1.0), t::uniform(0.2, 1.0), t::uniform(0.2, 1.0));
+    const M3 ma = shape_matrix(sa, t::random_unit_quaternion()), mb = shape_matrix(sb, t::random_unit_quaternion());
+    const V3 n = t::random_vector().normalized();
+    const V3 ca = t::random_vector(2.0);
+    const V3 p = ca + ma * n / std::sqrt(n.dot(ma * n));
+    for (const bool b_point : {false, true}) {
+      const M3 m = b_point ? M3::Zero() : mb;
+      const V3 cb = b_point ? p : V3(p + mb * n / std::sqrt(n.dot(mb * n)));
+      const V3 r = cb - ca;
+      const double reach = lgvi::contact_reach(r.normalized(), ma, false, m, b_point);
+      EXPECT_NEAR(reach, r.norm(), 1e-13 * r.norm()) << i << (b_point ? " point" : " ellipsoid");
+    }
+  }
+}
+
+TEST(ContactReach, AlignedEllipsoidsOnAPrincipalAxisReachTheSumOfThoseSemiAxes) {
+  // Both ellipsoids symmetric about the x axis: each reaches farthest along
+  // x on the axis, so they touch tip to tip. 16 eps as for spheres.
+  const M3 ma = shape_matrix(V3(2.0, 1.0, 0.5), S3d()), mb = shape_matrix(V3(0.3, 1.5, 0.7), S3d());
+  EXPECT_NEAR(lgvi::contact_reach(V3::UnitX(), ma, false, mb, false), 2.3, 16 * eps * 2.3);
+  EXPECT_NEAR(lgvi::contact_reach(V3::UnitY(), ma, false, mb, false), 2.5, 16 * eps * 2.5);
+}
+
+TEST(ContactDetector, FindsExactlyThePairsOfOverlappingBallsOfAllPairs) {
+  // 300 bodies of two balls each, in a box where a good part of them
+  // overlap another: the sweep finds the pairs a test of every ball of every
+  // pair finds, with the deepest overlap of each.
+  std::vector<RigidBody> bodies;
+  SystemState s(300);
+  for (std::size_t a = 0; a < 300; ++a) {
+    bodies.push_back(RigidBody::from_balls(
+        {{V3(-0.2, 0.0, 0.0), 1.0, t::uniform(0.05, 0.3)}, {V3(0.2, 0.0, 0.0), 1.0, t::uniform(0.05, 0.3)}}));
+    s.x[a] = t::random_vector(4.0);
+    s.q[a] = t::random_unit_quaternion();
+  }
+  const System sys(bodies);
+  std::vector<Contact> expected;
+  for (std::size_t a = 0; a < 300; ++a)
+    for (std::size_t b = a + 1; b < 300; ++b) {
+      double deepest = -1.0;
+      for (const lgvi::Ball& u : sys.body(a).balls())
+        for (const lgvi::Ball& v : sys.body(b).balls()) {
+          const double d = ((s.x[b] + s.q[b].act(v.position)) - (s.x[a] + s.q[a].act(u.position))).norm();
+          if (d < u.radius + v.radius) deepest = std::max(deepest, u.radius + v.radius - d);
+        }
+      if (deepest >= 0.0) expected.push_back({a, b, 0, 0, 0.0, deepest});
+    }
+  const ContactDetector detector(sys);
+  const std::vector<Contact>& found = detector.find(s);
+  ASSERT_GT(expected.size(), 10u);  // the test would not test much otherwise
+  ASSERT_EQ(found.size(), expected.size());
+  for (std::size_t i = 0; i < found.size(); ++i) {
+    EXPECT_EQ(found[i].a, expected[i].a);
+    EXPECT_EQ(found[i].b, expected[i].b);
+    // Rotations by matrix (detector) and by quaternion (here): a few eps of the positions (~6).
+    EXPECT_NEAR(found[i].depth(), expected[i].reach, 1e-13) << i;
+  }
+}
+
+TEST(ContactDetector, TwoRubblePilesThroughEachOtherGiveTheDeepestPairOfAllBalls) {
+  // Two bodies of 400 balls each (radii 0.02 to 0.1 in a ball of radius 1),
+  // their centres 0.5 apart: the balls swept along x find the deepest
+  // overlap that a test of all 160000 pairs of balls finds.
+  std::vector<lgvi::Ball> balls;
+  for (int i = 0; i < 400; ++i) {
+    V3 p = t::random_vector();
+    while (p.norm() > 1.0) p = t::random_vector();
+    balls.push_back({p, 1.0, t::uniform(0.02, 0.1)});
+  }
+  const System sys({RigidBody::from_balls(balls), RigidBody::from_balls(balls)});
+  SystemState s(2);
+  s.x[1] = V3(0.5, 0.1, -0.2);
+  s.q = {t::random_unit_quaternion(), t::random_unit_quaternion()};
+  double deepest = -1.0;
+  for (const lgvi::Ball& u : sys.body(0).balls())
+    for (const lgvi::Ball& v : sys.body(1).balls()) {
+      const double d = ((s.x[1] + s.q[1].matrix() * v.position) - (s.x[0] + s.q[0].matrix() * u.position)).norm();
+      if (d < u.radius + v.radius) deepest = std::max(deepest, u.radius + v.radius - d);
+    }
+  ASSERT_GT(deepest, 0.0);
+  const ContactDetector detector(sys);
+  const std::vector<Contact>& found = detector.find(s);
+  ASSERT_EQ(found.size(), 1u);
+  // The same rotations (matrices) and sums: equal to round-off of the order
+  // of the positions (a few eps); 1e-14 allowed.
+  EXPECT_NEAR(found[0].depth(), deepest, 1e-14);
+}
+
+TEST(ContactDetector, EllipsoidsAndABallJustApartAndJustOverlapping) {
+  // Ellipsoid B placed to touch A on the side n (as above), a body of two
+  // balls on the side -n with its ball 0 touching A (its centre rb out along
+  // -n from A's support point Q in the direction -n; ball 1, 0.6 farther
+  // out, is clear); then both moved 1e-9 away from or towards A along n.
+  // 1e-9 is far above the round-off of the placement (~1e-15).
+  for (int i = 0; i < 20; ++i) {
+    const V3 sa(t::uniform(0.2, 1.0), t::uniform(0.2, 1.0), t::uniform(0.2, 1.0));
+    const V3 sb(t::uniform(0.2, 1.0), t::uniform(0.2, 1.0), t::uniform(0.2, 1.0));
+    const double rb = t::uniform(0.1, 1.0);
+    const System sys({RigidBody::ellipsoid(1.0, sa), RigidBody::ellipsoid(1.0, sb),
+                      RigidBody::from_balls({{V3(0.3, 0.0, 0.0), 1.0, rb}, {V3(-0.3, 0.0, 0.0), 1.0, rb}})});
+    const V3 n = t::random_vector().normalized();
+    SystemState s(3);
+    // Body 2's x axis along n: ball 0 at x_2 + 0.3 n, towards A.
+    s.q = {t::random_unit_quaternion(), t::random_unit_quaternion(),
+           S3d(Eigen::Quaterniond::FromTwoVectors(V3::UnitX(), n))};
+    const M3 ma = shape_matrix(sa, s.q[0]), mb = shape_matrix(sb, s.q[1]);
+    s.x[0] = V3::Zero();
+    const V3 p = ma * n / std::sqrt(n.dot(ma * n));
+    const V3 touching = p + mb * n / std::sqrt(n.dot(mb * n));
+    const V3 ball_touching = -p - rb * n - 0.3 * n;  // Q = -P by symmetry
+    const ContactDetector detector(sys);
+    for (const double shift : {1e-9, -1e-9}) {
+      s.x[1] = touching + shift * n;
+      s.x[2] = ball_touching - shift * n;
+      const std::vector<Contact>& found = detector.find(s);
+      if (shift > 0.0) {
+        EXPECT_TRUE(found.empty()) << i;
+        continue;
+      }
+      ASSERT_EQ(found.size(), 2u) << i;
+      EXPECT_EQ(found[0].b, 1u);
+      EXPECT_EQ(found[1].b, 2u);
+      EXPECT_EQ(found[1].ball_b, 0);
+      // The depth along the line of centres: of the order of the shift (the
+      // line is not the normal); positive and well below 1e-6.
+      for (const Contact& c : found) {
+        EXPECT_GT(c.depth(), 0.0);
+        EXPECT_LT(c.depth(), 1e-6);
+      }
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------
+// Runs that meet a contact
+
+// Free motion: d(k) = d0 - v k h (round-off ~1e-14 over the few hundred
+// steps). Two balls of radius 1 overlap when d < 2: from k = floor((d0 - 2) /
+// (v h)) + 1 on, until d < -2. The numbers put every boundary a good part of
+// a step (>= 0.14 h) from the nearest step, so round-off cannot move them.
+constexpr double d0 = 10.0, v = 1.0, h = 0.07;
+
+TEST(OnContact, StopEndsTheRunAtTheFirstStepOfOverlapWithItsRowWritten) {
+  const std::int64_t k_contact = static_cast<std::int64_t>(std::floor((d0 - 2.0) / (v * h))) + 1;  // 115
+  ASSERT_EQ(k_contact, 115);
+  const Outcome r = run(head_on(ball_of_radius_1, ball_of_radius_1, d0, v, h, 20.0));
+  EXPECT_FALSE(r.result.completed);
+  EXPECT_EQ(r.result.stats.last_k, k_contact);
+  // Rows at k = 0, 25, ..., 100 and the contact step 115 (not a multiple of
+  // every = 25), both bodies each: whole rows.
+  ASSERT_EQ(r.rows.size(), 6u * 2u * columns);
+  const double* last = r.rows.data() + 10 * columns;
+  EXPECT_EQ(last[0], static_cast<double>(k_contact) * h);
+  const double gap = last[columns + 2] - last[2];  // x of right minus x of left
+  EXPECT_NEAR(gap, d0 - v * static_cast<double>(k_contact) * h, 1e-12);
+  EXPECT_LT(gap, 2.0);
+  EXPECT_GT(d0 - v * static_cast<double>(k_contact - 1) * h, 2.0);  // the step before: apart
+  const std::string& e = r.result.error;
+  for (const char* part : {"contact: ball 0 of bodies[0] (\"left\") and ball 0 of bodies[1] (\"right\") overlap",
+                           "(step 115)", "centre distance 1.9", "contact depth 0.0", "radii 1 + 1",
+                           "on_contact = \"warn\""})
+    EXPECT_NE(e.find(part), std::string::npos) << part << " not in: " << e;
+  EXPECT_EQ(e.find('\n'), std::string::npos);
+  EXPECT_EQ(r.summary["completed"], false);
+  EXPECT_EQ(r.summary["steps"], k_contact);
+  EXPECT_EQ(r.summary["error"], e);
+  ASSERT_EQ(r.summary["contacts"].size(), 1u);
+  EXPECT_EQ(r.summary["contacts"][0]["first_step"], k_contact);
+}
+
+TEST(OnContact, WarnRecordsTheWholeEpisodeAndGoesOn) {
+  const std::int64_t first = 115, last = static_cast<std::int64_t>(std::floor((d0 + 2.0) / (v * h)));  // 171
+  ASSERT_EQ(last, 171);
+  const Outcome r = run(head_on(ball_of_radius_1, ball_of_radius_1, d0, v, h, 20.0, "[run]\non_contact = \"warn\"\n"));
+  EXPECT_TRUE(r.result.completed);
+  EXPECT_EQ(r.result.stats.last_k, 286);  // ceil(20 / 0.07)
+  ASSERT_EQ(r.summary["contacts"].size(), 1u);
+  const nlohmann::json& c = r.summary["contacts"][0];
+  EXPECT_EQ(c["bodies"], nlohmann::json({"left", "right"}));
+  EXPECT_EQ(c["first_step"], first);
+  EXPECT_EQ(c["last_step"], last);
+  EXPECT_EQ(c["first_time"].get<double>(), static_cast<double>(first) * h);
+  // Deepest at the step nearest to d = 0: k = 143, d = -0.01 (|d| as distance).
+  EXPECT_NEAR(c["max_depth"].get<double>(), 2.0 - 0.01, 1e-12);
+  EXPECT_NEAR(c["distance_at_max_depth"].get<double>(), 0.01, 1e-12);
+  EXPECT_EQ(r.summary["contact_episodes"], 1);
+}
+
+TEST(OnContact, AnEpisodeGoingOnAtACheckpointContinuesAfterResume) {
+  // A checkpoint at k = 150, inside the episode 115..171: the resumed run
+  // lists the same one episode as the run without a break.
+  const lgvi::app::Scenario sc = lgvi::app::parse_scenario(
+      head_on(ball_of_radius_1, ball_of_radius_1, d0, v, h, 20.0, "[run]\non_contact = \"warn\"\n"), "resume");
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("lgvi-test-contact-" + std::to_string(::getpid()) + ".bin")).string();
+  lgvi::app::SimulationOptions opt;
+  opt.checkpoint_every = 150;
+  opt.checkpoint_path = path;
+  lgvi::app::MemorySink whole(0, lgvi::app::scenario_layout(sc));
+  const lgvi::app::SimulationResult full = lgvi::app::simulate(sc, whole, opt);
+  const lgvi::app::Checkpoint c = lgvi::app::read_checkpoint(path);
+  std::filesystem::remove(path);
+  ASSERT_EQ(c.k, 150);
+  ASSERT_EQ(c.stats.contacts.size(), 1u);
+  EXPECT_EQ(c.stats.contacts[0].last_k, 150);
+  lgvi::app::SimulationOptions again;
+  again.resume = &c;
+  lgvi::app::MemorySink rest(0, lgvi::app::scenario_layout(sc));
+  const lgvi::app::SimulationResult resumed = lgvi::app::simulate(sc, rest, again);
+  ASSERT_TRUE(resumed.completed);
+  ASSERT_EQ(resumed.stats.contacts.size(), 1u);
+  const lgvi::app::ContactEpisode &a = full.stats.contacts.at(0), &b = resumed.stats.contacts[0];
+  EXPECT_EQ(b.first_k, 115);
+  EXPECT_EQ(b.last_k, 171);
+  // The resumed run is bit-identical, so are its depths.
+  EXPECT_EQ(b.max_depth, a.max_depth);
+  EXPECT_EQ(resumed.stats.contact_episodes, 1);
+}
+
+TEST(OnContact, IgnoreRunsThroughAsBefore) {
+  const Outcome r = run(head_on(ball_of_radius_1, ball_of_radius_1, d0, v, h, 20.0, "[run]\non_contact = \"ignore\"\n"));
+  EXPECT_TRUE(r.result.completed);
+  EXPECT_FALSE(r.summary.contains("contacts"));
+  EXPECT_EQ(r.summary["setup"]["on_contact"], "ignore");
+}
+
+TEST(OnContact, EllipsoidsHeadOnStopWhereTheirSemiAxesAlongTheLineMeet) {
+  // Long axes along x: they touch at d = 2 + 1.5 = 3.5 (tip to tip), first
+  // overlap at k = floor(6.5 / 0.07) + 1 = 93 (6.5 / 0.07 = 92.86). The right
+  // one turned by 90 degrees about z presents its b = 0.5 along x: d = 2.5,
+  // k = floor(7.5 / 0.07) + 1 = 108 (107.14).
+  const std::string left = "shape = \"ellipsoid\"\nsemi_axes = [2.0, 1.0, 0.5]\ndensity = 1.0";
+  const std::string right = "shape = \"ellipsoid\"\nsemi_axes = [1.5, 0.5, 0.5]\ndensity = 1.0";
+  const Outcome along = run(head_on(left, right, d0, v, h, 20.0));
+  EXPECT_EQ(along.result.stats.last_k, 93);
+  const Outcome turned = run(head_on(left, right, d0, v, h, 20.0, "", "[0.70710678118654757, 0.0, 0.0, 0.70710678118654757]"));
+  EXPECT_EQ(turned.result.stats.last_k, 108);
+  EXPECT_NE(turned.result.error.find("the ellipsoid (2, 1, 0.5) and the ellipsoid (1.5, 0.5, 0.5) would just touch"),
+            std::string::npos)
+      << turned.result.error;
+  // The depth is the reach 2.5 along this line minus the distance: round-off
+  // of the positions (~1e-14) and of the reach (16 eps).
+  const double d = d0 - v * 108 * h;
+  EXPECT_NEAR(turned.summary["contacts"][0]["max_depth"].get<double>(), 2.5 - d, 1e-12);
+}
+
+TEST(OnContact, LennardJonesIsExemptUnlessOnContactIsGiven) {
+  const std::string lj = "[interaction]\nkind = \"lennard-jones\"\nepsilon = 1.0\nsigma = 1.0\n";
+  EXPECT_EQ(lgvi::app::parse_scenario(head_on(ball_of_radius_1, ball_of_radius_1, d0, v, h, 1.0, lj), "lj").on_contact,
+            lgvi::app::OnContact::Ignore);
+  EXPECT_EQ(lgvi::app::parse_scenario(
+                head_on(ball_of_radius_1, ball_of_radius_1, d0, v, h, 1.0, lj + "[run]\non_contact = \"stop\"\n"), "lj")
+                .on_contact,
+            lgvi::app::OnContact::Stop);
+  EXPECT_EQ(lgvi::app::parse_scenario(head_on(ball_of_radius_1, ball_of_radius_1, d0, v, h, 1.0), "g").on_contact,
+            lgvi::app::OnContact::Stop);
+}
+
+TEST(OnContact, OverlapAtTheStartIsAnErrorForEveryExtent) {
+  // Ellipsoid (tip at x = 2) and a sphere of radius 1 at x = 2.9: overlap;
+  // a body given by mass + inertia with radius 1 likewise; without radius it
+  // is its centre, outside the ellipsoid at 2.9: no error.
+  const std::string ellipsoid = "shape = \"ellipsoid\"\nsemi_axes = [2.0, 1.0, 0.5]\nmass = 1.0";
+  for (const std::string& right : {std::string("shape = \"sphere\"\nradius = 1.0\nmass = 1.0"),
+                                   std::string("mass = 1.0\ninertia = [[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]]\nradius = 1.0")}) {
+    try {
+      lgvi::app::parse_scenario(head_on(ellipsoid, right, 2.9, 0.0, h, 1.0), "start.toml");
+      ADD_FAILURE() << "no error for " << right;
+    } catch (const lgvi::InvalidInput& e) {
+      EXPECT_NE(std::string(e.what()).find("key 'bodies[1]': overlaps bodies[0] at the start"), std::string::npos)
+          << e.what();
+    }
+  }
+  EXPECT_NO_THROW(lgvi::app::parse_scenario(
+      head_on(ellipsoid, "mass = 1.0\ninertia = [[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]]", 2.9, 0.0, h, 1.0), "s.toml"));
+  EXPECT_THROW(lgvi::app::parse_scenario(
+                   head_on(ellipsoid, "mass = 1.0\ninertia = [[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]]", 1.9, 0.0, h, 1.0),
+                   "s.toml"),
+               lgvi::InvalidInput);
+}
+
+}  // namespace
