@@ -20,6 +20,7 @@
 #include <limits>
 #include <stdexcept>
 #include <map>
+#include <optional>
 #include <variant>
 
 namespace lgvi::app {
@@ -230,16 +231,21 @@ Scenario ladder_scenario(const Scenario& base, const MethodChoice& m, double ste
   return sc;
 }
 
-/// A system's reference: lgvi composed to order 8 (Kahan & Li's 15 stages) at a step h_ref found by halving
-/// from the finest compared step until halving changes the final state by at most kReferenceTolerance, in
-/// the comparison's own error measure (system_error). Where round-off accumulated over the run keeps the
-/// change above it (the change stops falling: at order 8 a halving divides the truncation part by 256), the
-/// smallest change reached is the reference's accuracy, reported with it; above kReferenceLimit the
-/// comparison fails rather than measure the reference.
+/// A system's reference: lgvi composed to order 8 (Kahan & Li's 15 stages) at a step h_ref whose halving
+/// changes the final state by at most kReferenceTolerance, in the comparison's own error measure
+/// (system_error). The steps tried are the ladder's largest h0, h0 / 2, ... down to a quarter of its
+/// finest, stopping when the tolerance is met. Past the truncation regime (where a halving divides the
+/// change by 256) the change is round-off accumulated over the run, which grows with the number of steps:
+/// so the search starts coarse rather than at the finest step, and once the change has failed to fall
+/// (by kTruncationShrink below the smallest before it) on kRoundOffHalvings successive halvings, or the
+/// steps run out, h_ref is the step of the smallest change seen, and that change, reported with it, is
+/// the reference's accuracy. Above kReferenceLimit the
+/// comparison fails rather than measure the reference. A run that fails (the composition's sub-steps,
+/// some negative, at a large step) only counts as not converged.
 struct SystemReference {
   SystemState state;  ///< the run at h_ref, at t = llround(T / h_ref) h_ref
   double h = 0;       ///< h_ref
-  double change = 0;  ///< max part of system_error between the runs at h_ref and h_ref / 2
+  double change = std::numeric_limits<double>::infinity();  ///< system_error(h_ref, h_ref / 2).max()
   bool met = false;   ///< change <= kReferenceTolerance
 };
 constexpr double kReferenceTolerance = 1e-13;
@@ -247,41 +253,46 @@ constexpr double kReferenceTolerance = 1e-13;
 /// at most 10 % (its order by at most 0.15 over a halving); any larger and the order fit would measure
 /// the reference.
 constexpr double kReferenceLimit = 1e-11;
-constexpr int kMaxReferenceHalvings = 6;
-/// A halving that shrinks the change by less than this factor is in the round-off regime.
+constexpr int kRoundOffHalvings = 2;
+/// Truncation at order 8 divides the change by 2^8 per halving; a change that falls by less than this
+/// factor is round-off (or not yet asymptotic: then a later halving falls again and resets the count).
 constexpr double kTruncationShrink = 8.0;
 
-SystemReference converged_reference(const Scenario& base, double T, double h_start, bool quiet) {
+SystemReference converged_reference(const Scenario& base, double T, double h_largest, double h_finest,
+                                    bool quiet) {
   const MethodChoice order8{Method::Hamiltonian, 8};
-  const SystemState start = base.initial_state;
-  const auto final_state = [&](double step) {
+  const auto final_state = [&](double step) -> std::optional<SystemState> {
     MemorySink sink(2);
-    const SimulationResult r = simulate(ladder_scenario(base, order8, step, T), sink);
-    if (!r.completed)
-      throw std::runtime_error(fmt::format("compare: the reference run (lgvi:8, h = {}) failed: {}", step, r.error));
-    return r.final_state;
+    SimulationResult r = simulate(ladder_scenario(base, order8, step, T), sink);
+    if (!r.completed) {
+      if (!quiet) std::cerr << fmt::format("lgvi compare: reference lgvi:8, h = {:.6g}: {}\n", step, r.error);
+      return std::nullopt;
+    }
+    return std::move(r.final_state);
   };
   SystemReference best;
-  best.change = std::numeric_limits<double>::infinity();
-  double h = h_start, previous = std::numeric_limits<double>::infinity();
-  SystemState coarse = final_state(h);
-  for (int k = 0; k < kMaxReferenceHalvings; ++k) {
-    SystemState fine = final_state(h / 2);
-    const double change = system_error(base.system, coarse, fine, start).max();
-    if (!quiet)
+  int not_falling = 0;
+  double previous = std::numeric_limits<double>::infinity();
+  std::optional<SystemState> coarse = final_state(h_largest);
+  for (double h = h_largest; h > h_finest / 3 && !best.met && not_falling < kRoundOffHalvings; h /= 2) {
+    std::optional<SystemState> fine = final_state(h / 2);
+    const double change = coarse && fine ? system_error(base.system, *coarse, *fine, base.initial_state).max()
+                                         : std::numeric_limits<double>::infinity();
+    if (!quiet && std::isfinite(change))
       std::cerr << fmt::format("lgvi compare: reference lgvi:8, h = {:.6g}: halving it changes the final state by "
                                "{:.3e}\n", h, change);
-    if (change < best.change) best = {coarse, h, change, change <= kReferenceTolerance};
-    if (best.met || change * kTruncationShrink > previous) break;
-    previous = change;
+    if (change < best.change) best = {*coarse, h, change, change <= kReferenceTolerance};
+    not_falling = std::isfinite(change) && change * kTruncationShrink > previous ? not_falling + 1 : 0;
+    previous = std::min(previous, change);
     coarse = std::move(fine);
-    h /= 2;
   }
   if (!(best.change <= kReferenceLimit))
-    throw std::runtime_error(fmt::format(
-        "compare: the reference (lgvi:8) did not converge: halving h_ref = {:.6g} changes the final state by "
-        "{:.3e} (above {:.0e}); give a shorter --error-time or a smaller --ladder-from",
-        best.h, best.change, kReferenceLimit));
+    throw std::runtime_error(
+        std::isfinite(best.change)
+            ? fmt::format("compare: the reference (lgvi:8) did not converge: at best, halving h_ref = {:.6g} changes "
+                          "the final state by {:.3e} (above {:.0e}); give a shorter --error-time",
+                          best.h, best.change, kReferenceLimit)
+            : std::string("compare: the reference runs (lgvi:8) failed at every step; give a smaller --ladder-from"));
   return best;
 }
 
@@ -329,7 +340,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
   // No potential and no interaction: nothing to count but right-hand-side stages.
   const bool free_body = base.potential.kind == PotentialKind::None && base.interaction.kind == InteractionKind::None;
   const SystemReference system_reference =
-      system ? converged_reference(base, T, h_min, opt.quiet) : SystemReference{};
+      system ? converged_reference(base, T, h0, h_min, opt.quiet) : SystemReference{};
   const std::string reference_name =
       system      ? fmt::format("lgvi:8 with step {:.3g}", system_reference.h)
       : free_body ? std::string("the exact flow")
