@@ -18,9 +18,9 @@
 #include <filesystem>
 #include <iostream>
 #include <limits>
-#include <stdexcept>
 #include <map>
 #include <optional>
+#include <stdexcept>
 #include <variant>
 
 namespace lgvi::app {
@@ -239,9 +239,10 @@ Scenario ladder_scenario(const Scenario& base, const MethodChoice& m, double ste
 /// so the search starts coarse rather than at the finest step, and once the change has failed to fall
 /// (by kTruncationShrink below the smallest before it) on kRoundOffHalvings successive halvings, or the
 /// steps run out, h_ref is the step of the smallest change seen, and that change, reported with it, is
-/// the reference's accuracy. Above kReferenceLimit the
-/// comparison fails rather than measure the reference. A run that fails (the composition's sub-steps,
-/// some negative, at a large step) only counts as not converged.
+/// the reference's accuracy. Above kReferenceLimit the comparison fails rather than measure the
+/// reference. A run that fails (the composition's sub-steps, some negative, at a large step) only counts
+/// as not converged. The compared runs and the reference end at llround(T / h) h: T a multiple of the
+/// ladder's largest step (the default) makes that one time for all.
 struct SystemReference {
   SystemState state;  ///< the run at h_ref, at t = llround(T / h_ref) h_ref
   double h = 0;       ///< h_ref
