@@ -17,7 +17,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <limits>
 #include <map>
+#include <optional>
+#include <stdexcept>
 #include <variant>
 
 namespace lgvi::app {
@@ -57,16 +60,80 @@ double relative(const Vector3<double>& a, const Vector3<double>& ref, const Vect
   return scale > 0 ? (a - ref).norm() / scale : (a - ref).norm();
 }
 
+/// The angle of R_ref^T R in radians (the sign of q does not matter).
+double attitude_angle(const RigidBodyState& a, const RigidBodyState& ref) {
+  // |<q, q_ref>| = cos(theta/2) for unit quaternions; atan2 keeps small angles accurate.
+  const Eigen::Matrix3d d = ref.q.matrix().transpose() * a.q.matrix();
+  const Eigen::Vector3d axis(d(2, 1) - d(1, 2), d(0, 2) - d(2, 0), d(1, 0) - d(0, 1));
+  return std::atan2(0.5 * axis.norm(), 0.5 * (d.trace() - 1.0));
+}
+
 StateError state_error(const RigidBodyState& a, const RigidBodyState& ref, const RigidBodyState& start) {
   StateError e;
   e.position = relative(a.x, ref.x, start.x);
   e.momentum = relative(a.p, ref.p, start.p);
   e.angular_velocity = relative(a.w, ref.w, start.w);
-  // |<q, q_ref>| = cos(theta/2) for unit quaternions; atan2 keeps small angles accurate.
-  const Eigen::Matrix3d d = ref.q.matrix().transpose() * a.q.matrix();
-  const Eigen::Vector3d axis(d(2, 1) - d(1, 2), d(0, 2) - d(2, 0), d(1, 0) - d(0, 1));
-  e.attitude = std::atan2(0.5 * axis.norm(), 0.5 * (d.trace() - 1.0));
+  e.attitude = attitude_angle(a, ref);
   return e;
+}
+
+/// Whether the scenario is compared as a system ([[bodies]], several bodies or an interaction): against a
+/// converged order-8 lgvi run (converged_reference), with per-body errors (system_error). The single-body
+/// scenarios keep their references (the exact flow, RK4 of the continuous equations).
+bool is_system(const Scenario& sc) {
+  return sc.bodies_format || sc.bodies() > 1 || sc.interaction.kind != InteractionKind::None;
+}
+
+/// The system's mass-weighted centre.
+Vector3<double> centre_of_mass(const System& sys, const SystemState& s) {
+  Vector3<double> c = Vector3<double>::Zero();
+  for (std::size_t a = 0; a < s.size(); ++a) c += sys.body(a).mass() * s.x[a];
+  return c / sys.total_mass();
+}
+
+/// The error of a system's final state, per body, each part the largest over the bodies, relative to the
+/// system's scales taken over the reference and the start: positions to L = the largest distance of a body
+/// from the centre of mass (one body: the largest |x_a|, as state_error's), momenta to the largest |p_b|,
+/// angular velocities to the largest |w_b| (absolute where a scale is 0); the attitude angle in radians.
+/// One scale per quantity, not per body: a light body's error counts at the system's size, not its own.
+StateError system_error(const System& sys, const SystemState& s, const SystemState& ref, const SystemState& start) {
+  const Vector3<double> c_ref = centre_of_mass(sys, ref), c0 = centre_of_mass(sys, start);
+  double lx = 0, lx_origin = 0, lp = 0, lw = 0;
+  for (std::size_t a = 0; a < s.size(); ++a) {
+    lx = std::max({lx, (ref.x[a] - c_ref).norm(), (start.x[a] - c0).norm()});
+    lx_origin = std::max({lx_origin, ref.x[a].norm(), start.x[a].norm()});
+    lp = std::max({lp, ref.p[a].norm(), start.p[a].norm()});
+    lw = std::max({lw, ref.w[a].norm(), start.w[a].norm()});
+  }
+  if (lx == 0) lx = lx_origin;
+  const auto scaled = [](double d, double scale) { return scale > 0 ? d / scale : d; };
+  StateError e;
+  for (std::size_t a = 0; a < s.size(); ++a) {
+    e.position = std::max(e.position, scaled((s.x[a] - ref.x[a]).norm(), lx));
+    e.attitude = std::max(e.attitude, attitude_angle(s.body(a), ref.body(a)));
+    e.momentum = std::max(e.momentum, scaled((s.p[a] - ref.p[a]).norm(), lp));
+    e.angular_velocity = std::max(e.angular_velocity, scaled((s.w[a] - ref.w[a]).norm(), lw));
+  }
+  return e;
+}
+
+/// Why method m cannot run the scenario, as the table says it; empty if it can. The reader's checks on
+/// [integrator] method (scenario.cpp), asked of every compared method.
+std::string not_applicable(const Scenario& sc, Method m) {
+  if (m == Method::Exact && (sc.bodies() > 1 || sc.interaction.kind != InteractionKind::None ||
+                             sc.potential.kind != PotentialKind::None))
+    return fmt::format("the exact flow of one free body; this scenario has {} bod{}{}{}", sc.bodies(),
+                       sc.bodies() == 1 ? "y" : "ies",
+                       sc.interaction.kind != InteractionKind::None ? ", an [interaction]" : "",
+                       sc.potential.kind != PotentialKind::None ? ", a [potential]" : "");
+  if (m == Method::NoSquish || m == Method::SplittingDlm)
+    for (std::size_t a = 0; a < sc.bodies(); ++a)
+      if (!sc.system.body(a).has_principal_axes())
+        return fmt::format("rotates about the principal axes; {}.inertia is not diagonal",
+                           sc.bodies_format ? fmt::format("bodies[{}]", a) : std::string("body"));
+  if (!sc.forcing.empty() && m != Method::Hamiltonian && m != Method::So3Lgvi)
+    return "does not take [[forcing]] (lgvi and so3-lgvi do)";
+  return {};
 }
 
 /// Wall times of repeated runs: median and quartiles (linear interpolation between order statistics).
@@ -97,6 +164,8 @@ Timing timing_of(std::vector<double> walls) {
 
 struct LadderPoint {
   double h = 0, error = 0, max_energy_error = 0;
+  /// Over [0, T]: |P - P0| relative to sum |p_a0|, |L - L0| relative to |L0| (absolute where the scale is 0).
+  double max_linear_momentum_error = 0, max_angular_momentum_error = 0;
   StateError parts;
   Timing wall;
   std::int64_t steps = 0, evaluations = 0;
@@ -152,6 +221,82 @@ namespace {
 constexpr int kMinRepeats = 3;
 constexpr int kMaxRepeats = 100000;
 
+/// The scenario run with method choice m at step `step` to t = T (llround(T / step) steps), writing its
+/// first and last rows only: one point of the ladder.
+Scenario ladder_scenario(const Scenario& base, const MethodChoice& m, double step, double T) {
+  Scenario sc = with_method(base, m);
+  sc.integrator.step = step;
+  sc.integrator.steps = std::llround(T / step);
+  sc.output_every = sc.integrator.steps + 1;  // first and last rows only
+  return sc;
+}
+
+/// A system's reference: lgvi composed to order 8 (Kahan & Li's 15 stages) at a step h_ref whose halving
+/// changes the final state by at most kReferenceTolerance, in the comparison's own error measure
+/// (system_error). The steps tried are the ladder's largest h0, h0 / 2, ... down to a quarter of its
+/// finest, stopping when the tolerance is met. Past the truncation regime (where a halving divides the
+/// change by 256) the change is round-off accumulated over the run, which grows with the number of steps:
+/// so the search starts coarse rather than at the finest step, and once the change has failed to fall
+/// (by kTruncationShrink below the smallest before it) on kRoundOffHalvings successive halvings, or the
+/// steps run out, h_ref is the step of the smallest change seen, and that change, reported with it, is
+/// the reference's accuracy. Above kReferenceLimit the comparison fails rather than measure the
+/// reference. A run that fails (the composition's sub-steps, some negative, at a large step) only counts
+/// as not converged. The compared runs and the reference end at llround(T / h) h: T a multiple of the
+/// ladder's largest step (the default) makes that one time for all.
+struct SystemReference {
+  SystemState state;  ///< the run at h_ref, at t = llround(T / h_ref) h_ref
+  double h = 0;       ///< h_ref
+  double change = std::numeric_limits<double>::infinity();  ///< system_error(h_ref, h_ref / 2).max()
+  bool met = false;   ///< change <= kReferenceTolerance
+};
+constexpr double kReferenceTolerance = 1e-13;
+/// An error of 1e-11 in the reference moves an error of 1e-10, the smallest the observed order uses, by
+/// at most 10 % (its order by at most 0.15 over a halving); any larger and the order fit would measure
+/// the reference.
+constexpr double kReferenceLimit = 1e-11;
+constexpr int kRoundOffHalvings = 2;
+/// Truncation at order 8 divides the change by 2^8 per halving; a change that falls by less than this
+/// factor is round-off (or not yet asymptotic: then a later halving falls again and resets the count).
+constexpr double kTruncationShrink = 8.0;
+
+SystemReference converged_reference(const Scenario& base, double T, double h_largest, double h_finest,
+                                    bool quiet) {
+  const MethodChoice order8{Method::Hamiltonian, 8};
+  const auto final_state = [&](double step) -> std::optional<SystemState> {
+    MemorySink sink(2);
+    SimulationResult r = simulate(ladder_scenario(base, order8, step, T), sink);
+    if (!r.completed) {
+      if (!quiet) std::cerr << fmt::format("lgvi compare: reference lgvi:8, h = {:.6g}: {}\n", step, r.error);
+      return std::nullopt;
+    }
+    return std::move(r.final_state);
+  };
+  SystemReference best;
+  int not_falling = 0;
+  double previous = std::numeric_limits<double>::infinity();
+  std::optional<SystemState> coarse = final_state(h_largest);
+  for (double h = h_largest; h > h_finest / 3 && !best.met && not_falling < kRoundOffHalvings; h /= 2) {
+    std::optional<SystemState> fine = final_state(h / 2);
+    const double change = coarse && fine ? system_error(base.system, *coarse, *fine, base.initial_state).max()
+                                         : std::numeric_limits<double>::infinity();
+    if (!quiet && std::isfinite(change))
+      std::cerr << fmt::format("lgvi compare: reference lgvi:8, h = {:.6g}: halving it changes the final state by "
+                               "{:.3e}\n", h, change);
+    if (change < best.change) best = {*coarse, h, change, change <= kReferenceTolerance};
+    not_falling = std::isfinite(change) && change * kTruncationShrink > previous ? not_falling + 1 : 0;
+    previous = std::min(previous, change);
+    coarse = std::move(fine);
+  }
+  if (!(best.change <= kReferenceLimit))
+    throw std::runtime_error(
+        std::isfinite(best.change)
+            ? fmt::format("compare: the reference (lgvi:8) did not converge: at best, halving h_ref = {:.6g} changes "
+                          "the final state by {:.3e} (above {:.0e}); give a shorter --error-time",
+                          best.h, best.change, kReferenceLimit)
+            : std::string("compare: the reference runs (lgvi:8) failed at every step; give a smaller --ladder-from"));
+  return best;
+}
+
 /// "1.23e-03 [1.20e-03, 1.31e-03]" (median [q25, q75]), in units of `unit` seconds.
 std::string fmt_timing(const Timing& t, double unit, const char* spec) {
   if (!std::isfinite(t.median)) return "-";
@@ -166,9 +311,23 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
   if (opt.long_steps < 1) throw InvalidInput("--long-steps: must be >= 1");
   if (!(opt.timing_budget >= 0) || opt.timing_budget > 1e4)
     throw InvalidInput("--timing-budget: must be between 0 and 1e4 seconds");
-  for (const MethodChoice& m : opt.methods)
-    if (m.method == Method::Exact && base.potential.kind != PotentialKind::None)
+  const bool system = is_system(base);
+  // A system's table lists the methods that cannot run it, saying why; a single body's comparison refuses
+  // them as before. Either way, at least one method must run.
+  std::map<MethodChoice, std::string> unable;
+  std::vector<MethodChoice> runnable;
+  for (const MethodChoice& m : opt.methods) {
+    if (!system && m.method == Method::Exact && base.potential.kind != PotentialKind::None)
       throw InvalidInput("--methods: \"exact\" is the free body's flow; the scenario's potential is not \"none\"");
+    std::string why = system ? not_applicable(base, m.method) : std::string();
+    if (why.empty())
+      runnable.push_back(m);
+    else
+      unable[m] = std::move(why);
+  }
+  if (runnable.empty())
+    throw InvalidInput("--methods: none of the methods can run this scenario (" + opt.methods.front().name() +
+                       ": " + unable.at(opt.methods.front()) + "); name another, e.g. lgvi");
   const std::string dir = opt.out_dir.empty() ? base.name + "-compare" : opt.out_dir;
   const double h = base.integrator.step;
   const double T = opt.error_time > 0 ? opt.error_time : std::min(base.integrator.duration, 1e4 * h);
@@ -179,22 +338,24 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
   fs::create_directories(dir);
   const double h0 = opt.ladder_from > 0.0 ? opt.ladder_from : h;
   const double h_min = h0 / std::pow(2.0, opt.ladder - 1);
-  const bool free_body = base.potential.kind == PotentialKind::None;
+  // No potential and no interaction: nothing to count but right-hand-side stages.
+  const bool free_body = base.potential.kind == PotentialKind::None && base.interaction.kind == InteractionKind::None;
+  const SystemReference system_reference =
+      system ? converged_reference(base, T, h0, h_min, opt.quiet) : SystemReference{};
   const std::string reference_name =
-      free_body ? std::string("the exact flow") : fmt::format("RK4 with step {:.3g}", h_min / 8);
-  if (!opt.quiet) std::cerr << fmt::format("lgvi compare: reference ({}) to t = {}\n", reference_name, T);
-  const RigidBodyState reference = reference_state(base, T, h_min / 8);
+      system      ? fmt::format("lgvi:8 with step {:.3g}", system_reference.h)
+      : free_body ? std::string("the exact flow")
+                  : fmt::format("RK4 with step {:.3g}", h_min / 8);
+  if (!opt.quiet && !system) std::cerr << fmt::format("lgvi compare: reference ({}) to t = {}\n", reference_name, T);
+  const RigidBodyState reference = system ? RigidBodyState{} : reference_state(base, T, h_min / 8);
   const RigidBodyState start = base.initial();
 
   std::map<MethodChoice, std::vector<LadderPoint>> ladder;
   std::map<MethodChoice, LongRun> long_runs;
-  for (const MethodChoice& m : opt.methods) {
+  for (const MethodChoice& m : runnable) {
     if (!opt.quiet) std::cerr << fmt::format("lgvi compare: {}\n", m.name());
     for (int j = 0; j < opt.ladder; ++j) {
-      Scenario sc = with_method(base, m);
-      sc.integrator.step = h0 / std::pow(2.0, j);
-      sc.integrator.steps = std::llround(T / sc.integrator.step);
-      sc.output_every = sc.integrator.steps + 1;  // first and last rows only
+      const Scenario sc = ladder_scenario(base, m, h0 / std::pow(2.0, j), T);
       MemorySink sink(2);
       LadderPoint p;
       p.h = sc.integrator.step;
@@ -214,11 +375,16 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
       p.wall = timing_of(walls);
       p.completed = r.completed;
       p.failure = r.error;
-      if (r.completed) p.parts = state_error(r.final_state.body(0), reference, start);
+      if (r.completed)
+        p.parts = system ? system_error(base.system, r.final_state, system_reference.state, base.initial_state)
+                         : state_error(r.final_state.body(0), reference, start);
       p.error = r.completed ? p.parts.max() : std::nan("");
       p.steps = r.stats.last_k;
       p.evaluations = r.stats.potential_evaluations;
       p.max_energy_error = r.stats.max_energy_error;
+      p.max_linear_momentum_error = r.stats.max_linear_momentum_error;
+      const double l0 = r.stats.momentum0.norm();
+      p.max_angular_momentum_error = l0 > 0 ? r.stats.max_momentum_error / l0 : r.stats.max_momentum_error;
       ladder[m].push_back(p);
     }
     // Long run at equal cost: e evaluations per step -> step e h.
@@ -231,7 +397,12 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
     sc.integrator.step = h * cost_factor;
     sc.integrator.steps = static_cast<std::int64_t>(static_cast<double>(opt.long_steps) / cost_factor);
     sc.output_every = std::max<std::int64_t>(1, sc.integrator.steps / 2000);
-    MemorySink sink(2100);
+    // A [[bodies]] scenario writes the long layout: one row per body and output step.
+    const TrajectoryLayout layout = base.bodies_format
+                                        ? TrajectoryLayout::long_format(static_cast<std::int64_t>(base.bodies()),
+                                                                        !base.forcing.empty())
+                                        : TrajectoryLayout{};
+    MemorySink sink(2100 * layout.rows_per_step(), layout);
     const SimulationResult r = simulate(sc, sink);
     LongRun& L = long_runs[m];
     L.h = sc.integrator.step;
@@ -245,18 +416,32 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
     const double l0 = r.stats.momentum0.norm();
     L.max_rel_momentum = l0 > 0 ? r.stats.max_momentum_error / l0 : r.stats.max_momentum_error;
     const std::vector<double> rows = sink.take();
-    for (std::size_t i = 0; i + trajectory_columns <= rows.size(); i += trajectory_columns)
-      L.rows.insert(L.rows.end(), {rows[i], rows[i + 15], rows[i + 16], rows[i + 20]});
+    if (!base.bodies_format) {
+      for (std::size_t i = 0; i + trajectory_columns <= rows.size(); i += trajectory_columns)
+        L.rows.insert(L.rows.end(), {rows[i], rows[i + 15], rows[i + 16], rows[i + 20]});
+    } else {
+      // Per output step: t, the system's energy error and |L - L0| (every body's row holds them), the
+      // largest ||q_a| - 1| of its bodies (bodies_trajectory_header's columns 0, 17, 25 and 15).
+      const auto columns = static_cast<std::size_t>(layout.columns);
+      const std::size_t step_values = columns * base.bodies();
+      for (std::size_t i = 0; i + step_values <= rows.size(); i += step_values) {
+        double dq = 0;
+        for (std::size_t a = 0; a < base.bodies(); ++a)
+          if (std::abs(rows[i + a * columns + 15]) >= std::abs(dq)) dq = rows[i + a * columns + 15];
+        L.rows.insert(L.rows.end(), {rows[i], rows[i + 17], dq, rows[i + 25]});
+      }
+    }
     L.final_energy_error = L.rows.size() >= 4 ? L.rows[L.rows.size() - 3] : std::nan("");
   }
 
   // Files. The timing columns are the only ones that change from one comparison to the next.
   std::string wp =
       "method,h,steps,potential_evaluations,wall_seconds,wall_seconds_q25,wall_seconds_q75,timing_repeats,error,"
-      "position_error,attitude_error_rad,momentum_error,angular_velocity_error,max_abs_energy_error,completed\n";
+      "position_error,attitude_error_rad,momentum_error,angular_velocity_error,max_abs_energy_error,completed" +
+      std::string(system ? ",max_relative_linear_momentum_error,max_relative_angular_momentum_error\n" : "\n");
   for (const MethodChoice& m : opt.methods)
-    for (const LadderPoint& p : ladder[m])
-      wp += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", m.name(), json_number(p.h), p.steps,
+    for (const LadderPoint& p : ladder[m]) {
+      wp += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}", m.name(), json_number(p.h), p.steps,
                         p.evaluations, json_number(p.wall.median), json_number(p.wall.q25),
                         json_number(p.wall.q75), p.wall.repeats, json_number(p.error),
                         json_number(p.completed ? p.parts.position : std::nan("")),
@@ -264,6 +449,10 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
                         json_number(p.completed ? p.parts.momentum : std::nan("")),
                         json_number(p.completed ? p.parts.angular_velocity : std::nan("")),
                         json_number(p.max_energy_error), p.completed ? "true" : "false");
+      if (system)
+        wp += fmt::format(",{},{}", json_number(p.max_linear_momentum_error), json_number(p.max_angular_momentum_error));
+      wp += "\n";
+    }
   write_file_atomically((fs::path(dir) / "work_precision.csv").string(), wp);
   std::string lt = "method,t,energy_error,quat_norm_error,momentum_error\n";
   for (const MethodChoice& m : opt.methods) {
@@ -273,6 +462,13 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
                         json_number(rows[i + 2]), json_number(rows[i + 3]));
   }
   write_file_atomically((fs::path(dir) / "long_time.csv").string(), lt);
+  if (system)
+    write_file_atomically(
+        (fs::path(dir) / "reference.json").string(),
+        fmt::format("{{\n  \"method\": \"lgvi:8\",\n  \"t\": {},\n  \"h_ref\": {},\n  \"change_on_halving\": {},\n"
+                    "  \"tolerance\": {},\n  \"tolerance_met\": {}\n}}\n",
+                    json_number(T), json_number(system_reference.h), json_number(system_reference.change),
+                    json_number(kReferenceTolerance), system_reference.met ? "true" : "false"));
 
   // ns per step at the finest step, with its quartiles.
   const auto ns_per_step = [](const LadderPoint& p) {
@@ -288,7 +484,10 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
       "attitude_error_rad_at_h_min,momentum_error_at_h_min,angular_velocity_error_at_h_min,ns_per_step,"
       "ns_per_step_q25,ns_per_step_q75,timing_repeats,ns_per_step_vs_lgvi,vs_lgvi_within_noise,"
       "long_h,long_max_abs_energy_error,long_final_energy_error,long_max_abs_quat_norm_error,"
-      "long_max_relative_momentum_error,long_completed\n";
+      "long_max_relative_momentum_error,long_completed" +
+      std::string(system ? ",max_abs_energy_error_at_h_min,max_relative_linear_momentum_error_at_h_min,"
+                           "max_relative_angular_momentum_error_at_h_min,not_applicable\n"
+                         : "\n");
   const std::string cost_note =
       free_body ? "The scenario has no potential: a free body's cost is its wall time only, and the long runs are "
                   "at equal right-hand-side evaluations (stages) per unit time, e stages per step -> step e h"
@@ -301,21 +500,61 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
       conservation_laws(base).angular_momentum == ConservationLaws::Angular::Conserved
           ? "momentum error"
           : "momentum change (not conserved here)";
+  const int finest = 1 << (opt.ladder - 1);
+  const std::string error_text =
+      system
+          ? fmt::format(
+                "The reference is lgvi composed to order 8 (Kahan & Li's 15 stages) at h_ref = {:.6g}, the step at "
+                "which halving changes the final state by {:.3e} in the error below ({}; reference.json). Error = "
+                "the largest, over the bodies, of |x_a - x_a,ref| / L (L = the largest distance of a body from the "
+                "centre of mass, at t = 0 or in the reference), the attitude angle of R_a,ref^T R_a (rad), "
+                "|p_a - p_a,ref| / max_b |p_b| and |w_a - w_a,ref| / max_b |w_b| (the scales over t = 0 and the "
+                "reference; absolute where a scale is 0); the parts are in work_precision.csv and comparison.csv, "
+                "with the system's energy error max |E - E0| and its momentum errors max |P - P0| / sum |p_a0|, "
+                "max |L - L0| / |L0| over [0, T].\n",
+                system_reference.h, system_reference.change,
+                system_reference.met
+                    ? fmt::format("tolerance {:.0e}, met", kReferenceTolerance)
+                    : fmt::format("the tolerance {:.0e} is below the round-off accumulated over this run; the "
+                                  "change is the reference's accuracy",
+                                  kReferenceTolerance))
+          : std::string("Error = the largest of "
+                        "|x - x_ref| / max(|x_ref|, |x0|), the attitude angle of R_ref^T R (rad), |p - p_ref| / "
+                        "max(|p_ref|, |p0|) and |w - w_ref| / max(|w_ref|, |w0|) (absolute where the scale is 0): "
+                        "dimensionless, comparable across problems; the parts are in work_precision.csv and "
+                        "comparison.csv.\n");
+  // A system's table adds the per-body position error and the system's energy error at the finest step.
+  const std::string position_column = system ? fmt::format("position error at h/{} | ", finest) : std::string();
+  const std::string energy_column =
+      system ? fmt::format("max abs energy error over [0, T] at h/{} | ", finest) : std::string();
+  const int columns = system ? 13 : 11;
   std::string md = fmt::format(
-      "# Comparison on `{}`\n\nWork-precision: steps h = {} ... {} to t = {} against {}. Error = the largest of "
-      "|x - x_ref| / max(|x_ref|, |x0|), the attitude angle of R_ref^T R (rad), |p - p_ref| / max(|p_ref|, |p0|) "
-      "and |w - w_ref| / max(|w_ref|, |w0|) (absolute where the scale is 0): dimensionless, comparable across "
-      "problems; the parts are in work_precision.csv and comparison.csv.\n"
+      "# Comparison on `{}`\n\nWork-precision: steps h = {} ... {} to t = {} against {}. {}"
       "Observed order: from the finest pair of steps whose errors lie in [1e-10, 0.1].\n"
       "Timings: after an untimed first run, each run repeated until the repeats add up to {} s (at least {}); "
       "median [first quartile, third quartile]; \"within noise\" where the quartile intervals overlap.\n"
       "{}; {} steps of h.\n\n"
-      "| method | {}/step | observed order | error at h | error at h/{} | attitude error at h/{} (rad) | "
+      "| method | {}/step | observed order | error at h | error at h/{} | {}attitude error at h/{} (rad) | {}"
       "ns/step, median [quartiles] | vs lgvi | long: max abs energy error | long: max abs(abs(q) - 1) | long: max rel. {} |\n"
-      "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
-      base.name, h0, h_min, T, reference_name, opt.timing_budget, kMinRepeats, cost_note, opt.long_steps,
-      free_body ? "stages" : "evaluations", 1 << (opt.ladder - 1), 1 << (opt.ladder - 1), momentum_column);
+      "|---|{}\n",
+      base.name, h0, h_min, T, reference_name, error_text, opt.timing_budget, kMinRepeats, cost_note, opt.long_steps,
+      free_body ? "stages" : "evaluations", finest, position_column, finest, energy_column, momentum_column,
+      [&] {
+        std::string separator;
+        for (int c = 1; c < columns; ++c) separator += "---:|";
+        return separator;
+      }());
   for (const MethodChoice& m : opt.methods) {
+    if (const auto u = unable.find(m); u != unable.end()) {
+      // Not run: the reason, in the table and in the CSV's last column.
+      csv += m.name();
+      for (int c = 1; c < 21; ++c) csv += c == 14 || c == 20 ? ",false" : ",null";
+      csv += ",null,null,null,\"" + u->second + "\"\n";
+      md += fmt::format("| {} | not applicable: {} |", m.name(), u->second);
+      for (int c = 2; c < columns; ++c) md += " - |";
+      md += "\n";
+      continue;
+    }
     const auto& pts = ladder[m];
     const LadderPoint& b = pts.back();
     // Observed order: log2 of the error ratio of the last pair of successive
@@ -337,7 +576,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
     const bool noise = !is_lgvi && std::isfinite(vs) && ns.overlaps(lgvi_ns);
     const LongRun& L = long_runs[m];
     const auto part = [&](double v) { return json_number(b.completed ? v : std::nan("")); };
-    csv += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", m.name(),
+    csv += fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}", m.name(),
                        json_number(per_step), json_number(order), json_number(pts.front().error),
                        json_number(b.error), part(b.parts.position), part(b.parts.attitude),
                        part(b.parts.momentum), part(b.parts.angular_velocity), json_number(ns.median),
@@ -345,9 +584,14 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
                        noise ? "true" : "false", json_number(L.h), json_number(L.max_energy_error),
                        json_number(L.final_energy_error), json_number(L.max_quat), json_number(L.max_rel_momentum),
                        L.completed ? "true" : "false");
-    md += fmt::format("| {} | {:.2f} | {:.2f} | {} | {} | {} | {} | {} | {} | {} | {} |\n", m.name(), per_step,
+    csv += system ? fmt::format(",{},{},{},\n", json_number(b.max_energy_error),
+                                json_number(b.max_linear_momentum_error), json_number(b.max_angular_momentum_error))
+                  : std::string("\n");
+    md += fmt::format("| {} | {:.2f} | {:.2f} | {} | {} | {}{} | {}{} | {} | {} | {} | {} |\n", m.name(), per_step,
                       order, fmt_e(pts.front().error), fmt_e(b.error),
-                      fmt_e(b.completed ? b.parts.attitude : std::nan("")), fmt_timing(ns, 1.0, ".0f"),
+                      system ? fmt_e(b.completed ? b.parts.position : std::nan("")) + " | " : std::string(),
+                      fmt_e(b.completed ? b.parts.attitude : std::nan("")),
+                      system ? fmt_e(b.max_energy_error) + " | " : std::string(), fmt_timing(ns, 1.0, ".0f"),
                       !std::isfinite(vs) ? std::string("-")
                       : noise            ? fmt::format("{:.2f} (within noise)", vs)
                                          : fmt::format("{:.2f}", vs),

@@ -7,6 +7,12 @@
 //    warm-up) and against potential evaluations (for a free body: wall time only; the exact flow is
 //    the reference and not ranked). The error is split into position, attitude angle, momentum and
 //    angular velocity, each relative to the problem's size.
+//  * A system ([[bodies]], several bodies or an [interaction]) is compared against lgvi composed to
+//    order 8 at a step found by halving until the final state stops changing (the change reached is
+//    reported, DIR/reference.json); its errors are per-body maxima, with the system's energy and
+//    momentum errors beside them; a method that cannot run the system (exact: one free body only;
+//    no-squish, splitting-dlm: principal axes; only lgvi and so3-lgvi take a forcing) is a table row
+//    saying why, not a failed comparison.
 //  * Long-time behaviour at equal cost: every method given the same number of
 //    potential evaluations per unit time (a method needing e evaluations per
 //    step runs with step e h), out to `long_steps` steps of h; energy error,
@@ -51,7 +57,9 @@ struct CompareOptions {
 };
 
 /// Runs the comparison and writes DIR/{work_precision.csv, long_time.csv,
-/// comparison.csv, comparison.md, *.png}. Returns the exit status.
+/// comparison.csv, comparison.md, *.png} and, for a system, DIR/reference.json.
+/// Returns the exit status; throws InvalidInput on bad options and
+/// std::runtime_error when a system's reference does not converge.
 int compare_methods(const Scenario& scenario, const CompareOptions& options);
 
 }  // namespace lgvi::app

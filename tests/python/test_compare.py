@@ -2,6 +2,8 @@
 flow is the reference: every method's observed order, the equal-cost long
 runs, the tables and the figures. Run by ctest with LGVI_BINARY set."""
 import csv
+import json
+import math
 import os
 import pathlib
 import subprocess
@@ -142,3 +144,120 @@ def test_output_folder_is_printed_and_not_overwritten(tmp_path):
     assert subprocess.run(args + ["--out", str(out), "--force", "-q"], capture_output=True).returncode == 0
     helptext = subprocess.run([BINARY, "compare", "--help"], capture_output=True, text=True).stdout
     assert "Default: lgvi,lgvi-lagrangian" in helptext and "--force" in helptext and "--timing-budget" in helptext
+
+
+# The binary asteroid (two bodies, mutual gravity of balls): a system, compared against lgvi composed to
+# order 8 at a converged step. h = 0.16 ... 0.02 to t = 40 (about one mutual orbit; the primary turns 0.1
+# rad per step at h = 0.16): every method is in its asymptotic regime there, the ratios of successive
+# errors are 2^p to within 1 % (errors 4e-2 ... 2e-5 for the second-order methods, 1e-6 ... 3e-10 for
+# rk4-normalized, above the reference's ~1e-13 and the 1e-10 floor of the fit). The windows of +-0.2
+# (second order) and +-0.4 (fourth) leave room for a changed reference or error measure without
+# admitting the wrong order: order 2 and 4 differ by 2 and a saturated error gives 0 or nan.
+SECOND_ORDER = ["lgvi", "lgvi-lagrangian", "so3-lgvi", "rattle-quaternion", "no-squish", "splitting-dlm"]
+
+
+@pytest.fixture(scope="module")
+def binary_asteroid(tmp_path_factory):
+    out = tmp_path_factory.mktemp("compare-binary")
+    methods = ",".join(SECOND_ORDER + ["rk4-normalized", "euler-exp", "exact"])
+    proc = subprocess.run([BINARY, "compare", str(SOURCE / "scenarios" / "binary-asteroid.toml"), "--methods",
+                           methods, "--out", str(out), "--ladder", "4", "--ladder-from", "0.16", "--error-time", "40",
+                           "--long-steps", "2000", "--timing-budget", "0", "--no-figures", "-q"],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    with open(out / "comparison.csv", newline="") as f:
+        rows = {r["method"]: r for r in csv.DictReader(f)}
+    with open(out / "work_precision.csv", newline="") as f:
+        points = list(csv.DictReader(f))
+    return out, rows, points
+
+
+def test_binary_asteroid_orders_against_a_converged_reference(binary_asteroid):
+    out, rows, points = binary_asteroid
+    for method in SECOND_ORDER:
+        assert 1.8 <= float(rows[method]["observed_order"]) <= 2.2, (method, rows[method]["observed_order"])
+    assert 3.6 <= float(rows["rk4-normalized"]["observed_order"]) <= 4.4, rows["rk4-normalized"]
+    assert 0.8 <= float(rows["euler-exp"]["observed_order"]) <= 1.2, rows["euler-exp"]
+    for p in points:
+        assert p["completed"] == "true" and 0 < float(p["error"]) < 0.1, p  # finite, not saturated
+        parts = [float(p[k]) for k in ("position_error", "attitude_error_rad", "momentum_error",
+                                       "angular_velocity_error")]
+        assert float(p["error"]) == max(parts)
+    # The reference: lgvi at order 8, at one of the steps 0.16 / 2^k searched, whose halving changed the
+    # final state by at most 1e-11 (the limit below which it cannot move the fitted errors by more than 10 %).
+    ref = json.loads((out / "reference.json").read_text())
+    k = math.log2(0.16 / ref["h_ref"])
+    assert ref["method"] == "lgvi:8" and 0 <= k <= 5 and abs(k - round(k)) < 1e-9, ref
+    assert ref["change_on_halving"] <= 1e-11, ref
+    assert ref["tolerance_met"] == (ref["change_on_halving"] <= ref["tolerance"])
+    md = (out / "comparison.md").read_text()
+    assert "against lgvi:8 with step" in md and f"{ref['change_on_halving']:.3e}" in md
+
+
+def test_binary_asteroid_system_conservation(binary_asteroid):
+    _, rows, _ = binary_asteroid
+    # Mutual forces conserve the total linear and angular momentum; the variational methods keep both to
+    # round-off (discrete Noether: ~1e-15 relative over 250 steps), rk4-normalized's angular momentum drifts
+    # with its truncation error (~1e-14 at h = 0.02 here, above its linear momentum's round-off).
+    for method in ["lgvi", "so3-lgvi"]:
+        assert float(rows[method]["max_relative_linear_momentum_error_at_h_min"]) < 1e-13, rows[method]
+        assert float(rows[method]["max_relative_angular_momentum_error_at_h_min"]) < 1e-13, rows[method]
+    # The energy error of a second-order method is O(h^2): nonzero and far below the orbit's energy (~0.005).
+    assert 0 < float(rows["lgvi"]["max_abs_energy_error_at_h_min"]) < 1e-6
+
+
+def test_binary_asteroid_exact_is_not_applicable(binary_asteroid):
+    out, rows, points = binary_asteroid
+    assert "one free body" in rows["exact"]["not_applicable"] and rows["exact"]["observed_order"] == "null"
+    assert all(rows[m]["not_applicable"] == "" for m in SECOND_ORDER)
+    assert not [p for p in points if p["method"] == "exact"]  # not run
+    assert "| exact | not applicable: the exact flow of one free body" in (out / "comparison.md").read_text()
+
+
+def test_system_methods_that_cannot_run_are_named(tmp_path):
+    # A body given off its principal axes: no-squish cannot run it, lgvi can; with no method left, one error.
+    scenario = tmp_path / "pair.toml"
+    scenario.write_text("""
+[[bodies]]
+mass = 1.0
+inertia = [[2.0, 0.1, 0.0], [0.1, 3.0, 0.0], [0.0, 0.0, 4.0]]
+position = [0.0, 0.0, 0.0]
+quaternion = [1.0, 0.0, 0.0, 0.0]
+momentum = [0.0, -0.1, 0.0]
+omega = [0.0, 0.0, 0.5]
+[[bodies]]
+mass = 0.1
+inertia = [[0.1, 0.0, 0.0], [0.0, 0.2, 0.0], [0.0, 0.0, 0.3]]
+position = [5.0, 0.0, 0.0]
+quaternion = [1.0, 0.0, 0.0, 0.0]
+momentum = [0.0, 0.1, 0.0]
+omega = [0.0, 0.0, 0.1]
+[interaction]
+kind = "gravity"
+model = "inertia"
+G = 1.0
+[potential]
+kind = "none"
+[integrator]
+step = 0.1
+duration = 4.0
+""")
+    args = [BINARY, "compare", str(scenario), "--ladder", "2", "--long-steps", "10", "--timing-budget", "0",
+            "--no-figures", "-q"]
+    proc = subprocess.run(args + ["--methods", "lgvi,no-squish", "--out", str(tmp_path / "c")], capture_output=True,
+                          text=True)
+    assert proc.returncode == 0, proc.stderr
+    with open(tmp_path / "c" / "comparison.csv", newline="") as f:
+        rows = {r["method"]: r for r in csv.DictReader(f)}
+    assert "bodies[0].inertia is not diagonal" in rows["no-squish"]["not_applicable"]
+    assert float(rows["lgvi"]["error_at_h"]) > 0
+    proc = subprocess.run(args + ["--methods", "exact", "--out", str(tmp_path / "d")], capture_output=True, text=True)
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
+    assert "none of the methods" in proc.stderr and "one free body" in proc.stderr, proc.stderr
+
+
+def test_single_body_reference_is_unchanged(comparison):
+    out, rows = comparison
+    # A [body] scenario keeps its reference (the exact flow here) and its columns: no system columns.
+    assert "against the exact flow" in (out / "comparison.md").read_text()
+    assert "not_applicable" not in rows["lgvi"] and not (out / "reference.json").exists()
