@@ -330,13 +330,22 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
                        ": " + unable.at(opt.methods.front()) + "); name another, e.g. lgvi");
   const std::string dir = opt.out_dir.empty() ? base.name + "-compare" : opt.out_dir;
   const double h = base.integrator.step;
-  const double T = opt.error_time > 0 ? opt.error_time : std::min(base.integrator.duration, 1e4 * h);
-  if (!(T > 0)) throw InvalidInput("--error-time: the scenario's duration is 0; give --error-time T > 0");
-  if (!(opt.ladder_from >= 0.0) || opt.ladder_from > T)
-    throw InvalidInput("--ladder-from: must be a step > 0 and below the error time T = " + fmt::format("{}", T));
+  const double T_asked = opt.error_time > 0 ? opt.error_time : std::min(base.integrator.duration, 1e4 * h);
+  if (!(T_asked > 0)) throw InvalidInput("--error-time: the scenario's duration is 0; give --error-time T > 0");
+  if (!(opt.ladder_from >= 0.0) || opt.ladder_from > T_asked)
+    throw InvalidInput("--ladder-from: must be a step > 0 and below the error time T = " + fmt::format("{}", T_asked));
+  const double h0 = opt.ladder_from > 0.0 ? opt.ladder_from : h;
+  // Every run ends at llround(T / h) h: unless T is a whole number of the largest step h0 (and so of
+  // every h0 / 2^j), the runs and the reference would end at different times and the errors mix in
+  // that offset. T is therefore rounded to the nearest multiple of h0, and said so.
+  const double multiples = std::max(1.0, std::round(T_asked / h0));
+  const double T = std::abs(T_asked / h0 - std::round(T_asked / h0)) <= 1e-9 * (T_asked / h0) ? T_asked : multiples * h0;
+  if (T != T_asked && !opt.quiet)
+    std::cerr << fmt::format("lgvi compare: error time {} is not a whole number of the largest step {}: compared at "
+                             "T = {} ({} steps of it)\n",
+                             T_asked, h0, T, multiples);
   require_new_output_folder(dir, opt.force);
   fs::create_directories(dir);
-  const double h0 = opt.ladder_from > 0.0 ? opt.ladder_from : h;
   const double h_min = h0 / std::pow(2.0, opt.ladder - 1);
   // No potential and no interaction: nothing to count but right-hand-side stages.
   const bool free_body = base.potential.kind == PotentialKind::None && base.interaction.kind == InteractionKind::None;

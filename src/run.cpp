@@ -277,6 +277,12 @@ int resume_run(const std::string& dir, RunOptions opt) {
   if (c.k > sc.integrator.steps)
     throw InvalidInput(dir + "/checkpoint.bin: step " + std::to_string(c.k) + " is beyond the scenario's " +
                        std::to_string(sc.integrator.steps) + " steps");
+  // A run that a contact stopped (its last episode ends at the checkpoint's step) would take one step
+  // and stop again: say how to go on instead.
+  if (sc.on_contact == OnContact::Stop && !c.stats.contacts.empty() && c.stats.contacts.back().last_k == c.k)
+    throw InvalidInput(dir + ": the run stopped at step " + std::to_string(c.k) +
+                       " because two bodies touched; to go on through the contact, set [run] on_contact = \"warn\" "
+                       "(or \"ignore\") in " + dir + "/scenario.toml and resume");
   if (c.version < 4 && has_gravity_gradient_body(sc))
     throw InvalidInput(dir + "/checkpoint.bin: written by an lgvi that ran a body given by mass + inertia as a point "
                        "mass in the central field; this one gives it the gravity-gradient torque, and continuing would "

@@ -54,17 +54,17 @@ Json setup_json(const Scenario& s) {
     // the torque: a mass + inertia body as a point mass feels none).
     pot["model"] = s.potential.point_masses ? "point" : "extended";
     pot["model_acts"] = s.potential.point_masses
-                            ? "each ball a point mass; a body given by mass + inertia a point mass at its centre "
-                              "of mass (no gravity-gradient torque)"
-                            : "each ball a point mass; a body given by mass + inertia by its second-order "
-                              "(MacCullagh) potential, with the gravity-gradient torque";
+                            ? "each ball a point mass; a body given by mass + inertia or a shape a point mass at "
+                              "its centre of mass (no gravity-gradient torque)"
+                            : "each ball a point mass; a body given by mass + inertia or a shape by its "
+                              "second-order (MacCullagh) potential, with the gravity-gradient torque";
     pot["mu"] = s.potential.mu;
     pot["stop_at_contact"] = s.potential.stop_at_contact;
   }
   if (s.potential.kind == PotentialKind::Central && s.potential.j2 != 0.0) {
     pot["j2"] = s.potential.j2;
-    pot["j2_acts"] = "on each ball; on the centre of mass of a body given by mass + inertia (its J2 torque, "
-                     "smaller than the gravity-gradient torque by J2 (R/r)^2, is not modelled)";
+    pot["j2_acts"] = "on each ball; on the centre of mass of a body given by mass + inertia or a shape (its J2 "
+                     "torque, smaller than the gravity-gradient torque by J2 (R/r)^2, is not modelled)";
     pot["reference_radius"] = s.potential.reference_radius;
     pot["pole"] = to_vector(s.potential.pole);
   }

@@ -15,6 +15,8 @@
 #include <lgvi/system.hpp>
 
 #include <gtest/gtest.h>
+
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -415,13 +417,43 @@ TEST(OnContact, LennardJonesIsExemptUnlessOnContactIsGiven) {
             lgvi::app::OnContact::Stop);
 }
 
+// A bounding radius must be able to hold the body: any mass within radius R
+// of its centre has tr J = 2 sum m |rho|^2 <= 2 m R^2, so R >= sqrt(tr J / 2m)
+// (here sqrt(1.5) = 1.22): a smaller one would make contact detection miss.
+TEST(OnContact, ABoundingRadiusTooSmallForTheInertiaIsRefused) {
+  const RigidBody body(1.0, lgvi::Matrix3<double>::Identity());
+  EXPECT_THROW(body.bounded_by(1.2), lgvi::InvalidInput);
+  EXPECT_EQ(body.bounded_by(1.25).bounding_radius(), 1.25);
+}
+
+// The ellipsoid's orientation: semi-axes (2, 0.5, 0.5) turned +30 degrees
+// about z lie along the direction at +30 degrees, where a point 1.8 away is
+// inside (the long axis reaches 2), while at -30 degrees it is outside (the
+// reach there, 1/sqrt(cos^2 60 / 4 + sin^2 60 / 0.25) = 0.57, is less): a test
+// that tells R from R^T, which a turn about a symmetry axis cannot.
+TEST(OnContact, EllipsoidOrientationIsTheBodyToInertialRotation) {
+  const std::string ellipsoid = "shape = \"ellipsoid\"\nsemi_axes = [2.0, 0.5, 0.5]\nmass = 1.0\n"
+                                "quaternion = [0.9659258262890683, 0.0, 0.0, 0.25881904510252074]";  // +30 deg about z
+  auto scenario = [&](double angle_deg) {
+    const double a = angle_deg * std::numbers::pi / 180.0;
+    return "[[bodies]]\nname = \"e\"\n" + ellipsoid + "\nposition = [0.0, 0.0, 0.0]\nvelocity = [0.0, 0.0, 0.0]\n"
+           "omega = [0.0, 0.0, 0.0]\n[[bodies]]\nname = \"p\"\nmass = 1.0\n"
+           "inertia = [[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]]\nposition = [" +
+           fmt::format("{}, {}", 1.8 * std::cos(a), 1.8 * std::sin(a)) +
+           ", 0.0]\nquaternion = [1.0, 0.0, 0.0, 0.0]\nvelocity = [0.0, 0.0, 0.0]\nomega = [0.0, 0.0, 0.0]\n"
+           "[potential]\nkind = \"none\"\n[integrator]\nstep = 0.1\nduration = 0.1\n";
+  };
+  EXPECT_THROW(lgvi::app::parse_scenario(scenario(30.0), "turned.toml"), lgvi::InvalidInput);
+  EXPECT_NO_THROW(lgvi::app::parse_scenario(scenario(-30.0), "turned.toml"));
+}
+
 TEST(OnContact, OverlapAtTheStartIsAnErrorForEveryExtent) {
   // Ellipsoid (tip at x = 2) and a sphere of radius 1 at x = 2.9: overlap;
   // a body given by mass + inertia with radius 1 likewise; without radius it
   // is its centre, outside the ellipsoid at 2.9: no error.
   const std::string ellipsoid = "shape = \"ellipsoid\"\nsemi_axes = [2.0, 1.0, 0.5]\nmass = 1.0";
   for (const std::string& right : {std::string("shape = \"sphere\"\nradius = 1.0\nmass = 1.0"),
-                                   std::string("mass = 1.0\ninertia = [[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]]\nradius = 1.0")}) {
+                                   std::string("mass = 1.0\ninertia = [[0.4, 0, 0], [0, 0.4, 0], [0, 0, 0.4]]\nradius = 1.0")}) {
     try {
       lgvi::app::parse_scenario(head_on(ellipsoid, right, 2.9, 0.0, h, 1.0), "start.toml");
       ADD_FAILURE() << "no error for " << right;

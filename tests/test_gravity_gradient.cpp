@@ -132,6 +132,34 @@ TEST(GravityGradient, PointMassModelHasNoTorque) {
   EXPECT_THROW(CentralGravity(balls, 1.0, true, Model::PointMass).evaluate(near_ball0, q), lgvi::StepFailure);
 }
 
+// stop_at_contact for a body of known extent without balls: the run stops
+// when the source lies inside the sphere (a shape, or a mass + inertia body's
+// bounding sphere) or the ellipsoid, not only when the centre of mass reaches
+// it. The ellipsoid (2, 0.5, 0.5) turned +30 degrees about z holds the source
+// 1.8 away along its long axis, not 1.8 away at -30 degrees (its reach there
+// is 0.57), which also tells R from R^T.
+TEST(GravityGradient, StopAtContactSeesTheShape) {
+  const RigidBody sphere = RigidBody::sphere(1.0, 2.0);
+  EXPECT_THROW(CentralGravity(sphere, 1.0, true).evaluate(V3(1.0, 0.5, 0.0), S3d()), lgvi::StepFailure);
+  EXPECT_NO_THROW(CentralGravity(sphere, 1.0, true).evaluate(V3(2.1, 0.0, 0.0), S3d()));
+  EXPECT_NO_THROW(CentralGravity(sphere, 1.0, false).evaluate(V3(1.0, 0.5, 0.0), S3d()));  // not asked for
+  const RigidBody bounded = RigidBody(1.0, M3::Identity()).bounded_by(1.5);
+  EXPECT_THROW(CentralGravity(bounded, 1.0, true).evaluate(V3(0.0, 1.4, 0.0), S3d()), lgvi::StepFailure);
+  const RigidBody ellipsoid = RigidBody::ellipsoid(1.0, V3(2.0, 0.5, 0.5));
+  const S3d turned(std::cos(pi / 12), 0.0, 0.0, std::sin(pi / 12));  // +30 degrees about z
+  auto x_at = [](double degrees) {  // the body's centre, seen from the source: the source at -x
+    const double a = degrees * pi / 180.0;
+    return V3(-1.8 * std::cos(a), -1.8 * std::sin(a), 0.0);
+  };
+  try {
+    CentralGravity(ellipsoid, 1.0, true).evaluate(x_at(30.0), turned);
+    ADD_FAILURE() << "the source inside the ellipsoid went unnoticed";
+  } catch (const lgvi::StepFailure& e) {
+    EXPECT_NE(std::string(e.what()).find("the body's surface reached the centre"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(CentralGravity(ellipsoid, 1.0, true).evaluate(x_at(-30.0), turned));
+}
+
 // Six balls in pairs symmetric about the centre of mass (equal masses at
 // +rho and -rho, so the odd terms of the multipole expansion cancel): the
 // ball model's potential, sum_i -(mu m_i / r) sum_n (rho_i / r)^n P_n(cos g_i),

@@ -10,9 +10,10 @@
 // overlaps a body only by lying inside it, another point only by coinciding
 // with it). Every body is first bounded by a sphere about its centre of mass
 // (RigidBody::bounding_radius); the bounding spheres are sorted along x and
-// swept (O(N log N) per call), and only pairs whose bounding spheres meet are
-// tested exactly, piece by piece (ball by ball for bodies of balls, the
-// balls of one swept along x against those of the other):
+// swept (O(N log N + K) per call, K the pairs whose x-extents overlap), and
+// only pairs whose bounding spheres meet are tested exactly, piece by piece
+// (ball by ball for bodies of balls, the balls of one swept along x against
+// those of the other):
 //
 //  * two spheres (balls, spheres, points as spheres of radius 0) overlap when
 //    the distance d of their centres is below r_a + r_b (or is 0);

@@ -150,9 +150,16 @@ class CentralGravity {
       pole_ = pole.normalized();
     }
     if (body.balls().empty()) {
+      whole_body_ = true;
       rho_.emplace_back(Vector3<double>::Zero());
       mass_.push_back(body.mass());
-      radius2_.push_back(0.0);
+      // With stop_at_contact a body of known extent (a sphere, a bounding
+      // sphere, an ellipsoid) stops when the source lies inside it; a body given
+      // by mass + inertia alone, when its centre of mass reaches the source.
+      radius2_.push_back(stop_at_contact && body.extent() == Extent::Sphere ? body.semi_axes().x() * body.semi_axes().x()
+                                                                            : 0.0);
+      if (stop_at_contact && body.extent() == Extent::Ellipsoid)
+        inverse_axes2_ = body.semi_axes().cwiseProduct(body.semi_axes()).cwiseInverse();
       if (model == Model::Extended) {
         gradient_ = true;
         inertia_ = body.inertia();
@@ -176,6 +183,9 @@ class CentralGravity {
       const Vector3<double> pos = x + arm;
       const double d2 = pos.squaredNorm();
       if (!(d2 > radius2_[i])) close_encounter(i, d2);
+      // An ellipsoid holds the source when (R^T (-x))_k^2 / a_k^2 sums to <= 1.
+      if (inverse_axes2_.x() > 0.0 && !((r.transpose() * pos).cwiseAbs2().dot(inverse_axes2_) > 1.0))
+        close_encounter(i, d2);
       const double inv_d = 1.0 / std::sqrt(d2);
       const double mu_m_inv_d = mu_ * mass_[i] * inv_d;
       e.energy -= mu_m_inv_d;
@@ -215,7 +225,10 @@ class CentralGravity {
 
   [[noreturn]] void close_encounter(std::size_t i, double d2) const {
     if (std::isnan(d2)) throw StepFailure("the state became non-finite", "try a smaller step");
-    throw StepFailure((gradient_ ? std::string("the body's centre of mass")
+    const bool surface = radius2_[i] > 0.0 || inverse_axes2_.x() > 0.0;
+    throw StepFailure((whole_body_ ? (surface     ? std::string("the body's surface")
+                                      : gradient_ ? std::string("the body's centre of mass")
+                                                  : std::string("the point-mass body"))
                        : rho_.size() == 1 && radius2_[0] == 0.0 ? std::string("the point-mass body")
                                                                 : "ball " + std::to_string(i)) +
                           " reached the centre of the central field (distance " + std::to_string(std::sqrt(d2)) +
@@ -231,7 +244,9 @@ class CentralGravity {
   std::vector<Vector3<double>> rho_;
   std::vector<double> mass_;
   std::vector<double> radius2_;
-  bool gradient_ = false;  ///< a mass + inertia body in the Extended model
+  Vector3<double> inverse_axes2_ = Vector3<double>::Zero();  ///< an ellipsoid's 1 / a_k^2 (stop_at_contact)
+  bool whole_body_ = false;  ///< a body without balls (mass + inertia, a shape): one site at its centre
+  bool gradient_ = false;    ///< such a body in the Extended model
   Matrix3<double> inertia_ = Matrix3<double>::Zero();
   double trace_inertia_ = 0.0;
 };

@@ -120,6 +120,14 @@ class RigidBody {
   RigidBody bounded_by(double radius) const {
     if (extent_ != Extent::Point) throw InvalidInput("body.radius: only a body given by mass + inertia takes a radius");
     require_length(radius, "body.radius");
+    // Any mass within a sphere of radius R about its centre of mass has
+    // tr J = 2 sum m_i |rho_i|^2 <= 2 m R^2: a smaller radius cannot hold this
+    // inertia, and contact detection with it would not be conservative.
+    const double least = std::sqrt(inertia_.trace() / (2.0 * mass_));
+    if (radius < least * (1.0 - 1e-12))
+      throw InvalidInput("body.radius: " + std::to_string(radius) + " cannot hold a body of this mass and inertia "
+                         "(any mass within radius R has tr J <= 2 m R^2); give at least sqrt(tr J / 2m) = " +
+                         std::to_string(least));
     RigidBody body = *this;
     body.extent_ = Extent::Sphere;
     body.semi_axes_ = Vector3<double>::Constant(radius);

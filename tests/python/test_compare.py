@@ -261,3 +261,22 @@ def test_single_body_reference_is_unchanged(comparison):
     # A [body] scenario keeps its reference (the exact flow here) and its columns: no system columns.
     assert "against the exact flow" in (out / "comparison.md").read_text()
     assert "not_applicable" not in rows["lgvi"] and not (out / "reference.json").exists()
+
+
+def test_an_error_time_off_the_ladder_is_rounded_to_a_whole_number_of_its_largest_step(tmp_path):
+    """Every run ends at round(T / h) h: with T = 1.05 and the largest step 0.1 the runs would end at 1.0
+    or 1.1 while the reference ends at 1.05, and the errors would mix in that offset. T is rounded to a
+    whole number of the largest step (here 11 steps: T = 1.1, every ladder step divides it) and said so."""
+    args = [BINARY, "compare", str(SOURCE / "scenarios" / "free-body-manchester-peck.toml"), "--methods", "lgvi",
+            "--ladder", "3", "--ladder-from", "0.1", "--error-time", "1.05", "--long-steps", "100", "--no-figures",
+            "--timing-budget", "0", "--out", str(tmp_path / "c")]
+    proc = subprocess.run(args, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert "error time 1.05 is not a whole number of the largest step 0.1: compared at T = 1.1" in proc.stderr
+    # Against the exact flow at the same T, the ladder's errors then fall at second order.
+    rows = [line.split(",") for line in (tmp_path / "c" / "work_precision.csv").read_text().splitlines()]
+    header = rows[0]
+    errors = [float(r[header.index("error")]) for r in rows[1:] if r[header.index("method")] == "lgvi"]
+    assert len(errors) == 3
+    for coarse, fine in zip(errors, errors[1:]):
+        assert 3.5 < coarse / fine < 4.5

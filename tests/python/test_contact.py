@@ -126,3 +126,26 @@ def test_python_stop_raises_with_the_run_so_far_and_warn_records_the_episode():
     assert "contacts" not in ignored.summary and ignored.summary["setup"]["on_contact"] == "ignore"
     # The check only reads the state: the trajectories are the same.
     assert np.array_equal(warned.x, ignored.x) and np.array_equal(warned.q, ignored.q)
+
+
+def test_resuming_a_run_that_a_contact_stopped_says_how_to_go_on(tmp_path):
+    """A run stopped by a contact, with a checkpoint there: resuming it as it is would take one step
+    and stop again, so --resume refuses in one line naming the fix ([run] on_contact = "warn"); with
+    that set in the run's scenario copy it goes on and completes, with the episode from step 93 on."""
+    scenario = tmp_path / "head-on.toml"
+    scenario.write_text(head_on().toml)
+    out = tmp_path / "run"
+    proc = subprocess.run([BINARY, "run", str(scenario), "--out", str(out), "--checkpoint-every", "50",
+                           "--no-figures", "-q"], capture_output=True, text=True)
+    assert proc.returncode == 1 and "contact:" in proc.stderr
+    proc = subprocess.run([BINARY, "run", "--resume", str(out), "--no-figures", "-q"], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert proc.stderr.count("\n") == 1 and "stopped at step 93" in proc.stderr and 'on_contact = "warn"' in proc.stderr
+    copy = out / "scenario.toml"
+    text = copy.read_text()
+    copy.write_text(text.replace('on_contact = "stop"', 'on_contact = "warn"') if 'on_contact = "stop"' in text
+                    else text + '\n[run]\non_contact = "warn"\n')
+    proc = subprocess.run([BINARY, "run", "--resume", str(out), "--no-figures", "-q"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["completed"] is True and summary["contacts"][0]["first_step"] == 93
