@@ -241,8 +241,8 @@ Scenario ladder_scenario(const Scenario& base, const MethodChoice& m, double ste
 /// steps run out, h_ref is the step of the smallest change seen, and that change, reported with it, is
 /// the reference's accuracy. Above kReferenceLimit the comparison fails rather than measure the
 /// reference. A run that fails (the composition's sub-steps, some negative, at a large step) only counts
-/// as not converged. The compared runs and the reference end at llround(T / h) h: T a multiple of the
-/// ladder's largest step (the default) makes that one time for all.
+/// as not converged. The compared runs and the reference end at llround(T / h) h, one time for all:
+/// compare_methods rounds T to a whole number of the ladder's largest step.
 struct SystemReference {
   SystemState state;  ///< the run at h_ref, at t = llround(T / h_ref) h_ref
   double h = 0;       ///< h_ref

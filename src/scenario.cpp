@@ -251,7 +251,7 @@ RigidBody read_body_table(const Reader& r, const toml::table& t, const std::stri
     const double radius = r.number(t, prefix, "radius");
     if (!(radius > 0.0)) r.fail(prefix + ".radius", "must be a number > 0 (a sphere about the centre of mass that "
                                                      "holds the body)");
-    return body.bounded_by(radius);
+    return checked([&] { return body.bounded_by(radius); });
   }
   const toml::array* arr = t.get("ball")->as_array();
   if (!arr || arr->empty() || !arr->is_array_of_tables())

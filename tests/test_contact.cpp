@@ -7,6 +7,7 @@
 #include "simulation.hpp"
 #include "memory_sink.hpp"
 #include "summary.hpp"
+#include "scenario_support.hpp"
 #include "test_support.hpp"
 
 #include <lgvi/contact.hpp>
@@ -424,6 +425,14 @@ TEST(OnContact, ABoundingRadiusTooSmallForTheInertiaIsRefused) {
   const RigidBody body(1.0, lgvi::Matrix3<double>::Identity());
   EXPECT_THROW(body.bounded_by(1.2), lgvi::InvalidInput);
   EXPECT_EQ(body.bounded_by(1.25).bounding_radius(), 1.25);
+  // From a scenario file: one line naming the file and the key.
+  const std::string message = lgvi::test::parse_error(
+      "[[bodies]]\nmass = 1.0\ninertia = [[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]]\nradius = 1.2\n"
+      "position = [0.0, 0.0, 0.0]\nquaternion = [1.0, 0.0, 0.0, 0.0]\nvelocity = [0.0, 0.0, 0.0]\n"
+      "omega = [0.0, 0.0, 0.0]\n[potential]\nkind = \"none\"\n[integrator]\nstep = 0.1\nduration = 0.1\n",
+      "r.toml");
+  EXPECT_EQ(message.rfind("r.toml: bodies[0].radius: 1.200000 cannot hold a body of this mass and inertia", 0), 0u)
+      << message;
 }
 
 // The ellipsoid's orientation: semi-axes (2, 0.5, 0.5) turned +30 degrees

@@ -95,14 +95,16 @@ struct Contact {
 };
 
 /// Finds the overlapping pairs of a system's bodies at a state (see the top
-/// of this file). Not thread-safe: one detector per thread (its buffers are
-/// reused from call to call).
+/// of this file). It refers to the system, which must outlive it (not a copy
+/// of every body's balls). Not thread-safe: one detector per thread (its
+/// buffers are reused from call to call).
 class ContactDetector {
  public:
   ContactDetector() = default;
-  explicit ContactDetector(const System& sys) : sys_(sys) {
+  explicit ContactDetector(const System& sys) : sys_(&sys) {
     for (std::size_t a = 0; a < sys.size(); ++a) radius_.push_back(sys.body(a).bounding_radius());
   }
+  explicit ContactDetector(System&&) = delete;  // a temporary would not outlive the detector
 
   /// Every overlapping pair at `s`, in the order of (a, b). The reference
   /// stays valid until the next call.
@@ -145,7 +147,7 @@ class ContactDetector {
   void pieces(const SystemState& s, std::size_t a, const Vector3<double>& near, double range,
               std::vector<Piece>& out) const {
     out.clear();
-    const RigidBody& body = sys_.body(a);
+    const RigidBody& body = sys_->body(a);
     switch (body.extent()) {
       case Extent::Point: out.push_back({s.x[a], 0.0, false, Matrix3<double>::Zero(), -1, 0.0}); break;
       case Extent::Sphere: {
@@ -211,7 +213,7 @@ class ContactDetector {
     return any;
   }
 
-  System sys_;
+  const System* sys_ = nullptr;
   std::vector<double> radius_;
   mutable std::vector<std::size_t> order_;
   mutable std::vector<Contact> found_;
