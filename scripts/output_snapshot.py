@@ -7,6 +7,12 @@ between two builds (a refactor must leave them unchanged):
     scripts/output_snapshot.py build/lgvi /tmp/after
     diff -r /tmp/before /tmp/after
 
+With --all, also every many-body ([[bodies]]) and forced ([[forcing]])
+scenario, under every method and in every trajectory format (xyz and vtk
+too): the set a refactor of the library's internals is compared on (tests/reference holds
+hashes of the default set only, which tests/python/test_single_body_outputs.py
+checks).
+
 Each run is shortened to 2000 steps (every 10th row written). What varies from
 run to run by nature -- the wall-clock fields of the summary -- is blanked;
 npz and HDF5 files are unpacked into their arrays' raw bytes and their text
@@ -31,15 +37,16 @@ def blank_wall(text):
     return WALL.sub(lambda m: f'"{m.group(1)}": "(blanked)"', text)
 
 
-def variants(path):
+def variants(path, every_format=False):
     text = path.read_text()
     free = 'kind = "none"' in text
+    formats = ("csv", "npz", "hdf5", "xyz", "vtk") if every_format else ("csv", "npz", "hdf5")
     for method in METHODS:
         if method == "exact" and not free:
             continue
         solvers = ["newton", "newton-exp", "broyden"] if method == "lgvi" else [None]
         for solver in solvers:
-            for fmt in ("csv", "npz", "hdf5"):
+            for fmt in formats:
                 if fmt != "csv" and (solver not in (None, "newton") or method not in ("lgvi", "rk4-normalized")):
                     continue
                 yield method, solver, fmt
@@ -81,22 +88,36 @@ def unpack(run, dest):
                 attrs = {k: blank_wall(str(v)) for k, v in h["trajectory"].attrs.items()}
                 attrs.update({"/" + k: blank_wall(str(v)) for k, v in h.attrs.items()})
                 (dest / f"{f.name}.attrs.txt").write_text(json.dumps(attrs, indent=1, sort_keys=True))
-        elif f.suffix in (".csv", ".toml"):
+        elif f.suffix in (".csv", ".toml") or (ALL and f.is_file() and f.suffix not in (".png", ".json")):
             (dest / f.name).write_bytes(f.read_bytes())
+        elif ALL and f.is_dir():
+            sub = dest / f.name
+            sub.mkdir(exist_ok=True)
+            unpack(f, sub)
+
+
+ALL = False
 
 
 def main():
-    binary, out = pathlib.Path(sys.argv[1]).resolve(), pathlib.Path(sys.argv[2])
+    global ALL
+    args = sys.argv[1:]
+    ALL = "--all" in args
+    args = [a for a in args if a != "--all"]
+    if len(args) != 2:
+        sys.exit("usage: output_snapshot.py [--all] LGVI_BINARY OUT_DIR")
+    binary, out = pathlib.Path(args[0]).resolve(), pathlib.Path(args[1])
     out.mkdir(parents=True, exist_ok=True)
     sources = sorted((ROOT / "scenarios").glob("*.toml")) + sorted((ROOT / "tests/cli/good").glob("*.toml"))
     # Single-body scenarios: the outputs that existed before the many-body
     # redesign (tests/reference/single_body_outputs.sha256); forced scenarios
     # ([[forcing]], added later) have no such outputs.
-    sources = [s for s in sources if "[[bodies]]" not in s.read_text() and "[[forcing]]" not in s.read_text()]
+    if not ALL:
+        sources = [s for s in sources if "[[bodies]]" not in s.read_text() and "[[forcing]]" not in s.read_text()]
     work = out / "_work"
     work.mkdir(exist_ok=True)
     for path in sources:
-        for method, solver, fmt in variants(path):
+        for method, solver, fmt in variants(path, every_format=ALL):
             name = f"{path.stem}__{method}{'__' + solver if solver else ''}__{fmt}"
             scen = work / f"{name}.toml"
             scen.write_text(scenario_text(path.read_text(), method, solver, fmt))
