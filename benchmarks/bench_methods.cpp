@@ -4,7 +4,7 @@
 // the same stepper classes `lgvi run` uses, built by the same method table.
 // Run: build/benchmarks/bench_methods --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 // (scripts/bench.sh prints the tables with ratios against the quaternion LGVI).
-#include "method_dispatch.hpp"
+#include "method_registry.hpp"
 #include "scenario.hpp"
 #include "simulation.hpp"
 
@@ -68,12 +68,11 @@ const int registered = [] {
   for (const char* problem : problems) {
     benchmark::RegisterBenchmark((std::string("potential/") + problem).c_str(), BM_Potential, std::string(problem));
     const bool free_body = load(problem).potential.kind == lgvi::app::PotentialKind::None;
-    for (const auto& [method, name] : lgvi::app::method_names) {
-      if (method == Method::Exact && !free_body) continue;
-      if ((method == Method::NoSquish || method == Method::SplittingDlm) && !load(problem).body().inertia().isDiagonal())
-        continue;
-      benchmark::RegisterBenchmark((std::string(name) + "/" + problem).c_str(), BM_Method, std::string(problem),
-                                   method);
+    for (const lgvi::MethodTraits& t : Method::all()) {
+      if (t.free_body_only && !free_body) continue;
+      if (t.needs_principal_axes && !load(problem).body().inertia().isDiagonal()) continue;
+      benchmark::RegisterBenchmark((std::string(t.name) + "/" + problem).c_str(), BM_Method, std::string(problem),
+                                   Method::named(t.name));
     }
   }
   return 0;

@@ -120,19 +120,21 @@ StateError system_error(const System& sys, const SystemState& s, const SystemSta
 /// Why method m cannot run the scenario, as the table says it; empty if it can. The reader's checks on
 /// [integrator] method (scenario.cpp), asked of every compared method.
 std::string not_applicable(const Scenario& sc, Method m) {
-  if (m == Method::Exact && (sc.bodies() > 1 || sc.interaction.kind != InteractionKind::None ||
-                             sc.potential.kind != PotentialKind::None))
+  const MethodTraits& t = m.traits();
+  if (t.free_body_only && (sc.bodies() > 1 || sc.interaction.kind != InteractionKind::None ||
+                           sc.potential.kind != PotentialKind::None))
     return fmt::format("the exact flow of one free body; this scenario has {} bod{}{}{}", sc.bodies(),
                        sc.bodies() == 1 ? "y" : "ies",
                        sc.interaction.kind != InteractionKind::None ? ", an [interaction]" : "",
                        sc.potential.kind != PotentialKind::None ? ", a [potential]" : "");
-  if (m == Method::NoSquish || m == Method::SplittingDlm)
+  if (t.needs_principal_axes)
     for (std::size_t a = 0; a < sc.bodies(); ++a)
       if (!sc.system.body(a).has_principal_axes())
         return fmt::format("rotates about the principal axes; {}.inertia is not diagonal",
                            sc.bodies_format ? fmt::format("bodies[{}]", a) : std::string("body"));
-  if (!sc.forcing.empty() && m != Method::Hamiltonian && m != Method::So3Lgvi)
-    return "does not take [[forcing]] (lgvi and so3-lgvi do)";
+  if (!sc.forcing.empty() && !t.accepts_forcing)
+    return "does not take [[forcing]] (" +
+           method_names_where([](const MethodTraits& x) { return x.accepts_forcing; }, ", ", " and ", false) + " do)";
   return {};
 }
 
@@ -193,16 +195,17 @@ std::string MethodChoice::name() const {
 MethodChoice method_choice_from_string(const std::string& text) {
   MethodChoice c;
   const std::size_t colon = text.find(':');
-  c.method = method_from_string(text.substr(0, colon), "--methods");
+  c.method = Method::named(text.substr(0, colon), "--methods");
   if (colon == std::string::npos) return c;
   const std::string order = text.substr(colon + 1);
   if (order != "2" && order != "4" && order != "6" && order != "8")
     throw InvalidInput("key '--methods': \"" + text + "\": the order after ':' must be 2, 4, 6 or 8");
   c.order = std::stoi(order);
-  if (c.order != 2 && !is_composable(c.method))
+  if (c.order != 2 && !c.method.traits().composable())
     throw InvalidInput("key '--methods': \"" + text + "\": " + to_string(c.method) +
-                       " cannot be composed to higher order (symmetric one-step methods only: lgvi, so3-lgvi, "
-                       "rattle-quaternion, no-squish, splitting-dlm)");
+                       " cannot be composed to higher order (symmetric one-step methods only: " +
+                       method_names_where([](const MethodTraits& t) { return t.composable(); }, ", ", ", ", false) +
+                       ")");
   return c;
 }
 
@@ -261,7 +264,7 @@ constexpr double kTruncationShrink = 8.0;
 
 SystemReference converged_reference(const Scenario& base, double T, double h_largest, double h_finest,
                                     bool quiet) {
-  const MethodChoice order8{Method::Hamiltonian, 8};
+  const MethodChoice order8{Method::named("lgvi"), 8};
   const auto final_state = [&](double step) -> std::optional<SystemState> {
     MemorySink sink(2);
     SimulationResult r = simulate(ladder_scenario(base, order8, step, T), sink);
@@ -317,8 +320,9 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
   std::map<MethodChoice, std::string> unable;
   std::vector<MethodChoice> runnable;
   for (const MethodChoice& m : opt.methods) {
-    if (!system && m.method == Method::Exact && base.potential.kind != PotentialKind::None)
-      throw InvalidInput("--methods: \"exact\" is the free body's flow; the scenario's potential is not \"none\"");
+    if (!system && m.method.traits().free_body_only && base.potential.kind != PotentialKind::None)
+      throw InvalidInput("--methods: \"" + std::string(m.method.name()) +
+                         "\" is the free body's flow; the scenario's potential is not \"none\"");
     std::string why = system ? not_applicable(base, m.method) : std::string();
     if (why.empty())
       runnable.push_back(m);
@@ -621,7 +625,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
     // The fastest qualifying point of each method.
     std::map<MethodChoice, const LadderPoint*> fastest;
     for (const MethodChoice& m : opt.methods) {
-      if (m.method == Method::Exact) continue;
+      if (m.method.traits().free_body_only) continue;
       for (const LadderPoint& p : ladder[m]) {
         if (!p.completed || !(p.max_energy_error <= target)) continue;
         if (best_evals < 0 || p.evaluations < best_evals) {

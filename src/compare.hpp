@@ -33,7 +33,7 @@ namespace lgvi::app {
 /// A method as `--methods` names it: "lgvi", or "lgvi:4" for the method
 /// composed to order 4 (composition.hpp; symmetric one-step methods only).
 struct MethodChoice {
-  Method method = Method::Hamiltonian;
+  Method method;  ///< default: "lgvi"
   int order = 2;
   std::string name() const;
   bool operator<(const MethodChoice& o) const { return method != o.method ? method < o.method : order < o.order; }

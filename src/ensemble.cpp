@@ -15,6 +15,7 @@
 #include <lgvi/error.hpp>
 
 #include <fmt/format.h>
+#include <fmt/printf.h>
 #include <toml++/toml.h>
 
 #include <algorithm>
@@ -318,12 +319,6 @@ std::vector<std::string> state_columns(const Scenario& sc) {
   return cols;
 }
 
-// ---------------------------------------------------------------------------
-// Stopping on SIGINT / SIGTERM at member boundaries
-
-volatile std::sig_atomic_t g_ensemble_stop = 0;
-extern "C" void on_ensemble_signal(int signo) { g_ensemble_stop = signo; }
-
 /// Rows go nowhere: a member's diagnostics come from the run's statistics.
 class DiscardSink final : public TrajectorySink {
  public:
@@ -519,7 +514,7 @@ std::string run_member_scenario(std::int64_t i, const std::vector<double>& varie
   Scenario sc = parse_scenario(scenario_toml, scenario_name);
   sc.threads = threads;
   SimulationOptions so;
-  so.stop_flag = &g_ensemble_stop;
+  so.stop_flag = stop_flag();
   SimulationResult r;
   if (trajectory_dir.empty()) {
     sc.output_every = sc.integrator.steps + 1;
@@ -663,27 +658,6 @@ std::string trajectory_dir(const std::string& dir, const EnsemblePlan& plan, std
   return plan.keep_trajectories ? (fs::path(dir) / "members" / fmt::format("{:06d}", i)).string() : std::string();
 }
 
-int stop_signal() { return g_ensemble_stop; }
-
-struct Signals::Saved {
-  struct sigaction old_int {}, old_term {};
-};
-
-Signals::Signals() : saved_(new Saved) {
-  g_ensemble_stop = 0;
-  struct sigaction sa {};
-  sa.sa_handler = on_ensemble_signal;
-  sigemptyset(&sa.sa_mask);
-  sigaction(SIGINT, &sa, &saved_->old_int);
-  sigaction(SIGTERM, &sa, &saved_->old_term);
-}
-
-Signals::~Signals() {
-  sigaction(SIGINT, &saved_->old_int, nullptr);
-  sigaction(SIGTERM, &saved_->old_term, nullptr);
-  delete saved_;
-}
-
 TimedRow run_member_timed(const EnsemblePlan& plan, std::int64_t i, const std::string& dir) {
   const auto start = std::chrono::steady_clock::now();
   TimedRow r;
@@ -743,32 +717,25 @@ Prepared prepare(const std::string& sweep_path, const EnsembleOptions& opt) {
 }
 
 EnsembleProgress::EnsembleProgress(const EnsembleOptions& options, std::int64_t total, std::int64_t done)
-    : enabled_(!options.quiet && (options.progress || isatty(2) != 0)), total_(total), start_done_(done),
-      start_(clock::now()) {}
+    : line_(!options.quiet && (options.progress || isatty(2) != 0)), total_(total), start_done_(done) {}
 
 void EnsembleProgress::operator()(std::int64_t done, std::int64_t failed) {
-  if (!enabled_) return;
-  const double s = std::chrono::duration<double>(clock::now() - start_).count();
+  if (!line_.enabled()) return;
+  const double s = line_.elapsed();
   const double rate = s > 0 ? static_cast<double>(done - start_done_) / s : 0.0;
   const double left = rate > 0 ? static_cast<double>(total_ - done) / rate : 0.0;
-  std::fprintf(stderr, "\rlgvi ensemble: %lld/%lld members, %lld failed, %.3g members/s, ~%.0f s left   ",
-               static_cast<long long>(done), static_cast<long long>(total_), static_cast<long long>(failed), rate,
-               left);
-  std::fflush(stderr);
-  shown_ = true;
-}
-
-EnsembleProgress::~EnsembleProgress() {
-  if (shown_) std::fprintf(stderr, "\n");
+  line_.show(fmt::sprintf("lgvi ensemble: %lld/%lld members, %lld failed, %.3g members/s, ~%.0f s left",
+                          static_cast<long long>(done), static_cast<long long>(total_), static_cast<long long>(failed),
+                          rate, left));
 }
 
 int finish(const Prepared& p, std::int64_t done, std::int64_t failed, const EnsembleOptions& opt) {
   write_members(p.dir, p.plan, p.rows);
-  if (g_ensemble_stop != 0) {
+  if (stop_signal() != 0) {
     std::cerr << fmt::format("lgvi: ensemble stopped by {} with {} of {} members done; continue with: lgvi ensemble "
                              "--resume {}\n",
-                             g_ensemble_stop == SIGTERM ? "SIGTERM" : "SIGINT", done, p.plan.members(), p.dir);
-    return g_ensemble_stop == SIGTERM ? 143 : 130;
+                             stop_signal_name(), done, p.plan.members(), p.dir);
+    return stop_exit_status();
   }
   if (!opt.quiet)
     std::cout << fmt::format("{}: {} members, {} failed; results in {}\n", p.plan.name, p.plan.members(), failed,
@@ -920,13 +887,13 @@ int run_ensemble(const std::string& sweep_path, const EnsembleOptions& opt) {
   std::size_t next = 0;
   std::exception_ptr error;
   {
-    Signals signals;
+    StopSignals signals;
     auto worker = [&] {
       for (;;) {
         std::int64_t i = 0;
         {
           std::lock_guard<std::mutex> lock(mutex);
-          if (next >= pending.size() || g_ensemble_stop != 0 || error) return;
+          if (next >= pending.size() || stop_signal() != 0 || error) return;
           i = pending[next++];
         }
         try {

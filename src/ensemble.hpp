@@ -18,7 +18,9 @@
 // and when stopped, and `--resume` runs only the members without a row.
 #pragma once
 
+#include "progress_line.hpp"
 #include "scenario.hpp"
+#include "stop_signals.hpp"
 
 #include <chrono>
 #include <cstdint>
@@ -146,16 +148,10 @@ class EnsembleProgress {
  public:
   EnsembleProgress(const EnsembleOptions& options, std::int64_t total, std::int64_t done);
   void operator()(std::int64_t done, std::int64_t failed);
-  ~EnsembleProgress();
-  EnsembleProgress(const EnsembleProgress&) = delete;
-  EnsembleProgress& operator=(const EnsembleProgress&) = delete;
 
  private:
-  using clock = std::chrono::steady_clock;
-  bool enabled_;
+  ProgressLine line_;
   std::int64_t total_, start_done_;
-  clock::time_point start_;
-  bool shown_ = false;
 };
 /// members.csv: the header and every row present, in member order; and,
 /// when the base scenario's [output] format is npz or hdf5, members.npz or
@@ -175,20 +171,6 @@ struct TimedRow {
   double seconds = 0.0;
 };
 TimedRow run_member_timed(const EnsemblePlan& plan, std::int64_t i, const std::string& dir);
-/// The stop request of SIGINT/SIGTERM (0: none), checked between members and steps.
-int stop_signal();
-/// Installs the SIGINT/SIGTERM handlers for its lifetime.
-class Signals {
- public:
-  Signals();
-  ~Signals();
-  Signals(const Signals&) = delete;
-  Signals& operator=(const Signals&) = delete;
-
- private:
-  struct Saved;
-  Saved* saved_;
-};
 /// The final report and exit status (130/143 when stopped by a signal).
 int finish(const Prepared& p, std::int64_t done, std::int64_t failed, const EnsembleOptions& options);
 

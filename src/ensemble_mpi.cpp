@@ -190,7 +190,7 @@ int worker_loop(const EnsemblePlan& plan, const std::string& dir, Outbox& out, i
       --outstanding;
       ++received;
       std::lock_guard<std::mutex> guard(mutex);
-      if (status.MPI_TAG == kWork && abort_message.empty() && ensemble_detail::stop_signal() == 0) {
+      if (status.MPI_TAG == kWork && abort_message.empty() && stop_signal() == 0) {
         queue.push_back(index);
         work_ready.notify_one();
       } else {
@@ -198,7 +198,7 @@ int worker_loop(const EnsemblePlan& plan, const std::string& dir, Outbox& out, i
       }
     }
     lock.lock();
-    if (!abort_message.empty() || ensemble_detail::stop_signal() != 0) {
+    if (!abort_message.empty() || stop_signal() != 0) {
       stopped = true;
       queue.clear();
     }
@@ -257,7 +257,7 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
     ~Finalize() { MPI_Finalize(); }
   } finalize;
   Outbox out;  // after finalize: destroyed (flushed) before MPI_Finalize
-  Signals signals;
+  StopSignals signals;
   // Members run at once on each rank: --threads, else 1 (one rank per core
   // is the usual launch; rank 0 runs them beside its coordinator).
   const int runners = std::max(1, opt.threads);

@@ -50,6 +50,7 @@ int run_cli(int argc, char** argv) {
   run->add_flag("--view", options.view, "Also write DIR/view.html, the interactive 3-D view (lgvi view)");
   run->add_flag("-q,--quiet", options.quiet, "Print nothing on success");
   run->footer(
+      lgvi::app::method_table() +
       "Examples:\n  lgvi run scenarios/paper.toml --out results/paper\n"
       "  lgvi run long.toml --checkpoint-every 100000   # then, after Ctrl-C: lgvi run --resume long\n"
       "Exit status: 0 success, 1 the run failed (the error names the step), 2 bad usage or bad input,\n"
@@ -83,9 +84,9 @@ int run_cli(int argc, char** argv) {
                       "Length of the equal-cost long runs, in steps of h (default 1e6)");
   compare->add_flag("--no-figures", compare_no_figures, "Do not draw the PNG figures");
   compare->add_flag("-q,--quiet", compare_options.quiet, "Print nothing on success");
-  compare->footer(
-      "Example:\n  lgvi compare scenarios/free-body-manchester-peck.toml --methods lgvi,so3-lgvi,rk4-normalized "
-      "--out results/compare");
+  compare->footer(lgvi::app::method_table() +
+                  "Example:\n  lgvi compare scenarios/free-body-manchester-peck.toml --methods "
+                  "lgvi,so3-lgvi,rk4-normalized --out results/compare");
 
   auto* ensemble = app.add_subcommand(
       "ensemble", "Run many members of a scenario with varied numbers (sweeps, Monte Carlo) on threads or MPI ranks");

@@ -1,12 +1,15 @@
 #include "run.hpp"
 
 #include "output.hpp"
+#include "progress_line.hpp"
 #include "simulation.hpp"
+#include "stop_signals.hpp"
 #include "summary.hpp"
 
 #include <lgvi/error.hpp>
 
 #include <fmt/format.h>
+#include <fmt/printf.h>
 
 #include <chrono>
 #include <cmath>
@@ -28,30 +31,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-volatile std::sig_atomic_t g_stop_signal = 0;
-
-extern "C" void on_stop_signal(int signo) { g_stop_signal = signo; }
-
-/// SIGINT and SIGTERM stop the run at the next step boundary while installed.
-class StopSignals {
- public:
-  StopSignals() {
-    g_stop_signal = 0;
-    struct sigaction sa {};
-    sa.sa_handler = on_stop_signal;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, &old_int_);
-    sigaction(SIGTERM, &sa, &old_term_);
-  }
-  ~StopSignals() {
-    sigaction(SIGINT, &old_int_, nullptr);
-    sigaction(SIGTERM, &old_term_, nullptr);
-  }
-
- private:
-  struct sigaction old_int_ {}, old_term_ {};
-};
-
 /// Folder holding the `lgvi` Python package (for the figures).
 std::string python_dir() {
   if (const char* env = std::getenv("LGVI_PYTHON_DIR")) return env;
@@ -60,37 +39,29 @@ std::string python_dir() {
   return LGVI_INSTALLED_PYTHON_DIR;
 }
 
-/// A progress line on standard error, only when it is a terminal.
+/// The run's progress line (progress_line.hpp), only when standard error is a
+/// terminal: step k of N, t, steps per second and the time left, at most
+/// every 0.25 s and at the last step.
 class Progress {
  public:
-  Progress(bool enabled, std::int64_t total, double step)
-      : enabled_(enabled && isatty(STDERR_FILENO)), total_(total), step_(step), start_(clock::now()) {}
+  Progress(bool enabled, std::int64_t total) : line_(enabled && isatty(STDERR_FILENO)), total_(total) {}
   void operator()(std::int64_t k, double t) {
-    if (!enabled_) return;
-    const double elapsed = std::chrono::duration<double>(clock::now() - start_).count();
+    if (!line_.enabled()) return;
+    const double elapsed = line_.elapsed();
     if (elapsed - last_ < 0.25 && k < total_) return;
     last_ = elapsed;
     const double rate = static_cast<double>(k - k_start_) / std::max(elapsed, 1e-9);
     const double eta = rate > 0 ? static_cast<double>(total_ - k) / rate : 0.0;
-    std::fprintf(stderr, "\rlgvi: step %lld/%lld (t = %.6g), %.3g steps/s, ETA %.0f s   ", static_cast<long long>(k),
-                 static_cast<long long>(total_), t, rate, eta);
-    shown_ = true;
+    line_.show(fmt::sprintf("lgvi: step %lld/%lld (t = %.6g), %.3g steps/s, ETA %.0f s", static_cast<long long>(k),
+                            static_cast<long long>(total_), t, rate, eta));
   }
   void start_at(std::int64_t k) { k_start_ = k; }
-  ~Progress() {
-    if (shown_) std::fputs("\n", stderr);
-  }
-  bool enabled() const { return enabled_; }
-  double step() const { return step_; }
+  bool enabled() const { return line_.enabled(); }
 
  private:
-  using clock = std::chrono::steady_clock;
-  bool enabled_;
+  ProgressLine line_;
   std::int64_t total_, k_start_ = 0;
-  double step_;
-  clock::time_point start_;
   double last_ = -1.0;
-  bool shown_ = false;
 };
 
 /// The shared part of a fresh and a resumed run.
@@ -114,12 +85,12 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
     return kBadInput;
   }
 
-  Progress progress(!opt.quiet, sc.integrator.steps, sc.integrator.step);
+  Progress progress(!opt.quiet, sc.integrator.steps);
   SimulationOptions so;
   so.checkpoint_every = opt.checkpoint_every;
   so.checkpoint_path = checkpoint_path.string();
   so.resume = resume;
-  so.stop_flag = &g_stop_signal;
+  so.stop_flag = stop_flag();
   if (progress.enabled()) {
     progress.start_at(resume ? resume->k : 0);
     so.progress = [&](std::int64_t k, double t) { progress(k, t); };
@@ -134,7 +105,7 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
       result.error = e.what();
     }
     if (result.interrupted)
-      result.error = std::string("interrupted by ") + (g_stop_signal == SIGTERM ? "SIGTERM" : "SIGINT") +
+      result.error = std::string("interrupted by ") + stop_signal_name() +
                      " at t = " + fmt::format("{}", result.stats.last_t) +
                      (opt.checkpoint_every > 0 ? "; continue with: lgvi run --resume " + dir : "");
   }
@@ -153,7 +124,7 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
   }
   if (result.interrupted) {
     std::cerr << "lgvi: " << result.error << "\n";
-    return g_stop_signal == SIGTERM ? kInterruptedSigterm : kInterruptedSigint;
+    return stop_exit_status();
   }
   if (!result.completed) {
     std::cerr << "lgvi: error: " << result.error << "\n";

@@ -22,10 +22,6 @@
 
 namespace lgvi::app {
 
-namespace {
-
-/// User text echoed in a message, with control characters escaped so that
-/// every message stays one line.
 std::string printable(std::string_view text) {
   std::string o;
   for (char c : text) {
@@ -36,6 +32,8 @@ std::string printable(std::string_view text) {
   }
   return o;
 }
+
+namespace {
 
 /// Reads typed values out of a parsed TOML document, naming the full key
 /// ("integrator.step") in every error.
@@ -835,10 +833,11 @@ void read_composition(const Reader& r, const toml::table& t, IntegratorSpec& s) 
   if (has_order && has_table)
     r.fail("integrator.composition", "give either order or composition, not both (composition is its own table)");
   const std::string key = has_order ? "integrator.order" : "integrator.composition";
-  if (!is_composable(s.method))
+  if (!s.method.traits().composable())
     r.fail(key, std::string("\"") + to_string(s.method) +
-                    "\" cannot be composed to higher order: composition needs a symmetric one-step method "
-                    "(lgvi, so3-lgvi, rattle-quaternion, no-squish, splitting-dlm)");
+                    "\" cannot be composed to higher order: composition needs a symmetric one-step method (" +
+                    method_names_where([](const MethodTraits& m) { return m.composable(); }, ", ", ", ", false) +
+                    ")");
   int order = 0;
   std::vector<double> gamma;
   if (has_order) {
@@ -868,7 +867,7 @@ IntegratorSpec read_integrator(const Reader& r, const toml::table& root) {
     const toml::node* n = t.get("method");
     if (!n->is_string()) r.fail("integrator.method", "must be a string naming the method");
     try {
-      s.method = method_from_string(n->value<std::string>().value(), "integrator.method");
+      s.method = Method::named(n->value<std::string>().value(), "integrator.method");
     } catch (const InvalidInput& e) {
       r.fail("", e.what());
     }
@@ -992,13 +991,15 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   if (bodies.size() > 1 && potential.kind == PotentialKind::HeavyTop)
     r.fail("potential.kind", "\"heavy-top\" is a single body on a pivot; this scenario has " +
                                  std::to_string(bodies.size()) + " bodies");
-  if (integrator.method == Method::Exact && potential.kind != PotentialKind::None)
-    r.fail("integrator.method", "\"exact\" is the free body's exact flow: it needs [potential] kind = \"none\"");
-  if (integrator.method == Method::Exact && (bodies.size() > 1 || interaction.kind != InteractionKind::None))
-    r.fail("integrator.method", "\"exact\" is the exact flow of one free body; this scenario has " +
+  const MethodTraits& method = integrator.method.traits();
+  if (method.free_body_only && potential.kind != PotentialKind::None)
+    r.fail("integrator.method", "\"" + std::string(method.name) +
+                                    "\" is the free body's exact flow: it needs [potential] kind = \"none\"");
+  if (method.free_body_only && (bodies.size() > 1 || interaction.kind != InteractionKind::None))
+    r.fail("integrator.method", "\"" + std::string(method.name) + "\" is the exact flow of one free body; this scenario has " +
                                     std::to_string(bodies.size()) + " bodies" +
                                     (interaction.kind != InteractionKind::None ? " and an [interaction]" : ""));
-  if (integrator.method == Method::NoSquish || integrator.method == Method::SplittingDlm) {
+  if (method.needs_principal_axes) {
     for (std::size_t a = 0; a < bodies.size(); ++a) {
       if (!bodies[a].has_principal_axes())
         r.fail("integrator.method", std::string("\"") + to_string(integrator.method) +
@@ -1070,10 +1071,12 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   bool inlined = false;
   sc.forcing = read_forcing(r, root, sc.system, static_cast<double>(integrator.steps) * integrator.step,
                             std::filesystem::path(name).parent_path(), inlined);
-  if (!sc.forcing.empty() && integrator.method != Method::Hamiltonian && integrator.method != Method::So3Lgvi)
+  if (!sc.forcing.empty() && !integrator.method.traits().accepts_forcing)
     r.fail("forcing", std::string("integrator.method \"") + to_string(integrator.method) +
-                          "\" does not take [[forcing]]; the discrete Lagrange-d'Alembert forcing is built into "
-                          "\"lgvi\" and \"so3-lgvi\" (composed to any order or not)");
+                          "\" does not take [[forcing]]; the discrete Lagrange-d'Alembert forcing is built into " +
+                          method_names_where([](const MethodTraits& m) { return m.accepts_forcing; }, ", ", " and ",
+                                             true) +
+                          " (composed to any order or not)");
   sc.potential = potential;
   sc.interaction = interaction;
   sc.initial_state = std::move(initial);
@@ -1171,19 +1174,6 @@ const char* to_string(InteractionKind k) {
   return "?";
 }
 
-const char* to_string(Method m) {
-  for (const auto& [method, name] : method_names)
-    if (method == m) return name;
-  return "?";
-}
-
-Method method_from_string(const std::string& name, const std::string& where) {
-  std::string list;
-  for (const auto& [method, n] : method_names) {
-    if (name == n) return method;
-    list += (list.empty() ? "\"" : ", \"") + std::string(n) + "\"";
-  }
-  throw InvalidInput("key '" + where + "': \"" + printable(name) + "\" is not one of " + list);
-}
+const char* to_string(Method m) { return m.name(); }
 
 }  // namespace lgvi::app

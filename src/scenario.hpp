@@ -11,48 +11,18 @@
 #include <lgvi/state.hpp>
 #include <lgvi/system.hpp>
 
+#include "method.hpp"
 #include "trajectory_sink.hpp"
 
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 
 namespace lgvi::app {
 
 enum class PotentialKind { None, Central, Uniform, HeavyTop };
-/// Integration methods (`[integrator] method`). The first two are the
-/// paper's; the others are what users would pick instead, for comparison.
-enum class Method {
-  Hamiltonian,       ///< "lgvi": the quaternion LGVI, Hamiltonian side (default)
-  Lagrangian,        ///< "lgvi-lagrangian": its position-position form
-  So3Lgvi,           ///< "so3-lgvi": rotation-matrix LGVI (Lee, Leok & McClamroch)
-  RattleQuaternion,  ///< "rattle-quaternion": Wendlandt & Marsden, unit length by a multiplier
-  Rk4Normalized,     ///< "rk4-normalized": classical RK4, q normalized each step
-  EulerExp,          ///< "euler-exp": semi-implicit Euler with the exponential map
-  NoSquish,          ///< "no-squish": Miller et al. (2002) symplectic splitting
-  SplittingDlm,      ///< "splitting-dlm": Dullweber, Leimkuhler & McLachlan (1997)
-  Exact              ///< "exact": the free rigid body's exact flow (potential none only)
-};
-
-/// Every method with its scenario name, in display order.
-inline constexpr std::pair<Method, const char*> method_names[] = {
-    {Method::Hamiltonian, "lgvi"},         {Method::Lagrangian, "lgvi-lagrangian"},
-    {Method::So3Lgvi, "so3-lgvi"},         {Method::RattleQuaternion, "rattle-quaternion"},
-    {Method::Rk4Normalized, "rk4-normalized"}, {Method::EulerExp, "euler-exp"},
-    {Method::NoSquish, "no-squish"},       {Method::SplittingDlm, "splitting-dlm"},
-    {Method::Exact, "exact"}};
-
-/// The method named `name`; throws InvalidInput listing the names otherwise.
-Method method_from_string(const std::string& name, const std::string& where);
-
-/// Symmetric one-step methods, which composition raises to higher order
-/// (composition.hpp). Not: rk4-normalized and euler-exp (not symmetric),
-/// lgvi-lagrangian (two-step), exact (already exact).
-constexpr bool is_composable(Method m) {
-  return m == Method::Hamiltonian || m == Method::So3Lgvi || m == Method::RattleQuaternion || m == Method::NoSquish ||
-         m == Method::SplittingDlm;
-}
 
 struct PotentialSpec {
   PotentialKind kind = PotentialKind::None;
@@ -85,7 +55,7 @@ enum class OnContact {
 };
 
 struct IntegratorSpec {
-  Method method = Method::Hamiltonian;
+  Method method;  ///< default: "lgvi"
   SolverOptions solver;
   /// [integrator] order / composition: the sub-steps of a composed step
   /// (one stage, gamma = 1, by default: the method's own step).
@@ -158,5 +128,9 @@ const char* to_string(OnContact c);
 std::string describe_reach(const System& system, const Contact& c);
 const char* to_string(InteractionKind k);
 const char* to_string(Method m);
+
+/// User text echoed in a message, with control characters escaped so that
+/// every message stays one line.
+std::string printable(std::string_view text);
 
 }  // namespace lgvi::app

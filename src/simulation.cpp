@@ -1,7 +1,7 @@
 #include "simulation.hpp"
 
 #include "formats/particles.hpp"
-#include "method_dispatch.hpp"
+#include "method_registry.hpp"
 
 #include <lgvi/error.hpp>
 #include <lgvi/integrate.hpp>

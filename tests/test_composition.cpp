@@ -5,7 +5,7 @@
 // tight reference; what composition keeps exactly (|q| = 1, momentum,
 // time symmetry, bounded energy); the predictor's iterations per sub-step;
 // the scenario keys and their errors.
-#include "method_dispatch.hpp"
+#include "method_registry.hpp"
 #include "scenario.hpp"
 #include "simulation.hpp"
 #include "memory_sink.hpp"
@@ -141,6 +141,22 @@ struct OrderCase {
   int levels;  ///< steps in the ladder (levels - 1 observed orders)
 };
 
+/// The methods the registry declares composable (symmetric one-step methods
+/// of order 2): every one of them is composed and measured below.
+std::vector<Method> composable_methods() {
+  std::vector<Method> v;
+  for (const lgvi::MethodTraits& t : Method::all())
+    if (t.composable()) v.push_back(Method::named(t.name));
+  return v;
+}
+
+TEST(ComposableMethods, AreTheSymmetricOneStepMethodsOfOrderTwo) {
+  // The literature's list (composition.hpp's header), against the registry's declarations.
+  std::vector<std::string> names;
+  for (Method m : composable_methods()) names.emplace_back(m.name());
+  EXPECT_EQ(names, (std::vector<std::string>{"lgvi", "so3-lgvi", "rattle-quaternion", "no-squish", "splitting-dlm"}));
+}
+
 std::string case_name(const ::testing::TestParamInfo<OrderCase>& info) {
   return name_of(info.param.method) + "_order" + std::to_string(info.param.order);
 }
@@ -149,8 +165,7 @@ std::string case_name(const ::testing::TestParamInfo<OrderCase>& info) {
 /// order; `special` replaces the default ladder of some (method, order).
 std::vector<OrderCase> cases(std::vector<OrderCase> per_order, const std::vector<OrderCase>& special = {}) {
   std::vector<OrderCase> v;
-  for (Method m : {Method::Hamiltonian, Method::So3Lgvi, Method::RattleQuaternion, Method::NoSquish,
-                   Method::SplittingDlm}) {
+  for (Method m : composable_methods()) {
     for (OrderCase c : per_order) {
       c.method = m;
       for (const OrderCase& x : special)
@@ -206,8 +221,8 @@ TEST_P(FreeBodyOrders, AgainstTheExactFlow) {
 
 // Free body, T = 8 (|Omega| ~ 0.7): errors 1e-6 .. 1e-12.
 INSTANTIATE_TEST_SUITE_P(Composed, FreeBodyOrders,
-                         ::testing::ValuesIn(cases({{Method::Hamiltonian, 4, 0.1, 3}, {Method::Hamiltonian, 6, 0.2, 3},
-                                                    {Method::Hamiltonian, 8, 0.4, 2}})),
+                         ::testing::ValuesIn(cases({{Method::named("lgvi"), 4, 0.1, 3}, {Method::named("lgvi"), 6, 0.2, 3},
+                                                    {Method::named("lgvi"), 8, 0.4, 2}})),
                          case_name);
 
 /// A tight RK4 solve of the continuous equations (continuous.hpp) of a
@@ -238,8 +253,8 @@ TEST_P(PaperOrbitOrders, AgainstATightSolveOfTheContinuousEquations) {
 
 // Paper orbit, T = 4: errors 1e-5 .. 1e-12.
 INSTANTIATE_TEST_SUITE_P(Composed, PaperOrbitOrders,
-                         ::testing::ValuesIn(cases({{Method::Hamiltonian, 4, 0.05, 3}, {Method::Hamiltonian, 6, 0.05, 3},
-                                                    {Method::Hamiltonian, 8, 0.1, 2}})),
+                         ::testing::ValuesIn(cases({{Method::named("lgvi"), 4, 0.05, 3}, {Method::named("lgvi"), 6, 0.05, 3},
+                                                    {Method::named("lgvi"), 8, 0.1, 2}})),
                          case_name);
 
 class HeavyTopOrders : public ::testing::TestWithParam<OrderCase> {};
@@ -257,12 +272,12 @@ TEST_P(HeavyTopOrders, AgainstATightSolveOfTheContinuousEquations) {
 // larger h (see expect_orders).
 INSTANTIATE_TEST_SUITE_P(
     Composed, HeavyTopOrders,
-    ::testing::ValuesIn(cases({{Method::Hamiltonian, 4, 0.00125, 3}, {Method::Hamiltonian, 6, 0.0025, 3},
-                               {Method::Hamiltonian, 8, 0.005, 3}},
-                              {{Method::RattleQuaternion, 6, 0.0025, 2}, {Method::RattleQuaternion, 8, 0.005, 2},
-                               {Method::NoSquish, 4, 0.005, 3}, {Method::NoSquish, 6, 0.01, 2},
-                               {Method::NoSquish, 8, 0.02, 2}, {Method::SplittingDlm, 4, 0.005, 3},
-                               {Method::SplittingDlm, 6, 0.01, 3}, {Method::SplittingDlm, 8, 0.01, 2}})),
+    ::testing::ValuesIn(cases({{Method::named("lgvi"), 4, 0.00125, 3}, {Method::named("lgvi"), 6, 0.0025, 3},
+                               {Method::named("lgvi"), 8, 0.005, 3}},
+                              {{Method::named("rattle-quaternion"), 6, 0.0025, 2}, {Method::named("rattle-quaternion"), 8, 0.005, 2},
+                               {Method::named("no-squish"), 4, 0.005, 3}, {Method::named("no-squish"), 6, 0.01, 2},
+                               {Method::named("no-squish"), 8, 0.02, 2}, {Method::named("splitting-dlm"), 4, 0.005, 3},
+                               {Method::named("splitting-dlm"), 6, 0.01, 3}, {Method::named("splitting-dlm"), 8, 0.01, 2}})),
     case_name);
 
 // ---------------------------------------------------------------------------
@@ -278,7 +293,7 @@ TEST(ComposedNBody, BinaryAsteroidOrdersAgainstATightRk4Reference) {
   SystemState ref = sc.initial_state;
   {
     Scenario r = sc;
-    r.integrator.method = Method::Rk4Normalized;
+    r.integrator.method = Method::named("rk4-normalized");
     std::int64_t evaluations = 0;
     const auto potential = lgvi::app::scenario_system_potential(r, nullptr, &evaluations);
     lgvi::app::with_stepper(r, potential, lgvi::Parallelism{}, [&](auto& stepper) {
@@ -286,8 +301,8 @@ TEST(ComposedNBody, BinaryAsteroidOrdersAgainstATightRk4Reference) {
       return 0;
     });
   }
-  for (const OrderCase& c : {OrderCase{Method::Hamiltonian, 4, 0.2, 3}, OrderCase{Method::Hamiltonian, 6, 0.2, 3},
-                             OrderCase{Method::Hamiltonian, 8, 0.5, 2}})
+  for (const OrderCase& c : {OrderCase{Method::named("lgvi"), 4, 0.2, 3}, OrderCase{Method::named("lgvi"), 6, 0.2, 3},
+                             OrderCase{Method::named("lgvi"), 8, 0.5, 2}})
     expect_orders(sc, c, T, ref);
 }
 
@@ -359,8 +374,7 @@ TEST_P(ComposedSymmetry, FlippingMomentaRetracesTheTrajectory) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Composed, ComposedSymmetry,
-                         ::testing::Values(Method::Hamiltonian, Method::So3Lgvi, Method::RattleQuaternion,
-                                           Method::NoSquish, Method::SplittingDlm),
+                         ::testing::ValuesIn(composable_methods()),
                          [](const auto& info) { return name_of(info.param); });
 
 TEST(ComposedSolver, NewtonIterationsPerSubStepStayNearOne) {
@@ -372,7 +386,7 @@ TEST(ComposedSolver, NewtonIterationsPerSubStepStayNearOne) {
   const Scenario sc = scenario("paper-orbit");
   for (int order : {4, 6, 8}) {
     double iterations = 0;
-    run(sc, Method::Hamiltonian, order, 0.01, 1000, sc.initial_state, &iterations);
+    run(sc, Method::named("lgvi"), order, 0.01, 1000, sc.initial_state, &iterations);
     EXPECT_LE(iterations, 1.01) << order;
   }
 }
@@ -435,8 +449,8 @@ duration = 1.0
   // most an ulp).
   const CompositionTable suzuki = CompositionTable::custom(
       {0.41449077179437573, 0.41449077179437573, -0.65796308717750292, 0.41449077179437573, 0.41449077179437573});
-  EXPECT_LE(distance(run(sc, Method::NoSquish, suzuki, 0.1, 10, sc.initial_state),
-                     run(sc, Method::NoSquish, 4, 0.1, 10, sc.initial_state)),
+  EXPECT_LE(distance(run(sc, Method::named("no-squish"), suzuki, 0.1, 10, sc.initial_state),
+                     run(sc, Method::named("no-squish"), 4, 0.1, 10, sc.initial_state)),
             1e-14);
 }
 

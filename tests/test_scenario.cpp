@@ -179,7 +179,7 @@ void expect_paper_body_and_integrator(const Scenario& s) {
   EXPECT_EQ(s.initial().q.quaternion().vec(), lgvi::Vector3<double>::Zero());
   EXPECT_EQ(s.initial().w, lgvi::Vector3<double>(1.0, 2.0, 3.0));
 
-  EXPECT_EQ(s.integrator.method, lgvi::app::Method::Hamiltonian);
+  EXPECT_EQ(s.integrator.method, lgvi::app::Method::named("lgvi"));
   EXPECT_EQ(s.integrator.solver.kind, lgvi::SolverKind::Newton);
   EXPECT_EQ(s.integrator.step, 0.01);
   EXPECT_EQ(s.integrator.duration, 1000.0);
@@ -218,7 +218,7 @@ TEST(ScenarioInput, DefaultsForOptionalKeys) {
   std::string text = replace(mutate("method = \"lgvi\"\n", ""), "solver = \"newton\"\n", "");
   text = replace(text, "[output]\nevery = 10\n", "");
   const Scenario s = parse_scenario(text, "defaults.toml");
-  EXPECT_EQ(s.integrator.method, lgvi::app::Method::Hamiltonian);
+  EXPECT_EQ(s.integrator.method, lgvi::app::Method::named("lgvi"));
   EXPECT_EQ(s.integrator.solver.kind, lgvi::SolverKind::Newton);
   EXPECT_EQ(s.integrator.solver.tolerance, lgvi::SolverOptions{}.tolerance);
   EXPECT_EQ(s.integrator.solver.max_iterations, lgvi::SolverOptions{}.max_iterations);
@@ -230,7 +230,7 @@ TEST(ScenarioInput, OtherMethodSolverAndPotentials) {
   text = replace(text, "solver = \"newton\"", "solver = \"broyden\"\ntolerance = 1e-12\nmax_iterations = 7");
   text = replace(text, "kind = \"central\"\nmu = 1.0", "kind = \"uniform\"\ng = [0, 0, -9.81]");
   const Scenario s = parse_scenario(text, "other.toml");
-  EXPECT_EQ(s.integrator.method, lgvi::app::Method::Lagrangian);
+  EXPECT_EQ(s.integrator.method, lgvi::app::Method::named("lgvi-lagrangian"));
   EXPECT_EQ(s.integrator.solver.kind, lgvi::SolverKind::Broyden);
   EXPECT_EQ(s.integrator.solver.tolerance, 1e-12);
   EXPECT_EQ(s.integrator.solver.max_iterations, 7);

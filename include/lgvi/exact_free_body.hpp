@@ -91,6 +91,7 @@
 //      separate like exp(omega t) for a while), see the tests.
 #pragma once
 
+#include <lgvi/methods/method_traits.hpp>
 #include <lgvi/error.hpp>
 #include <lgvi/lgvi.hpp>
 #include <lgvi/potential.hpp>
@@ -407,6 +408,11 @@ class ExactFreeBodyStepper {
 template <class I>
 class ExactFreeBodySystemStepper {
  public:
+  static constexpr MethodTraits traits{"exact", "the free rigid body's exact flow (Celledoni, Fasso, Safstrom & Zanna 2008)", 0,
+                                      /*symmetric=*/true, /*two_step=*/false, /*implicit=*/false,
+                                      /*accepts_forcing=*/false, /*needs_principal_axes=*/false,
+                                      /*free_body_only=*/true};
+
   /// `potential` must be the free body's (the caller checks: the exact flow
   /// knows no forces); more than one body is rejected.
   ExactFreeBodySystemStepper(System system, I potential, SolverOptions = {}, Parallelism = {})

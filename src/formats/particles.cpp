@@ -3,6 +3,7 @@
 #include <lgvi/s3.hpp>
 #include <lgvi/system.hpp>
 
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -130,6 +131,17 @@ void append_number(std::string& text, double v) {
   char number[32];
   const auto res = std::to_chars(number, number + sizeof number, v, std::chars_format::general, 17);
   text.append(number, res.ptr);
+}
+
+SinkPosition particle_file_position(const char* format, const ParticleFrames& frames, std::FILE* file,
+                                    const std::string& path, const std::string& error) {
+  if (frames.mid_step()) throw std::logic_error(std::string(format) + ": sync() in the middle of an output step");
+  if (!error.empty()) throw std::runtime_error(error);
+  if (std::fflush(file) != 0) throw std::runtime_error("writing " + path + " failed: " + std::strerror(errno));
+  SinkPosition p;
+  p.rows = frames.rows();
+  p.bytes = static_cast<std::int64_t>(std::ftell(file));
+  return p;
 }
 
 }  // namespace lgvi::app

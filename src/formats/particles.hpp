@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cstdint>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -83,6 +84,14 @@ class ParticleFrames {
 /// the order is fixed so that a reader can reproduce the positions bit for
 /// bit from the CSV's x and q (tests/python/test_exports.py does).
 std::array<double, 3> site_position(const double* x, const double* q_wxyz, const std::array<double, 3>& rho);
+
+/// Where a particle export written through stdio stands after `frames`'
+/// rows (TrajectorySink::sync for xyz and vtk): the rows taken and the
+/// file's length once flushed. Throws std::logic_error in the middle of an
+/// output step ("FORMAT: sync() ..."), and std::runtime_error with the
+/// sink's recorded write error, if any, or the flush's.
+SinkPosition particle_file_position(const char* format, const ParticleFrames& frames, std::FILE* file,
+                                    const std::string& path, const std::string& error);
 
 /// Appends v with 17 significant digits (%.17g, as the CSV writer prints
 /// them: every double round-trips exactly).

@@ -68,15 +68,7 @@ class XyzTrajectory final : public TrajectorySink {
     if (frame && error_.empty()) write_frame(*frame);
   }
 
-  SinkPosition sync() override {
-    if (frames_.mid_step()) throw std::logic_error("xyz: sync() in the middle of an output step");
-    if (!error_.empty()) throw std::runtime_error(error_);
-    if (std::fflush(file_) != 0) throw std::runtime_error("writing " + path_ + " failed: " + std::strerror(errno));
-    SinkPosition p;
-    p.rows = frames_.rows();
-    p.bytes = static_cast<std::int64_t>(std::ftell(file_));
-    return p;
-  }
+  SinkPosition sync() override { return particle_file_position("xyz", frames_, file_, path_, error_); }
 
   void close(const std::string&, const std::string&) override {
     if (!file_) return;

@@ -15,7 +15,7 @@
 
 #include "memory_sink.hpp"
 #include "ensemble.hpp"
-#include "method_dispatch.hpp"
+#include "method_registry.hpp"
 #include "scenario.hpp"
 #include "simulation.hpp"
 #include "summary.hpp"
@@ -317,7 +317,7 @@ std::unique_ptr<AnyStepper> make_stepper(const Scenario& sc, const CallablePoten
   auto evaluations = std::make_shared<std::int64_t>(0);
   const lgvi::app::ScenarioSystemPotential pot =
       lgvi::app::scenario_system_potential(sc, field, evaluations.get());
-  // The same method table as the CLI's run loop (method_dispatch.hpp).
+  // The same method table as the CLI's run loop (method_registry.hpp).
   return lgvi::app::with_stepper(
       sc, pot, lgvi::app::scenario_parallelism(sc), [&](auto& stepper) -> std::unique_ptr<AnyStepper> {
         return std::make_unique<StepperModel<std::decay_t<decltype(stepper)>>>(std::move(stepper), evaluations);
@@ -588,7 +588,7 @@ PYBIND11_MODULE(_core, m) {
   m.attr("BODIES_TRAJECTORY_HEADER") = lgvi::app::bodies_trajectory_header;
   // The names the scenario reader accepts, from the tables it uses.
   py::list methods, solvers, formats;
-  for (const auto& [method, name] : method_names) methods.append(name);
+  for (const lgvi::MethodTraits& t : Method::all()) methods.append(t.name);
   for (SolverKind k : {SolverKind::Newton, SolverKind::NewtonExp, SolverKind::Broyden}) solvers.append(to_string(k));
   for (const auto& [format, name] : format_names) formats.append(name);
   m.attr("METHODS") = py::tuple(methods);

@@ -20,7 +20,8 @@
 // the next step's F0, M0; initialize() adds one).
 #pragma once
 
-#include <lgvi/lgvi.hpp>
+#include <lgvi/methods/method_traits.hpp>
+#include <lgvi/single_body.hpp>
 #include <lgvi/methods/explicit_stepper.hpp>
 
 #include <vector>
@@ -33,6 +34,11 @@ class EulerExpIntegrator;
 template <SystemPotential I>
 class EulerExpIntegrator<I> : public detail::ExplicitStepperBase<I> {
  public:
+  static constexpr MethodTraits traits{"euler-exp", "semi-implicit Euler with the exponential map", 1,
+                                      /*symmetric=*/false, /*two_step=*/false, /*implicit=*/false,
+                                      /*accepts_forcing=*/false, /*needs_principal_axes=*/false,
+                                      /*free_body_only=*/false};
+
   EulerExpIntegrator(System system, I potential, SolverOptions = {}, Parallelism par = {})
       : detail::ExplicitStepperBase<I>(std::move(system), std::move(potential), par, "the Euler integrator") {}
 

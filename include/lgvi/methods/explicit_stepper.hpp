@@ -1,12 +1,12 @@
 // What the explicit methods (rk4-normalized, euler-exp, no-squish,
-// splitting-dlm) share behind the Stepper interface of lgvi.hpp: the body,
+// splitting-dlm) share behind the stepper contract of stepper.hpp: the body,
 // the potential, the step, the potential evaluation at the current state
 // (reused by the next step), an empty solve report, and no internal state
 // for a checkpoint besides the state itself.
 #pragma once
 
 #include <lgvi/error.hpp>
-#include <lgvi/lgvi.hpp>
+#include <lgvi/single_body.hpp>
 #include <lgvi/stepper.hpp>
 
 #include <algorithm>

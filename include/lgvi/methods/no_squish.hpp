@@ -43,7 +43,8 @@
 // the next step; initialize() adds one).
 #pragma once
 
-#include <lgvi/lgvi.hpp>
+#include <lgvi/methods/method_traits.hpp>
+#include <lgvi/single_body.hpp>
 #include <lgvi/methods/explicit_stepper.hpp>
 
 #include <cmath>
@@ -57,6 +58,11 @@ class NoSquishIntegrator;
 template <SystemPotential I>
 class NoSquishIntegrator<I> : public detail::ExplicitStepperBase<I> {
  public:
+  static constexpr MethodTraits traits{"no-squish", "the NO_SQUISH splitting of Miller et al. (2002)", 2,
+                                      /*symmetric=*/true, /*two_step=*/false, /*implicit=*/false,
+                                      /*accepts_forcing=*/false, /*needs_principal_axes=*/true,
+                                      /*free_body_only=*/false};
+
   NoSquishIntegrator(System system, I potential, SolverOptions = {}, Parallelism par = {})
       : detail::ExplicitStepperBase<I>(std::move(system), std::move(potential), par, "the no-squish integrator") {
     for (const RigidBody& b : this->system_.bodies()) moments_.push_back(detail::require_principal_axes(b, "no-squish"));

@@ -48,8 +48,10 @@
 // Newton (round-off, not accumulated: each step imposes it afresh).
 #pragma once
 
+#include <lgvi/methods/method_traits.hpp>
 #include <lgvi/error.hpp>
-#include <lgvi/lgvi.hpp>
+#include <lgvi/methods/implicit_stepper.hpp>
+#include <lgvi/single_body.hpp>
 #include <lgvi/potential.hpp>
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/rotation_solver.hpp>
@@ -129,6 +131,11 @@ class RattleQuaternionIntegrator<I> : public detail::ImplicitStepperBase<I, Rota
   using Base = detail::ImplicitStepperBase<I, RotationPredictor>;
 
  public:
+  static constexpr MethodTraits traits{"rattle-quaternion", "RATTLE on quaternions (Wendlandt & Marsden): unit length by a multiplier", 2,
+                                      /*symmetric=*/true, /*two_step=*/false, /*implicit=*/true,
+                                      /*accepts_forcing=*/false, /*needs_principal_axes=*/false,
+                                      /*free_body_only=*/false};
+
   /// `solver.tolerance`, `max_iterations` and `predictor_order` apply;
   /// `solver.kind` does not (always Newton on the 5 x 5 system).
   RattleQuaternionIntegrator(System system, I potential, SolverOptions solver = {}, Parallelism par = {})

@@ -24,7 +24,8 @@
 // tests/test_methods_classical.cpp).
 #pragma once
 
-#include <lgvi/lgvi.hpp>
+#include <lgvi/methods/method_traits.hpp>
+#include <lgvi/single_body.hpp>
 #include <lgvi/methods/explicit_stepper.hpp>
 
 #include <vector>
@@ -37,6 +38,11 @@ class Rk4NormalizedIntegrator;
 template <SystemPotential I>
 class Rk4NormalizedIntegrator<I> : public detail::ExplicitStepperBase<I> {
  public:
+  static constexpr MethodTraits traits{"rk4-normalized", "classical Runge-Kutta 4, q normalized after each step", 4,
+                                      /*symmetric=*/false, /*two_step=*/false, /*implicit=*/false,
+                                      /*accepts_forcing=*/false, /*needs_principal_axes=*/false,
+                                      /*free_body_only=*/false};
+
   Rk4NormalizedIntegrator(System system, I potential, SolverOptions = {}, Parallelism par = {})
       : detail::ExplicitStepperBase<I>(std::move(system), std::move(potential), par, "the RK4 integrator") {
     const std::size_t n = this->system_.size();

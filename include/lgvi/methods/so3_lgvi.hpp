@@ -43,8 +43,10 @@
 // potential evaluation is also cached).
 #pragma once
 
+#include <lgvi/methods/method_traits.hpp>
 #include <lgvi/error.hpp>
-#include <lgvi/lgvi.hpp>
+#include <lgvi/methods/implicit_stepper.hpp>
+#include <lgvi/single_body.hpp>
 #include <lgvi/potential.hpp>
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/rotation_solver.hpp>
@@ -132,6 +134,11 @@ class So3LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I
   using Base = detail::ImplicitStepperBase<I, detail::CayleyPredictor>;
 
  public:
+  static constexpr MethodTraits traits{"so3-lgvi", "the rotation-matrix LGVI of Lee, Leok & McClamroch", 2,
+                                      /*symmetric=*/true, /*two_step=*/false, /*implicit=*/true,
+                                      /*accepts_forcing=*/true, /*needs_principal_axes=*/false,
+                                      /*free_body_only=*/false};
+
   /// `solver.tolerance`, `max_iterations` and `predictor_order` apply;
   /// `solver.kind` does not: this method always uses Newton in the Cayley
   /// chart (Lee et al.'s choice).

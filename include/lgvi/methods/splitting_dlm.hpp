@@ -33,7 +33,8 @@
 // the next step's opening kick; initialize() adds one).
 #pragma once
 
-#include <lgvi/lgvi.hpp>
+#include <lgvi/methods/method_traits.hpp>
+#include <lgvi/single_body.hpp>
 #include <lgvi/methods/explicit_stepper.hpp>
 
 #include <algorithm>
@@ -51,6 +52,11 @@ class SplittingDlmIntegrator;
 template <SystemPotential I>
 class SplittingDlmIntegrator<I> : public detail::ExplicitStepperBase<I> {
  public:
+  static constexpr MethodTraits traits{"splitting-dlm", "the splitting of Dullweber, Leimkuhler & McLachlan (1997)", 2,
+                                      /*symmetric=*/true, /*two_step=*/false, /*implicit=*/false,
+                                      /*accepts_forcing=*/false, /*needs_principal_axes=*/true,
+                                      /*free_body_only=*/false};
+
   SplittingDlmIntegrator(System system, I potential, SolverOptions = {}, Parallelism par = {})
       : detail::ExplicitStepperBase<I>(std::move(system), std::move(potential), par, "the splitting-dlm integrator") {
     for (const RigidBody& b : this->system_.bodies()) moments_.push_back(detail::require_principal_axes(b, "splitting-dlm"));
