@@ -22,10 +22,16 @@ BODIES_COLUMNS: Tuple[str, ...]
 METHODS: Tuple[str, ...]
 SOLVERS: Tuple[str, ...]
 FORMATS: Tuple[str, ...]
+INTERACTIONS: Tuple[str, ...]
 
-Method = Literal["lgvi", "lgvi-lagrangian"]
+# The names of the C++ tables (lgvi._core.METHODS, SOLVERS, FORMATS, INTERACTIONS), in their
+# order; tests/python/test_name_lists.py fails when these disagree with them.
+Method = Literal["lgvi", "lgvi-lagrangian", "so3-lgvi", "rattle-quaternion", "rk4-normalized", "euler-exp",
+                 "no-squish", "splitting-dlm", "exact"]
 Solver = Literal["newton", "newton-exp", "broyden"]
 OutputFormat = Literal["csv", "npz", "hdf5", "xyz", "vtk"]
+#: [interaction] kind, the value of interaction={"kind": ...}.
+InteractionKind = Literal["none", "gravity", "lennard-jones"]
 Vector3 = Union[Sequence[float], npt.NDArray[np.float64]]
 #: A unit quaternion, scalar-first (w, x, y, z).
 Quaternion = Union[Sequence[float], npt.NDArray[np.float64]]

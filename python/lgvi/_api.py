@@ -24,6 +24,8 @@ METHODS = _core.METHODS
 SOLVERS = _core.SOLVERS
 #: Trajectory formats of the CLI ([output] format).
 FORMATS = _core.FORMATS
+#: Kinds of mutual interaction between the bodies ([interaction] kind; ``interaction={"kind": ...}``).
+INTERACTIONS = _core.INTERACTIONS
 
 IntegrationError = _core.IntegrationError
 

@@ -227,7 +227,8 @@ class SystemResult(_RunSummary, _Attitude):
         self.names = names if len(names) == data.shape[1] else [f"body{i}" for i in range(data.shape[1])]
         #: Column name -> array: (steps, N) for per-body columns, (steps,) for the system's.
         names = FORCED_BODIES_COLUMNS if data.shape[2] == len(FORCED_BODIES_COLUMNS) else BODIES_COLUMNS
-        self.columns = {name: (data[:, :, i] if i < 16 else data[:, 0, i]) for i, name in enumerate(names)}
+        per_body = BODIES_COLUMNS.index("energy")  # the body's columns come first, then the system's
+        self.columns = {name: (data[:, :, i] if i < per_body else data[:, 0, i]) for i, name in enumerate(names)}
 
     @property
     def bodies(self):

@@ -14,7 +14,8 @@ import pathlib
 import pytest
 
 PACKAGE = "lgvi"
-SOURCE = pathlib.Path(os.environ.get("LGVI_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2])) / "python" / PACKAGE
+SOURCE = pathlib.Path(os.environ.get("LGVI_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
+SOURCE = SOURCE / "python" / PACKAGE
 
 #: The layers, bottom first. A module may import modules of lower layers only (not of its own
 #: layer, not above): that makes the graph acyclic by construction and says which modules work
