@@ -82,6 +82,21 @@ def test_stub_literals_are_the_tables(alias, names):
     assert _literal("__init__.pyi", alias) == names
 
 
+def _between(text, start, end):
+    text = " ".join(text.split())
+    assert start in text and end in text.split(start, 1)[1], f"{start!r} ... {end!r} not in the docstring"
+    return tuple(_quoted(text.split(start, 1)[1].split(end, 1)[0]))
+
+
+def test_docstrings_list_the_tables():
+    # help(lgvi.Scenario) spells the methods and formats out; a name added to a table and not
+    # there (or removed and left there) fails.
+    doc = lgvi.Scenario.__doc__
+    assert _between(doc, "``method`` one of lgvi.METHODS", "``solver``") == core.METHODS
+    assert _between(doc, "``output_format`` for the CLI", "``name``") == core.FORMATS
+    assert _between(lgvi.Scenario.output_format.__doc__, "format:", "(ParaView)") == core.FORMATS
+
+
 def _readme_setting(key, table_line):
     """The names of the README's scenario-file comment `key = "..."  # "a" | "b" ...` (with its
     continuation comment lines), the one in the block after `table_line`."""
