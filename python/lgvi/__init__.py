@@ -8,10 +8,12 @@ variational integrator), from Python.
     lgvi.plot.draw_figures(result, "figures")
 
 Public names: Body, Scenario, simulate, Result, SystemResult (many-body runs), Stepper,
-PythonPotential, PythonForcing (forces and torques written in Python), IntegrationError, ensemble, EnsembleResult (sweeps and Monte Carlo on any
-executor), load, potential (none(), central(mu), uniform(g)), plot (the
-paper's figures), view (an interactive 3-D view of a run, one offline HTML file), load_run, COLUMNS, BODIES_COLUMNS, METHODS, SOLVERS. Quaternions are scalar-first (w, x, y, z) numpy arrays everywhere. Invalid arguments raise
-ValueError naming the argument.
+PythonPotential, PythonForcing (forces and torques written in Python), IntegrationError, ensemble,
+EnsembleResult (sweeps and Monte Carlo on any executor), load, potential (none(), central(mu),
+uniform(g)), plot (the paper's figures), view (an interactive 3-D view of a run, one offline HTML
+file), load_run, COLUMNS, BODIES_COLUMNS, METHODS, SOLVERS, FORMATS, INTERACTIONS (the names the
+scenario reader accepts). Quaternions are scalar-first (w, x, y, z) numpy arrays everywhere. Invalid
+arguments raise ValueError naming the argument.
 
 `import lgvi` itself is cheap: names are loaded on first use (numpy, and the compiled lgvi._core
 for Body, Scenario, simulate, Stepper), so `python3 -m lgvi.plot` also works from the source tree
@@ -21,7 +23,8 @@ for Body, Scenario, simulate, Stepper), so `python3 -m lgvi.plot` also works fro
 # name -> submodule that defines it
 _EXPORTS = {
     "Body": "_api", "Scenario": "_api", "simulate": "_api", "Stepper": "_api", "IntegrationError": "_api",
-    "METHODS": "_api", "SOLVERS": "_api", "FORMATS": "_api", "__version__": "_api",
+    "METHODS": "_api", "SOLVERS": "_api", "FORMATS": "_api", "INTERACTIONS": "_api",
+    "__version__": "_api",
     "PythonPotential": "potential",
     "PythonForcing": "forcing",
     "Result": "_result", "COLUMNS": "_result", "SystemResult": "_result", "BODIES_COLUMNS": "_result",
@@ -35,6 +38,7 @@ _SUBMODULES = ("plot", "potential", "forcing")
 __all__ = ["Body", "Scenario", "simulate", "Result", "SystemResult", "Stepper", "PythonPotential", "PythonForcing",
            "IntegrationError",
            "load", "potential", "plot", "load_run", "COLUMNS", "BODIES_COLUMNS", "METHODS", "SOLVERS", "FORMATS",
+           "INTERACTIONS",
            "ensemble", "EnsembleResult", "view"]
 
 

@@ -22,10 +22,16 @@ BODIES_COLUMNS: Tuple[str, ...]
 METHODS: Tuple[str, ...]
 SOLVERS: Tuple[str, ...]
 FORMATS: Tuple[str, ...]
+INTERACTIONS: Tuple[str, ...]
 
-Method = Literal["lgvi", "lgvi-lagrangian"]
+# The names of the C++ tables (lgvi._core.METHODS, SOLVERS, FORMATS, INTERACTIONS), in their
+# order; tests/python/test_name_lists.py fails when these disagree with them.
+Method = Literal["lgvi", "lgvi-lagrangian", "so3-lgvi", "rattle-quaternion", "rk4-normalized", "euler-exp",
+                 "no-squish", "splitting-dlm", "exact"]
 Solver = Literal["newton", "newton-exp", "broyden"]
 OutputFormat = Literal["csv", "npz", "hdf5", "xyz", "vtk"]
+#: [interaction] kind, the value of interaction={"kind": ...}.
+InteractionKind = Literal["none", "gravity", "lennard-jones"]
 Vector3 = Union[Sequence[float], npt.NDArray[np.float64]]
 #: A unit quaternion, scalar-first (w, x, y, z).
 Quaternion = Union[Sequence[float], npt.NDArray[np.float64]]
@@ -213,7 +219,7 @@ class Result:
     def error(self) -> str: ...
     def __len__(self) -> int: ...
     def save(self, run_dir: PathLike) -> PathLike: ...
-    def draw_figures(self, out_dir: PathLike) -> List[str]: ...
+    def draw_figures(self, out_dir: PathLike) -> List[str]: ...  # deprecated: lgvi.plot.draw_figures(result, out_dir)
 
 ForcingFunction = Callable[[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray], Tuple[Any, Any]]
 
@@ -313,7 +319,7 @@ class SystemResult:
     def rotation_matrices(self) -> npt.NDArray[np.float64]: ...
     def euler_angles(self, seq: str = ..., degrees: bool = ...) -> npt.NDArray[np.float64]: ...
     def lvlh_angles(self, degrees: bool = ...) -> npt.NDArray[np.float64]: ...
-    def draw_figures(self, out_dir: PathLike) -> List[str]: ...
+    def draw_figures(self, out_dir: PathLike) -> List[str]: ...  # deprecated: lgvi.plot.draw_figures(result, out_dir)
 
 def load(path: PathLike) -> Union[Result, SystemResult]:
     """A run folder or trajectory file (.csv, .npz, .h5) as a Result (a SystemResult for [[bodies]] runs)."""

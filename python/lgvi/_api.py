@@ -4,7 +4,6 @@ z) numpy arrays everywhere."""
 
 import copy
 import json
-import math
 import os
 import tomllib
 
@@ -14,6 +13,7 @@ from . import _check, _core
 from . import forcing as _forcing
 from . import potential as _potential
 from ._result import BODIES_COLUMNS, Result, SystemResult
+from ._toml import scenario_text as _toml_text, toml_value as _toml_value
 
 __version__ = _core.__version__
 
@@ -24,6 +24,8 @@ METHODS = _core.METHODS
 SOLVERS = _core.SOLVERS
 #: Trajectory formats of the CLI ([output] format).
 FORMATS = _core.FORMATS
+#: Kinds of mutual interaction between the bodies ([interaction] kind; ``interaction={"kind": ...}``).
+INTERACTIONS = _core.INTERACTIONS
 
 IntegrationError = _core.IntegrationError
 
@@ -31,47 +33,6 @@ IntegrationError = _core.IntegrationError
 def _value_error(e):
     """A C++ InvalidInput (already a ValueError) re-raised without the C++ frames."""
     return ValueError(str(e))
-
-
-# ---------------------------------------------------------------------------
-# TOML text for the C++ reader (so that code-built scenarios get exactly the
-# file reader's validation and messages)
-
-def _toml_value(v):
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if not math.isfinite(v):  # checked before; TOML's own spelling keeps the reader's message
-            return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf")
-        return repr(v)  # shortest text that round-trips exactly
-    if isinstance(v, str):
-        return json.dumps(v)  # a TOML basic string (JSON escapes are TOML escapes)
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    if isinstance(v, dict):  # an inline table ([initial] orbit, attitude)
-        return "{ " + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + " }"
-    raise TypeError(f"cannot write {v!r} as TOML")
-
-
-def _toml_text(doc):
-    """TOML text of a scenario document (tables of scalars/arrays; body.ball an array of tables)."""
-    lines = []
-    for table in ("body", "potential", "initial", "integrator", "output"):
-        if table not in doc:
-            continue
-        t = doc[table]
-        lines.append(f"[{table}]")
-        for k, v in t.items():
-            if table == "body" and k == "ball":
-                continue
-            lines.append(f"{k} = {_toml_value(v)}")
-        for ball in t.get("ball", []) if table == "body" else []:
-            lines.append("[[body.ball]]")
-            lines.extend(f"{k} = {_toml_value(v)}" for k, v in ball.items())
-        lines.append("")
-    return "\n".join(lines)
 
 
 def _floats(a):

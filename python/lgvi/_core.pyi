@@ -8,9 +8,12 @@ import numpy.typing as npt
 __version__: str
 TRAJECTORY_HEADER: str
 BODIES_TRAJECTORY_HEADER: str
+FORCED_TRAJECTORY_HEADER: str
+FORCED_BODIES_TRAJECTORY_HEADER: str
 METHODS: Tuple[str, ...]
 SOLVERS: Tuple[str, ...]
 FORMATS: Tuple[str, ...]
+INTERACTIONS: Tuple[str, ...]
 Array = npt.NDArray[np.float64]
 
 class IntegrationError(RuntimeError):

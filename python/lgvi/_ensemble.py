@@ -13,11 +13,7 @@ import os
 import numpy as np
 
 from . import _check  # _core is imported where a member runs: plotting works from the source tree
-
-
-def _toml_value(v):
-    from ._api import _toml_value as value  # the scenario writer's spelling of numbers and strings
-    return value(v)
+from ._toml import toml_value as _toml_value  # the scenario writer's spelling of numbers and strings
 
 
 def _sweep_text(scenario_name, vary, members, seed, trajectories):

@@ -4,6 +4,7 @@ lgvi.load work from the source tree too."""
 
 import json
 import os
+import warnings
 
 import numpy as np
 
@@ -182,9 +183,8 @@ class Result(_RunSummary, _Attitude):
         return run_dir
 
     def draw_figures(self, out_dir):
-        """Draw the paper's five figures (PNG) into out_dir with lgvi.plot; returns the paths."""
-        from . import plot
-        return plot.draw_figures(self, out_dir)
+        """Deprecated: use ``lgvi.plot.draw_figures(result, out_dir)`` (the same figures; returns the paths)."""
+        return _deprecated_draw_figures(self, out_dir)
 
 
 class SystemResult(_RunSummary, _Attitude):
@@ -227,7 +227,8 @@ class SystemResult(_RunSummary, _Attitude):
         self.names = names if len(names) == data.shape[1] else [f"body{i}" for i in range(data.shape[1])]
         #: Column name -> array: (steps, N) for per-body columns, (steps,) for the system's.
         names = FORCED_BODIES_COLUMNS if data.shape[2] == len(FORCED_BODIES_COLUMNS) else BODIES_COLUMNS
-        self.columns = {name: (data[:, :, i] if i < 16 else data[:, 0, i]) for i, name in enumerate(names)}
+        per_body = BODIES_COLUMNS.index("energy")  # the body's columns come first, then the system's
+        self.columns = {name: (data[:, :, i] if i < per_body else data[:, 0, i]) for i, name in enumerate(names)}
 
     @property
     def bodies(self):
@@ -254,6 +255,17 @@ class SystemResult(_RunSummary, _Attitude):
                 f"t = {self.t[0] if len(self) else 0:g} .. {self.t[-1] if len(self) else 0:g}>")
 
     def draw_figures(self, out_dir):
-        """Draw the run's figures into out_dir (lgvi.plot.draw_figures); returns the paths."""
-        from . import plot
-        return plot.draw_figures(self, out_dir)
+        """Deprecated: use ``lgvi.plot.draw_figures(result, out_dir)`` (the same figures; returns the paths)."""
+        return _deprecated_draw_figures(self, out_dir)
+
+
+def _deprecated_draw_figures(result, out_dir):
+    """Result.draw_figures and SystemResult.draw_figures, kept working for code that calls them.
+
+    The data layer does not depend on the figure layer (lgvi.plot imports this module, not the
+    reverse): this shim is the one upward import left in the package, named as such in
+    tests/python/test_import_layers.py, and goes when the methods go."""
+    warnings.warn(f"{type(result).__name__}.draw_figures is deprecated: call lgvi.plot.draw_figures(result, "
+                  f"out_dir) (the same figures)", DeprecationWarning, stacklevel=3)
+    from . import plot  # deprecated upward import (see the docstring)
+    return plot.draw_figures(result, out_dir)

@@ -586,14 +586,23 @@ PYBIND11_MODULE(_core, m) {
   m.attr("__version__") = LGVI_VERSION;
   m.attr("TRAJECTORY_HEADER") = trajectory_header;
   m.attr("BODIES_TRAJECTORY_HEADER") = lgvi::app::bodies_trajectory_header;
+  m.attr("FORCED_TRAJECTORY_HEADER") = forced_trajectory_header;
+  m.attr("FORCED_BODIES_TRAJECTORY_HEADER") = forced_bodies_trajectory_header;
   // The names the scenario reader accepts, from the tables it uses.
-  py::list methods, solvers, formats;
+  py::list methods, solvers, formats, interactions;
   for (const lgvi::MethodTraits& t : Method::all()) methods.append(t.name);
   for (SolverKind k : {SolverKind::Newton, SolverKind::NewtonExp, SolverKind::Broyden}) solvers.append(to_string(k));
   for (const auto& [format, name] : format_names) formats.append(name);
+  // [interaction] kind: every InteractionKind's name, once (gravity's two models share "gravity").
+  for (InteractionKind k : {InteractionKind::None, InteractionKind::GravityBalls, InteractionKind::GravityInertia,
+                            InteractionKind::LennardJones}) {
+    const py::str name(to_string(k));
+    if (!interactions.contains(name)) interactions.append(name);
+  }
   m.attr("METHODS") = py::tuple(methods);
   m.attr("SOLVERS") = py::tuple(solvers);
   m.attr("FORMATS") = py::tuple(formats);
+  m.attr("INTERACTIONS") = py::tuple(interactions);
 
   // lgvi::IntegrationFailure -> IntegrationError(RuntimeError) with .step, .time and .result (None here).
   static py::exception<IntegrationFailure> integration_error(m, "IntegrationError", PyExc_RuntimeError);

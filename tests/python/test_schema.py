@@ -1,0 +1,45 @@
+"""The trajectory's column schema is the C++ one (src/trajectory_sink.hpp), in Python too.
+
+lgvi._columns keeps its own copy of the column names on purpose: lgvi.load, lgvi.plot and
+python3 -m lgvi.plot work from the source tree, which has no compiled module (the CLI draws its
+figures that way; tests/CMakeLists.txt's sanitized.cli_pytest runs on it). So the schema is
+written in C++ and *checked* here, not imported: this test fails when the two disagree.
+"""
+
+import lgvi._core as core
+from lgvi import _columns, _result, plot
+
+
+def test_columns_are_the_cpp_headers():
+    # Each of the four layouts (single body / bodies, without / with the forcing's work), name by
+    # name and in order: a renamed, added or reordered C++ column fails here.
+    assert _columns.COLUMNS == tuple(core.TRAJECTORY_HEADER.split(","))
+    assert _columns.HEADER == core.TRAJECTORY_HEADER
+    assert _columns.BODIES_COLUMNS == tuple(core.BODIES_TRAJECTORY_HEADER.split(","))
+    assert _columns.FORCED_COLUMNS == tuple(core.FORCED_TRAJECTORY_HEADER.split(","))
+    assert _columns.FORCED_BODIES_COLUMNS == tuple(core.FORCED_BODIES_TRAJECTORY_HEADER.split(","))
+
+
+def test_figures_need_only_columns_that_exist():
+    # plot.REQUIRED_COLUMNS is the figures' selection from the schema, not a second schema: every
+    # name in it must be a column of the single-body layout (the figures of a run read it).
+    assert set(plot.REQUIRED_COLUMNS) <= set(_columns.COLUMNS)
+
+
+def test_result_arrays_follow_the_schema():
+    # Result and SystemResult address columns by position (views into data); their named
+    # accessors must land on the columns of those names.
+    n = len(_columns.COLUMNS)
+    r = _result.Result([[float(i) for i in range(n)]])
+    for name, col in r.columns.items():
+        assert col[0] == _columns.COLUMNS.index(name)
+    assert r.t[0] == _columns.COLUMNS.index("t") and r.energy[0] == _columns.COLUMNS.index("energy")
+    assert tuple(r.L[0]) == tuple(_columns.COLUMNS.index(c) for c in ("Lx", "Ly", "Lz"))
+    m = len(_columns.BODIES_COLUMNS)
+    s = _result.SystemResult([[0.0, 0.0] + [float(i) for i in range(2, m)]])
+    assert s.energy[0] == _columns.BODIES_COLUMNS.index("energy")
+    assert tuple(s.P[0]) == tuple(_columns.BODIES_COLUMNS.index(c) for c in ("Px", "Py", "Pz"))
+    assert s.momentum_error[0] == _columns.BODIES_COLUMNS.index("momentum_error")
+    assert tuple(s.q[0, 0]) == tuple(_columns.BODIES_COLUMNS.index(c) for c in ("qw", "qx", "qy", "qz"))
+    # The per-body columns are (steps, N), the system's (steps,): the split is at "energy".
+    assert s.columns["quat_norm_error"].shape == (1, 1) and s.columns["energy"].shape == (1,)
