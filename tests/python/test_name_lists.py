@@ -197,12 +197,23 @@ def test_cli_compare_message_lists_the_methods(tmp_path):
 @needs_cli
 @pytest.mark.parametrize("command", ["run", "compare", "ensemble"])
 def test_cli_help_has_no_partial_list(command):
-    # The --help texts do not list the names today (they point to the README). A list written into
-    # one later (two or more names of a table, quoted as in the scenario file) must be the whole
-    # table: a partial or stale list of methods, formats or interactions there fails.
+    # A list of names written into a --help text (two or more names of a table, quoted as in the
+    # scenario file) must be the whole table: a partial or stale list of methods, formats or
+    # interactions there fails. (The method table of run and compare is checked below.)
     text = subprocess.run([BINARY, command, "--help"], capture_output=True, text=True, timeout=60).stdout
     assert "Usage" in text, text
     quoted = set(_quoted(text))
     for kind, names in TABLES.items():
         listed = quoted & set(names)
         assert len(listed) < 2 or listed == set(names), f"lgvi {command} --help lists the {kind}s {sorted(listed)}"
+
+
+@needs_cli
+@pytest.mark.parametrize("command", ["run", "compare"])
+def test_cli_help_lists_every_method_in_registry_order(command):
+    # lgvi run / compare --help print the method registry's table (src/method_registry.cpp,
+    # method_table): one line per method, its name first, in the registry's order.
+    text = subprocess.run([BINARY, command, "--help"], capture_output=True, text=True, timeout=60).stdout
+    table = text[text.index("Methods ([integrator] method"):].split("\n\n", 1)[0]
+    listed = [line.split()[0] for line in table.splitlines()[1:] if not line.startswith("    ")]
+    assert listed == list(core.METHODS), text
