@@ -102,6 +102,26 @@ class ImplicitStepperBase : public StepperBase<I> {
     return v;
   }
 
+  /// A checkpoint's fields (checkpoint_fields.hpp): the method's own
+  /// (save_extra); "stepper.predictors", the predictors' history
+  /// (Predictor::serialized_size numbers each, stage by stage, body by body
+  /// within a stage); the forcing's; "stepper.position_carry", per body the
+  /// carry of the compensated position sum (drift), 3 numbers.
+  void save(CheckpointFields& out) const {
+    save_extra(out);
+    std::vector<double> p;
+    p.reserve(predictors_.size() * Predictor::serialized_size);
+    for (const Predictor& predictor : predictors_) {
+      const std::vector<double> v = predictor.serialize();
+      p.insert(p.end(), v.begin(), v.end());
+    }
+    out.put_f64("stepper.predictors", std::move(p));
+    this->save_forcing(out);
+    std::vector<double> carry;
+    for (const Vector3<double>& c : x_carry_) carry.insert(carry.end(), {c.x(), c.y(), c.z()});
+    out.put_f64("stepper.position_carry", std::move(carry));
+  }
+
  protected:
   ImplicitStepperBase(System system, I potential, SolverOptions solver, Parallelism par)
       : StepperBase<I>(std::move(system), std::move(potential), par),
@@ -121,6 +141,30 @@ class ImplicitStepperBase : public StepperBase<I> {
   virtual void serialize_extra(std::size_t, std::vector<double>&) const {}
   virtual std::size_t extra_size() const { return 0; }
   virtual void deserialize_extra(std::size_t, const double*) {}
+
+  /// A method's own checkpoint fields (none by default).
+  virtual void save_extra(CheckpointFields&) const {}
+  virtual void load_extra(const CheckpointFields&) {}
+
+  /// Restores what save() wrote, after initialize(); or, from a checkpoint
+  /// of versions 2 to 4, the numbers of internal_state() held in the field
+  /// "stepper.internal" (restore).
+  void load_fields(const CheckpointFields& in, const char* what) {
+    if (in.has("stepper.internal")) {
+      detail::reading_stepper_internal([&] { restore(in.f64("stepper.internal"), what); });
+      return;
+    }
+    const std::size_t n = this->system_.size();
+    load_extra(in);
+    const std::vector<double>& p = in.f64("stepper.predictors", predictors_.size() * Predictor::serialized_size);
+    for (std::size_t i = 0; i < predictors_.size(); ++i) {
+      const auto first = p.begin() + static_cast<std::ptrdiff_t>(i * Predictor::serialized_size);
+      predictors_[i].deserialize(std::vector<double>(first, first + Predictor::serialized_size));
+    }
+    this->load_forcing(in);
+    const std::vector<double>& carry = in.f64("stepper.position_carry", 3 * n);
+    for (std::size_t a = 0; a < n; ++a) x_carry_[a] = Vector3<double>(carry[3 * a], carry[3 * a + 1], carry[3 * a + 2]);
+  }
 
   /// Restores the state written by internal_state(), after initialize().
   /// A checkpoint written before the positions' carry was kept has none: it
@@ -299,6 +343,11 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
     initialize(s, t);
     this->restore(internal, "the predictor");
   }
+  /// Resumes at `s` from a checkpoint's fields (ImplicitStepperBase::save).
+  void load(const SystemState& s, double t, const CheckpointFields& in) {
+    initialize(s, t);
+    this->load_fields(in, "the predictor");
+  }
 
  private:
   std::vector<RotationSolver> solvers_;
@@ -420,6 +469,25 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
     this->restore(upgraded(s, internal), "Lagrangian integrator");
     phase_ = Phase::Resumed;
   }
+  /// Checkpoint fields: "stepper.started" (0 before the first step, then
+  /// nothing else), then the base's (ImplicitStepperBase::save) with this
+  /// form's own (save_extra).
+  void save(CheckpointFields& out) const {
+    out.put_i64("stepper.started", {phase_ == Phase::Fresh ? 0 : 1});
+    if (phase_ != Phase::Fresh) Base::save(out);
+  }
+  void load(const SystemState& s, double t, const CheckpointFields& in) {
+    if (in.has("stepper.internal")) {
+      const std::vector<double>& internal = in.f64("stepper.internal");
+      detail::reading_stepper_internal([&] { resume(s, t, internal); });
+      return;
+    }
+    Base::initialize(s, t);
+    phase_ = Phase::Fresh;
+    if (in.i64_value("stepper.started") == 0) return;
+    this->load_fields(in, "Lagrangian integrator");
+    phase_ = Phase::Resumed;
+  }
 
  private:
   /// Configuration 1 from the Legendre transform p0 = -D1 L_d(0, 1).
@@ -451,6 +519,36 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
                        d_[a].z(), f(0), f(1), f(2), f(3)});
   }
   std::size_t extra_size() const override { return extra_numbers; }
+  /// Per body: "stepper.next_position" x_next (3 numbers),
+  /// "stepper.next_quaternion" q_next (4, scalar first),
+  /// "stepper.next_increment" d (3), "stepper.relative_rotation" f (4).
+  void save_extra(CheckpointFields& out) const override {
+    std::vector<double> x, q, d, f;
+    for (std::size_t a = 0; a < x_next_.size(); ++a) {
+      const Vector4<double> qa = q_next_[a].scalar_first(), fa = f_[a].scalar_first();
+      x.insert(x.end(), {x_next_[a].x(), x_next_[a].y(), x_next_[a].z()});
+      q.insert(q.end(), {qa(0), qa(1), qa(2), qa(3)});
+      d.insert(d.end(), {d_[a].x(), d_[a].y(), d_[a].z()});
+      f.insert(f.end(), {fa(0), fa(1), fa(2), fa(3)});
+    }
+    out.put_f64("stepper.next_position", std::move(x));
+    out.put_f64("stepper.next_quaternion", std::move(q));
+    out.put_f64("stepper.next_increment", std::move(d));
+    out.put_f64("stepper.relative_rotation", std::move(f));
+  }
+  void load_extra(const CheckpointFields& in) override {
+    const std::size_t n = x_next_.size();
+    const std::vector<double>& x = in.f64("stepper.next_position", 3 * n);
+    const std::vector<double>& q = in.f64("stepper.next_quaternion", 4 * n);
+    const std::vector<double>& d = in.f64("stepper.next_increment", 3 * n);
+    const std::vector<double>& f = in.f64("stepper.relative_rotation", 4 * n);
+    for (std::size_t a = 0; a < n; ++a) {
+      x_next_[a] = Vector3<double>(x[3 * a], x[3 * a + 1], x[3 * a + 2]);
+      q_next_[a] = S3d(q[4 * a], q[4 * a + 1], q[4 * a + 2], q[4 * a + 3]);
+      d_[a] = Vector3<double>(d[3 * a], d[3 * a + 1], d[3 * a + 2]);
+      f_[a] = S3d(f[4 * a], f[4 * a + 1], f[4 * a + 2], f[4 * a + 3]);
+    }
+  }
   void deserialize_extra(std::size_t a, const double* d) override {
     x_next_[a] = Vector3<double>(d[0], d[1], d[2]);
     q_next_[a] = S3d(d[3], d[4], d[5], d[6]);
