@@ -8,30 +8,65 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace lgvi::app {
 
 namespace {
 
-// Checkpoint file: magic, version, then fixed fields and length-prefixed arrays.
-constexpr char checkpoint_magic[8] = {'L', 'G', 'V', 'I', 'C', 'K', 'P', 'T'};
+// A checkpoint file (native byte order, little-endian on every platform lgvi
+// builds on) is
+//   magic "LGVICKPT", int64 version, then
+//   version >= 5: int64 field count, and per field: int64 name length, the
+//     name, int64 type (CheckpointFields::Type), int64 element count, int64
+//     byte size (= count x the element's size), the bytes;
+//   versions 2 to 4: fixed fields and length-prefixed arrays (read_legacy).
 // 3: N bodies, linear momentum statistics; 4: the same layout, written by an lgvi whose
 // central field gives a body of mass + inertia its gravity-gradient term (resume_run
-// refuses to continue an older one with the new model unless the scenario says model = "point").
-constexpr std::int64_t checkpoint_version = 4;
+// refuses to continue an older one with the new model unless the scenario says model = "point");
+// 5: named fields, the same model as 4.
+constexpr char checkpoint_magic[8] = {'L', 'G', 'V', 'I', 'C', 'K', 'P', 'T'};
+constexpr std::int64_t checkpoint_version = 5;
 
-}  // namespace
+/// The statistics kept as numbers: (field name, first number, how many).
+template <class Stats, class F>
+void for_each_statistic(Stats& s, F f) {
+  f("statistics.energy0", &s.energy0, 1);
+  f("statistics.momentum0", s.momentum0.data(), 3);
+  f("statistics.max_energy_error", &s.max_energy_error, 1);
+  f("statistics.max_quat_error", &s.max_quat_error, 1);
+  f("statistics.max_momentum_error", &s.max_momentum_error, 1);
+  f("statistics.last_t", &s.last_t, 1);
+  f("statistics.wall_seconds_before", &s.wall_seconds_before, 1);
+  f("statistics.linear_momentum0", s.linear_momentum0.data(), 3);
+  f("statistics.linear_momentum_scale", &s.linear_momentum_scale, 1);
+  f("statistics.max_linear_momentum_error", &s.max_linear_momentum_error, 1);
+  f("statistics.rot_energy0", &s.rot_energy0, 1);
+  f("statistics.min_rot_energy", &s.min_rot_energy, 1);
+  f("statistics.max_rot_energy", &s.max_rot_energy, 1);
+  f("statistics.spin0", s.spin0.data(), 3);
+  f("statistics.min_spin", &s.min_spin, 1);
+  f("statistics.max_spin", &s.max_spin, 1);
+  f("statistics.max_spin_change", &s.max_spin_change, 1);
+}
 
-void write_checkpoint(const std::string& path, const Checkpoint& c) {
-  std::string bytes(checkpoint_magic, sizeof checkpoint_magic);
-  auto put = [&](const auto& v) { bytes.append(reinterpret_cast<const char*>(&v), sizeof v); };
-  auto put_vec = [&](const std::vector<double>& v) {
-    put(static_cast<std::int64_t>(v.size()));
-    for (double d : v) put(d);
-  };
-  put(checkpoint_version);
-  put(c.k);
+/// The counters: (field name, the counter).
+template <class Stats, class F>
+void for_each_counter(Stats& s, F f) {
+  f("statistics.iterations_total", s.iterations_total);
+  f("statistics.potential_evaluations", s.potential_evaluations);
+  f("statistics.steps_solved", s.steps_solved);
+  f("statistics.iterations_max", s.iterations_max);
+  f("statistics.last_k", s.last_k);
+  f("statistics.contact_episodes", s.contact_episodes);
+}
+
+/// The run's own fields (everything but the stepper's).
+CheckpointFields run_fields(const Checkpoint& c) {
+  CheckpointFields f;
+  f.put_i64("run.step", {c.k});
   std::vector<double> state;  // 13 numbers per body: x, q (scalar first), p, w
   state.reserve(13 * c.state.size());
   for (std::size_t a = 0; a < c.state.size(); ++a) {
@@ -39,48 +74,91 @@ void write_checkpoint(const std::string& path, const Checkpoint& c) {
     const Vector3<double>&x = c.state.x[a], &p = c.state.p[a], &w = c.state.w[a];
     state.insert(state.end(), {x.x(), x.y(), x.z(), q(0), q(1), q(2), q(3), p.x(), p.y(), p.z(), w.x(), w.y(), w.z()});
   }
-  put_vec(state);
-  put_vec(c.stepper_internal);
+  f.put_f64("run.state", std::move(state));
+  f.put_i64("run.checkpoint_every", {c.checkpoint_every});
+  f.put_text("run.scenario_name", c.scenario_name);
   const RunStatistics& s = c.stats;
-  put_vec({s.energy0, s.momentum0.x(), s.momentum0.y(), s.momentum0.z(), s.max_energy_error, s.max_quat_error,
-           s.max_momentum_error, s.last_t, s.wall_seconds_before, s.linear_momentum0.x(), s.linear_momentum0.y(),
-           s.linear_momentum0.z(), s.linear_momentum_scale, s.max_linear_momentum_error, s.rot_energy0,
-           s.min_rot_energy, s.max_rot_energy, s.spin0.x(), s.spin0.y(), s.spin0.z(), s.min_spin, s.max_spin,
-           s.max_spin_change});
-  put(s.iterations_total);
-  put(s.potential_evaluations);
-  put(s.steps_solved);
-  put(s.iterations_max);
-  put(s.last_k);
-  put(static_cast<std::int64_t>(s.observed));
-  put(c.sink.rows);
-  put(c.sink.bytes);
-  put(static_cast<std::int64_t>(c.sink.crc32));
-  put(c.checkpoint_every);
-  put(static_cast<std::int64_t>(c.scenario_name.size()));
-  bytes += c.scenario_name;
-  // Contact episodes: a trailer that checkpoints written before it lack (they
-  // resume with none).
-  put(s.contact_episodes);
-  put(static_cast<std::int64_t>(s.contacts.size()));
+  for_each_statistic(s, [&](const char* name, const double* v, std::size_t n) { f.put_f64(name, {v, v + n}); });
+  for_each_counter(s, [&](const char* name, std::int64_t v) { f.put_i64(name, {v}); });
+  f.put_i64("statistics.observed", {s.observed ? 1 : 0});
+  // Contact episodes: per episode a, b, first_k, last_k and first_t, last_t, max_depth, distance.
+  std::vector<std::int64_t> steps;
+  std::vector<double> values;
   for (const ContactEpisode& e : s.contacts) {
-    put(e.a);
-    put(e.b);
-    put(e.first_k);
-    put(e.last_k);
-    put(e.first_t);
-    put(e.last_t);
-    put(e.max_depth);
-    put(e.distance);
+    steps.insert(steps.end(), {e.a, e.b, e.first_k, e.last_k});
+    values.insert(values.end(), {e.first_t, e.last_t, e.max_depth, e.distance});
   }
-  write_file_atomically(path, bytes);
+  f.put_i64("statistics.contacts.steps", std::move(steps));
+  f.put_f64("statistics.contacts.values", std::move(values));
+  f.put_i64("sink.position", {c.sink.rows, c.sink.bytes, static_cast<std::int64_t>(c.sink.crc32)});
+  return f;
 }
 
-Checkpoint read_checkpoint(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InvalidInput(path + ": no checkpoint here (was the run started with --checkpoint-every N?)");
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  std::size_t pos = 0;
+SystemState state_from(const std::vector<double>& st) {
+  SystemState state(st.size() / 13);
+  for (std::size_t a = 0; a < state.size(); ++a) {
+    const double* v = st.data() + 13 * a;
+    state.x[a] = {v[0], v[1], v[2]};
+    state.q[a] = S3d(v[3], v[4], v[5], v[6]);
+    state.p[a] = {v[7], v[8], v[9]};
+    state.w[a] = {v[10], v[11], v[12]};
+  }
+  return state;
+}
+
+/// Takes the run's fields from `f` into c; the stepper's ("stepper.*") stay
+/// for the stepper, everything else must have been read.
+void take_run_fields(CheckpointFields& f, Checkpoint& c) {
+  c.k = f.i64_value("run.step");
+  const std::vector<double>& st = f.f64("run.state");
+  if (st.empty() || st.size() % 13 != 0)
+    throw InvalidInput("checkpoint field 'run.state' holds " + std::to_string(st.size()) +
+                       " values, expected 13 per body");
+  c.state = state_from(st);
+  c.checkpoint_every = f.i64_value("run.checkpoint_every");
+  c.scenario_name = f.text("run.scenario_name");
+  RunStatistics& s = c.stats;
+  for_each_statistic(s, [&](const char* name, double* v, std::size_t n) {
+    const std::vector<double>& x = f.f64(name, n);
+    std::copy(x.begin(), x.end(), v);
+  });
+  for_each_counter(s, [&](const char* name, std::int64_t& v) { v = f.i64_value(name); });
+  s.observed = f.i64_value("statistics.observed") != 0;
+  const std::vector<std::int64_t>& steps = f.i64("statistics.contacts.steps");
+  const std::vector<double>& values = f.f64("statistics.contacts.values");
+  if (steps.size() % 4 != 0 || values.size() != steps.size() ||
+      steps.size() / 4 > RunStatistics::max_listed_contacts)
+    throw InvalidInput("checkpoint fields 'statistics.contacts.steps' and 'statistics.contacts.values' hold " +
+                       std::to_string(steps.size()) + " and " + std::to_string(values.size()) +
+                       " values, expected 4 each per contact episode (at most " +
+                       std::to_string(RunStatistics::max_listed_contacts) + " episodes)");
+  s.contacts.resize(steps.size() / 4);
+  for (std::size_t i = 0; i < s.contacts.size(); ++i) {
+    ContactEpisode& e = s.contacts[i];
+    e.a = steps[4 * i];
+    e.b = steps[4 * i + 1];
+    e.first_k = steps[4 * i + 2];
+    e.last_k = steps[4 * i + 3];
+    e.first_t = values[4 * i];
+    e.last_t = values[4 * i + 1];
+    e.max_depth = values[4 * i + 2];
+    e.distance = values[4 * i + 3];
+  }
+  const std::vector<std::int64_t>& sink = f.i64("sink.position", 3);
+  c.sink.rows = sink[0];
+  c.sink.bytes = sink[1];
+  c.sink.crc32 = static_cast<std::uint32_t>(sink[2]);
+  std::vector<std::string> unknown;
+  for (const CheckpointFields::Field& field : f.fields())
+    if (!field.read && field.name.compare(0, 8, "stepper.") != 0) unknown.push_back(field.name);
+  if (!unknown.empty()) throw InvalidInput(CheckpointFields::unknown_fields_message(unknown));
+}
+
+/// Reads the bytes after the version of a file of versions 2 to 4 into c,
+/// the stepper's numbers as the field "stepper.internal" (each stepper
+/// knows that layout: see its load()).
+void read_legacy(const std::string& path, const std::string& bytes, std::size_t pos, Checkpoint& c) {
+  const std::int64_t version = c.version;
   auto fail = [&] { throw InvalidInput(path + ": not an lgvi checkpoint, or truncated"); };
   auto get = [&](auto& v) {
     if (pos + sizeof v > bytes.size()) fail();
@@ -94,29 +172,14 @@ Checkpoint read_checkpoint(const std::string& path) {
     v.resize(static_cast<std::size_t>(n));
     for (double& d : v) get(d);
   };
-  if (bytes.size() < sizeof checkpoint_magic || std::memcmp(bytes.data(), checkpoint_magic, sizeof checkpoint_magic) != 0)
-    fail();
-  pos = sizeof checkpoint_magic;
-  std::int64_t version = 0;
-  get(version);
-  // Versions 2 (one body, no linear momentum statistics) and 3 still resume.
-  if (version != checkpoint_version && version != 2 && version != 3)
-    throw InvalidInput(path + ": checkpoint version " + std::to_string(version) + " is not supported by this lgvi");
-  Checkpoint c;
-  c.version = version;
   get(c.k);
   std::vector<double> st;
   get_vec(st);
   if (st.empty() || st.size() % 13 != 0 || (version == 2 && st.size() != 13)) fail();
-  c.state = SystemState(st.size() / 13);
-  for (std::size_t a = 0; a < c.state.size(); ++a) {
-    const double* v = st.data() + 13 * a;
-    c.state.x[a] = {v[0], v[1], v[2]};
-    c.state.q[a] = S3d(v[3], v[4], v[5], v[6]);
-    c.state.p[a] = {v[7], v[8], v[9]};
-    c.state.w[a] = {v[10], v[11], v[12]};
-  }
-  get_vec(c.stepper_internal);
+  c.state = state_from(st);
+  std::vector<double> internal;
+  get_vec(internal);
+  c.stepper.put_f64("stepper.internal", std::move(internal));
   std::vector<double> s;
   get_vec(s);
   // 14 numbers: a checkpoint from before the rotation statistics (they
@@ -169,7 +232,7 @@ Checkpoint read_checkpoint(const std::string& path) {
   if (name_size < 0 || pos + static_cast<std::size_t>(name_size) > bytes.size()) fail();
   c.scenario_name = bytes.substr(pos, static_cast<std::size_t>(name_size));
   pos += static_cast<std::size_t>(name_size);
-  if (pos == bytes.size()) return c;  // written before contact episodes were recorded
+  if (pos == bytes.size()) return;  // written before contact episodes were recorded
   std::int64_t listed = 0;
   get(r.contact_episodes);
   get(listed);
@@ -186,6 +249,145 @@ Checkpoint read_checkpoint(const std::string& path) {
     get(e.distance);
   }
   if (pos != bytes.size()) fail();
+}
+
+/// Reads the fields of a file of version 5 from `pos` on.
+CheckpointFields read_fields(const std::string& path, const std::string& bytes, std::size_t pos) {
+  std::string after = "the header";
+  auto get = [&](std::int64_t& v, const char* what) {
+    if (pos + sizeof v > bytes.size())
+      throw InvalidInput(path + ": truncated checkpoint: it ends inside the " + what + " of the field after " + after);
+    std::memcpy(&v, bytes.data() + pos, sizeof v);
+    pos += sizeof v;
+  };
+  std::int64_t count = 0;
+  get(count, "count");
+  if (count < 0 || static_cast<std::uint64_t>(count) > bytes.size())
+    throw InvalidInput(path + ": damaged checkpoint: " + std::to_string(count) + " fields");
+  CheckpointFields f;
+  for (std::int64_t i = 0; i < count; ++i) {
+    std::int64_t name_size = 0, type = 0, n = 0, size = 0;
+    get(name_size, "name");
+    if (name_size <= 0 || static_cast<std::uint64_t>(name_size) > bytes.size() - pos)
+      throw InvalidInput(path + ": truncated or damaged checkpoint: the name of the field after " + after +
+                         " is cut off or has a length of " + std::to_string(name_size));
+    const std::string name = bytes.substr(pos, static_cast<std::size_t>(name_size));
+    pos += static_cast<std::size_t>(name_size);
+    after = "'" + name + "'";
+    const std::string field = path + ": checkpoint field '" + name + "'";
+    if (pos + 3 * sizeof(std::int64_t) > bytes.size()) throw InvalidInput(field + " is truncated (its header is cut off)");
+    get(type, "type");
+    get(n, "count");
+    get(size, "size");
+    std::size_t element = 0;
+    if (type == static_cast<std::int64_t>(CheckpointFields::Type::F64) ||
+        type == static_cast<std::int64_t>(CheckpointFields::Type::I64))
+      element = 8;
+    else if (type == static_cast<std::int64_t>(CheckpointFields::Type::Text))
+      element = 1;
+    else
+      throw InvalidInput(field + " has an unknown type (" + std::to_string(type) +
+                         "): written by a newer lgvi? resume with the lgvi that wrote it");
+    if (n < 0 || size < 0 || static_cast<std::uint64_t>(size) != static_cast<std::uint64_t>(n) * element)
+      throw InvalidInput(field + " is damaged: " + std::to_string(size) + " bytes for " + std::to_string(n) + " " +
+                         CheckpointFields::type_name(static_cast<CheckpointFields::Type>(type)) + " values");
+    if (static_cast<std::uint64_t>(size) > bytes.size() - pos)
+      throw InvalidInput(field + " is truncated: it holds " + std::to_string(size) + " bytes, the file ends after " +
+                         std::to_string(bytes.size() - pos));
+    const char* data = bytes.data() + pos;
+    const auto un = static_cast<std::size_t>(n);
+    try {
+      switch (static_cast<CheckpointFields::Type>(type)) {
+        case CheckpointFields::Type::F64: {
+          std::vector<double> v(un);
+          std::memcpy(v.data(), data, 8 * un);
+          f.put_f64(name, std::move(v));
+          break;
+        }
+        case CheckpointFields::Type::I64: {
+          std::vector<std::int64_t> v(un);
+          std::memcpy(v.data(), data, 8 * un);
+          f.put_i64(name, std::move(v));
+          break;
+        }
+        case CheckpointFields::Type::Text: f.put_text(name, std::string(data, un)); break;
+      }
+    } catch (const InvalidInput& e) {
+      throw InvalidInput(path + ": " + e.what());
+    }
+    pos += static_cast<std::size_t>(size);
+  }
+  if (pos != bytes.size())
+    throw InvalidInput(path + ": damaged checkpoint: " + std::to_string(bytes.size() - pos) +
+                       " bytes after its last field (" + after + ")");
+  return f;
+}
+
+}  // namespace
+
+void write_checkpoint(const std::string& path, const Checkpoint& c) {
+  CheckpointFields fields = run_fields(c);
+  for (const CheckpointFields::Field& field : c.stepper.fields()) {
+    if (field.name.compare(0, 8, "stepper.") != 0)
+      throw std::logic_error("checkpoint field '" + field.name + "' of the stepper is not under 'stepper.'");
+    fields.put(field);
+  }
+  std::string bytes(checkpoint_magic, sizeof checkpoint_magic);
+  auto put = [&](std::int64_t v) { bytes.append(reinterpret_cast<const char*>(&v), sizeof v); };
+  put(checkpoint_version);
+  put(static_cast<std::int64_t>(fields.fields().size()));
+  for (const CheckpointFields::Field& field : fields.fields()) {
+    put(static_cast<std::int64_t>(field.name.size()));
+    bytes += field.name;
+    put(static_cast<std::int64_t>(field.type));
+    put(static_cast<std::int64_t>(field.count()));
+    switch (field.type) {
+      case CheckpointFields::Type::F64:
+        put(static_cast<std::int64_t>(8 * field.f64.size()));
+        bytes.append(reinterpret_cast<const char*>(field.f64.data()), 8 * field.f64.size());
+        break;
+      case CheckpointFields::Type::I64:
+        put(static_cast<std::int64_t>(8 * field.i64.size()));
+        bytes.append(reinterpret_cast<const char*>(field.i64.data()), 8 * field.i64.size());
+        break;
+      case CheckpointFields::Type::Text:
+        put(static_cast<std::int64_t>(field.text.size()));
+        bytes += field.text;
+        break;
+    }
+  }
+  write_file_atomically(path, bytes);
+}
+
+Checkpoint read_checkpoint(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InvalidInput(path + ": no checkpoint here (was the run started with --checkpoint-every N?)");
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  constexpr std::size_t header = sizeof checkpoint_magic + sizeof(std::int64_t);
+  if (bytes.size() < header || std::memcmp(bytes.data(), checkpoint_magic, sizeof checkpoint_magic) != 0)
+    throw InvalidInput(path + ": not an lgvi checkpoint, or truncated");
+  Checkpoint c;
+  c.path = path;
+  std::memcpy(&c.version, bytes.data() + sizeof checkpoint_magic, sizeof c.version);
+  if (c.version > checkpoint_version)
+    throw InvalidInput(path + ": checkpoint version " + std::to_string(c.version) +
+                       " was written by a newer lgvi (this one reads versions 2 to " +
+                       std::to_string(checkpoint_version) + "); resume with the lgvi that wrote it");
+  if (c.version < 2)
+    throw InvalidInput(path + ": checkpoint version " + std::to_string(c.version) + " is not supported by this lgvi");
+  // Versions 2 (one body, no linear momentum statistics) to 4 still resume.
+  if (c.version < 5) {
+    read_legacy(path, bytes, header, c);
+    return c;
+  }
+  CheckpointFields fields = read_fields(path, bytes, header);
+  try {
+    take_run_fields(fields, c);
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(path + ": " + e.what());
+  }
+  for (const CheckpointFields::Field& field : fields.fields())
+    if (!field.read) c.stepper.put(field);
   return c;
 }
 

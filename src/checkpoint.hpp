@@ -1,11 +1,14 @@
 // The checkpoint of a run: everything needed to continue it bit-identically
 // (the step index, the state of every body, the stepper's internals, the
 // diagnostics so far and where the trajectory file ended), and its binary
-// file format.
+// file format: named, typed, sized fields (lgvi/checkpoint_fields.hpp), each
+// object writing and reading its own.
 #pragma once
 
 #include "trajectory_sink.hpp"
 
+#include <lgvi/checkpoint_fields.hpp>
+#include <lgvi/error.hpp>
 #include <lgvi/s3.hpp>
 #include <lgvi/system.hpp>
 
@@ -62,19 +65,32 @@ struct RunStatistics {
 struct Checkpoint {
   std::int64_t k = 0;
   SystemState state;
-  std::vector<double> stepper_internal;
+  /// The stepper's fields, all named "stepper.*" (SystemStepper's save, load);
+  /// read from a file of versions 2 to 4: its numbers as "stepper.internal".
+  CheckpointFields stepper;
   RunStatistics stats;
   SinkPosition sink;
   std::int64_t checkpoint_every = 0;
   std::string scenario_name;  ///< the original file's stem (the copy in the run folder is scenario.toml)
   std::int64_t version = 0;   ///< the file's format version (read_checkpoint sets it; written: the current)
+  std::string path;           ///< the file it was read from (read_checkpoint), for messages
+};
+
+/// A checkpoint that cannot be resumed: a field missing, unknown, truncated
+/// or of the wrong size. The message names the file and the field.
+class CheckpointError : public InvalidInput {
+ public:
+  using InvalidInput::InvalidInput;
 };
 
 /// Writes `path` atomically (temporary file + rename). Binary, native
-/// byte order, with a magic header and version.
+/// byte order, with a magic header and version (checkpoint.cpp: the layout).
 void write_checkpoint(const std::string& path, const Checkpoint& c);
-/// Reads a checkpoint; throws InvalidInput naming the file if it is missing,
-/// truncated or not a checkpoint.
+/// Reads a checkpoint of this lgvi's format or an older one (versions 2 to 4,
+/// mapped onto the fields); throws InvalidInput naming the file (and the
+/// field) if it is missing, truncated, not a checkpoint, or has a field
+/// missing or unknown to this lgvi. The stepper's fields are checked when the
+/// stepper reads them (SystemStepper's load).
 Checkpoint read_checkpoint(const std::string& path);
 
 }  // namespace lgvi::app

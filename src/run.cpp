@@ -101,6 +101,9 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
     StopSignals signals;
     try {
       result = simulate(sc, *sink, so);
+    } catch (const CheckpointError& e) {  // the stepper's fields: nothing was run
+      std::cerr << "lgvi: error: " << e.what() << "\n";
+      return kBadInput;
     } catch (const std::exception& e) {  // I/O while checkpointing
       result.error = e.what();
     }

@@ -283,8 +283,8 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, TrajectorySink& 
     state = opt.resume->state;
     k0 = opt.resume->k;
     if (state.size() != sc.bodies())
-      throw InvalidInput("checkpoint: " + std::to_string(state.size()) + " bodies, the scenario has " +
-                         std::to_string(sc.bodies()));
+      throw CheckpointError(opt.resume->path + ": checkpoint field 'run.state' holds " +
+                            std::to_string(state.size()) + " bodies, the scenario has " + std::to_string(sc.bodies()));
   }
   ContactWatch contact(sc, stats);
   if (opt.resume) contact.resume_at(k0);
@@ -296,7 +296,7 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, TrajectorySink& 
     Checkpoint c;
     c.k = k;
     c.state = state;
-    c.stepper_internal = stepper.internal_state();
+    stepper.save(c.stepper);
     c.stats = stats;
     c.stats.wall_seconds_before += elapsed();
     c.sink = sink.sync();
@@ -308,7 +308,12 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, TrajectorySink& 
   try {
     if (opt.resume) {
       try {
-        stepper.resume(state, static_cast<double>(k0) * h, opt.resume->stepper_internal);
+        try {
+          stepper.load(state, static_cast<double>(k0) * h, opt.resume->stepper);
+          opt.resume->stepper.require_all_read();  // what this stepper does not know
+        } catch (const InvalidInput& e) {
+          throw CheckpointError(opt.resume->path + ": " + e.what());
+        }
       } catch (const StepFailure& f) {
         throw IntegrationFailure(k0, static_cast<double>(k0) * h, f);
       }

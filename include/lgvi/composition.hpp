@@ -25,6 +25,7 @@
 // sub-step gamma_i h.
 #pragma once
 
+#include <lgvi/checkpoint_fields.hpp>
 #include <lgvi/error.hpp>
 #include <lgvi/rotation_solver.hpp>
 #include <lgvi/stepper.hpp>
@@ -180,6 +181,12 @@ class ComposedStepper {
   void resume(SystemState& state, double t, const std::vector<double>& internal) {
     if constexpr (StagedStepper<Base>) base_.set_stages(table_.stages());
     base_.resume(state, t, internal);
+  }
+  /// A checkpoint's fields: the composed method's (checkpoint_fields.hpp).
+  void save(CheckpointFields& out) const { base_.save(out); }
+  void load(SystemState& state, double t, const CheckpointFields& in) {
+    if constexpr (StagedStepper<Base>) base_.set_stages(table_.stages());
+    base_.load(state, t, in);
   }
   const System& system() const { return base_.system(); }
   /// The forcing's work since initialize() (steppers with a forcing, forcing.hpp).

@@ -91,6 +91,7 @@
 //      separate like exp(omega t) for a while), see the tests.
 #pragma once
 
+#include <lgvi/checkpoint_fields.hpp>
 #include <lgvi/methods/method_traits.hpp>
 #include <lgvi/error.hpp>
 #include <lgvi/lgvi.hpp>
@@ -451,6 +452,43 @@ class ExactFreeBodySystemStepper {
   const SystemEvaluation& evaluation() const { return eval_; }
   const SolveReport& last_solve() const { return report_; }
   std::vector<double> internal_state() const { return stepper_ ? stepper_->internal_state() : std::vector<double>{}; }
+  /// Checkpoint fields: "stepper.started" (0 before the first step, then
+  /// nothing else); "stepper.step_count", k and k_base, and
+  /// "stepper.initial_state", the state the flow starts from at step k_base
+  /// (13 numbers: x, q scalar first, p, w).
+  void save(CheckpointFields& out) const {
+    std::vector<double> v = internal_state();
+    if (v.empty() && pending_resume_) {
+      v = resume_data_;
+      if (v.size() == 1) {  // resumed from {k} alone and not stepped since: the flow from s at k
+        const Vector4<double> q = resume_state_.q.scalar_first();
+        const RigidBodyState& r = resume_state_;
+        v = {v[0], v[0], r.x.x(), r.x.y(), r.x.z(), q(0), q(1), q(2), q(3), r.p.x(), r.p.y(), r.p.z(),
+             r.w.x(), r.w.y(), r.w.z()};
+      }
+    }
+    out.put_i64("stepper.started", {v.empty() ? 0 : 1});
+    if (v.empty()) return;
+    out.put_i64("stepper.step_count", {static_cast<std::int64_t>(v[0]), static_cast<std::int64_t>(v[1])});
+    out.put_f64("stepper.initial_state", std::vector<double>(v.begin() + 2, v.end()));
+  }
+  void load(const SystemState& s, double t, const CheckpointFields& in) {
+    if (in.has("stepper.internal")) {
+      const std::vector<double>& internal = in.f64("stepper.internal");
+      detail::reading_stepper_internal([&] { resume(s, t, internal); });
+      return;
+    }
+    if (in.i64_value("stepper.started") == 0) {
+      resume(s, t, {});
+      return;
+    }
+    const std::vector<std::int64_t>& k = in.i64("stepper.step_count", 2);
+    std::vector<double> v{static_cast<double>(k[0]), static_cast<double>(k[1])};
+    const std::vector<double>& s0 = in.f64("stepper.initial_state", 13);
+    v.insert(v.end(), s0.begin(), s0.end());
+    resume(s, t, v);
+  }
+
   /// Resumes bit-identically from the saved step count and initial state.
   void resume(const SystemState& s, double t, const std::vector<double>& internal) {
     initialize(s, t);

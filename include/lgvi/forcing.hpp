@@ -24,6 +24,7 @@
 // second order (tests/test_forcing.cpp).
 #pragma once
 
+#include <lgvi/checkpoint_fields.hpp>
 #include <lgvi/error.hpp>
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/s3.hpp>
@@ -290,6 +291,46 @@ class ForcingSet {
     }
     return v;
   }
+  /// The sampled controllers' fields (checkpoint_fields.hpp), nothing when no
+  /// term is sampled: "stepper.forcing.samples", per sampled term the next
+  /// sample's index and whether a value is held (0 or 1); and
+  /// "stepper.forcing.held_torques", per sampled term the held torque of each
+  /// of the n bodies (zeros if none).
+  void save(CheckpointFields& out, std::size_t n) const {
+    std::vector<std::int64_t> samples;
+    std::vector<double> torques;
+    for (const Entry& e : terms_) {
+      if (!is_sampled(e)) continue;
+      samples.insert(samples.end(), {e.next_sample, e.held.empty() ? 0 : 1});
+      for (std::size_t a = 0; a < n; ++a) {
+        const Vector3<double> m = e.held.empty() ? Vector3<double>::Zero() : e.held[a].torque;
+        torques.insert(torques.end(), {m.x(), m.y(), m.z()});
+      }
+    }
+    if (samples.empty()) return;
+    out.put_i64("stepper.forcing.samples", std::move(samples));
+    out.put_f64("stepper.forcing.held_torques", std::move(torques));
+  }
+  /// Restores what save(out, n) wrote.
+  void load(const CheckpointFields& in, std::size_t n) {
+    std::size_t sampled = 0;
+    for (const Entry& e : terms_) sampled += is_sampled(e) ? 1 : 0;
+    if (sampled == 0) return;
+    const std::vector<std::int64_t>& samples = in.i64("stepper.forcing.samples", 2 * sampled);
+    const std::vector<double>& torques = in.f64("stepper.forcing.held_torques", 3 * n * sampled);
+    std::size_t i = 0;
+    for (Entry& e : terms_) {
+      if (!is_sampled(e)) continue;
+      e.next_sample = samples[2 * i];
+      e.held.assign(samples[2 * i + 1] != 0 ? n : 0, Wrench{});
+      for (std::size_t a = 0; a < e.held.size(); ++a) {
+        const double* m = torques.data() + 3 * (n * i + a);
+        e.held[a].torque = Vector3<double>(m[0], m[1], m[2]);
+      }
+      ++i;
+    }
+  }
+
   /// How many numbers internal_state(n) holds.
   std::size_t internal_size(std::size_t n) const {
     std::size_t k = 0;

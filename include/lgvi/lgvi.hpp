@@ -157,6 +157,11 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
     initialize(s, t);
     this->restore(internal, "the predictor");
   }
+  /// Resumes at `s` from a checkpoint's fields (ImplicitStepperBase::save).
+  void load(const SystemState& s, double t, const CheckpointFields& in) {
+    initialize(s, t);
+    this->load_fields(in, "the predictor");
+  }
 
  private:
   std::vector<RotationSolver> solvers_;
@@ -283,6 +288,25 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
     this->restore(upgraded(s, internal), "Lagrangian integrator");
     phase_ = Phase::Resumed;
   }
+  /// Checkpoint fields: "stepper.started" (0 before the first step, then
+  /// nothing else), then the base's (ImplicitStepperBase::save) with this
+  /// form's own (save_extra).
+  void save(CheckpointFields& out) const {
+    out.put_i64("stepper.started", {phase_ == Phase::Fresh ? 0 : 1});
+    if (phase_ != Phase::Fresh) Base::save(out);
+  }
+  void load(const SystemState& s, double t, const CheckpointFields& in) {
+    if (in.has("stepper.internal")) {
+      const std::vector<double>& internal = in.f64("stepper.internal");
+      detail::reading_stepper_internal([&] { resume(s, t, internal); });
+      return;
+    }
+    Base::initialize(s, t);
+    phase_ = Phase::Fresh;
+    if (in.i64_value("stepper.started") == 0) return;
+    this->load_fields(in, "Lagrangian integrator");
+    phase_ = Phase::Resumed;
+  }
 
  private:
   /// Configuration 1 from the Legendre transform p0 = -D1 L_d(0, 1).
@@ -314,6 +338,36 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
                        d_[a].z(), f(0), f(1), f(2), f(3)});
   }
   std::size_t extra_size() const override { return extra_numbers; }
+  /// Per body: "stepper.next_position" x_next (3 numbers),
+  /// "stepper.next_quaternion" q_next (4, scalar first),
+  /// "stepper.next_increment" d (3), "stepper.relative_rotation" f (4).
+  void save_extra(CheckpointFields& out) const override {
+    std::vector<double> x, q, d, f;
+    for (std::size_t a = 0; a < x_next_.size(); ++a) {
+      const Vector4<double> qa = q_next_[a].scalar_first(), fa = f_[a].scalar_first();
+      x.insert(x.end(), {x_next_[a].x(), x_next_[a].y(), x_next_[a].z()});
+      q.insert(q.end(), {qa(0), qa(1), qa(2), qa(3)});
+      d.insert(d.end(), {d_[a].x(), d_[a].y(), d_[a].z()});
+      f.insert(f.end(), {fa(0), fa(1), fa(2), fa(3)});
+    }
+    out.put_f64("stepper.next_position", std::move(x));
+    out.put_f64("stepper.next_quaternion", std::move(q));
+    out.put_f64("stepper.next_increment", std::move(d));
+    out.put_f64("stepper.relative_rotation", std::move(f));
+  }
+  void load_extra(const CheckpointFields& in) override {
+    const std::size_t n = x_next_.size();
+    const std::vector<double>& x = in.f64("stepper.next_position", 3 * n);
+    const std::vector<double>& q = in.f64("stepper.next_quaternion", 4 * n);
+    const std::vector<double>& d = in.f64("stepper.next_increment", 3 * n);
+    const std::vector<double>& f = in.f64("stepper.relative_rotation", 4 * n);
+    for (std::size_t a = 0; a < n; ++a) {
+      x_next_[a] = Vector3<double>(x[3 * a], x[3 * a + 1], x[3 * a + 2]);
+      q_next_[a] = S3d(q[4 * a], q[4 * a + 1], q[4 * a + 2], q[4 * a + 3]);
+      d_[a] = Vector3<double>(d[3 * a], d[3 * a + 1], d[3 * a + 2]);
+      f_[a] = S3d(f[4 * a], f[4 * a + 1], f[4 * a + 2], f[4 * a + 3]);
+    }
+  }
   void deserialize_extra(std::size_t a, const double* d) override {
     x_next_[a] = Vector3<double>(d[0], d[1], d[2]);
     q_next_[a] = S3d(d[3], d[4], d[5], d[6]);

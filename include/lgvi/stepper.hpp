@@ -10,6 +10,7 @@
 // call has another h).
 #pragma once
 
+#include <lgvi/checkpoint_fields.hpp>
 #include <lgvi/error.hpp>
 #include <lgvi/forcing.hpp>
 #include <lgvi/interaction.hpp>
@@ -31,17 +32,24 @@ namespace lgvi {
 ///  * step(state, t, h): advance `state` from t to t + h in place;
 ///  * evaluation(): V, forces and torques at the current state, no extra cost;
 ///  * last_solve(): the implicit solves of the last step (zero if explicit);
-///  * internal_state() / resume(state, t, internal): what a checkpoint keeps
-///    besides the state for a bit-identical continuation.
+///  * save(fields) / load(state, t, fields): what a checkpoint keeps besides
+///    the state for a bit-identical continuation, as named fields under
+///    "stepper." (checkpoint_fields.hpp); load() evaluates the potential at
+///    `state` and also reads a checkpoint of versions 2 to 4, whose numbers
+///    are the field "stepper.internal" in the layout of internal_state();
+///  * internal_state() / resume(state, t, internal): those numbers.
 template <class S>
 concept SystemStepper = requires(S& s, const S& cs, SystemState& state, double t, double h,
-                                 const std::vector<double>& internal) {
+                                 const std::vector<double>& internal, CheckpointFields& out,
+                                 const CheckpointFields& in) {
   { s.initialize(state, t) };
   { s.step(state, t, h) };
   { cs.evaluation() } -> std::convertible_to<const SystemEvaluation&>;
   { cs.last_solve() } -> std::convertible_to<SolveReport>;
   { cs.internal_state() } -> std::convertible_to<std::vector<double>>;
   { s.resume(state, t, internal) };
+  { cs.save(out) };
+  { s.load(state, t, in) };
   { cs.system() } -> std::convertible_to<const System&>;
 };
 
@@ -269,6 +277,35 @@ class StepperBase {
   }
   std::size_t forcing_internal_size() const {
     return forcing_.empty() ? 0 : 1 + 6 * system_.size() + forcing_.internal_size(system_.size());
+  }
+  /// The forcing's fields (checkpoint_fields.hpp), nothing without forcing:
+  /// "stepper.forcing.work", "stepper.forcing.force" and
+  /// "stepper.forcing.torque" (the forcing at the current state, 3 numbers
+  /// per body: the next step starts from it) and the sampled controllers'
+  /// (ForcingSet::save).
+  void save_forcing(CheckpointFields& out) const {
+    if (forcing_.empty()) return;
+    out.put_f64("stepper.forcing.work", {work_});
+    for (const auto& [name, arr] : {std::pair{"stepper.forcing.force", &ext_force_},
+                                    std::pair{"stepper.forcing.torque", &ext_torque_}}) {
+      std::vector<double> v;
+      for (const Vector3<double>& x : *arr) v.insert(v.end(), {x.x(), x.y(), x.z()});
+      out.put_f64(name, std::move(v));
+    }
+    forcing_.save(out, system_.size());
+  }
+  /// Restores what save_forcing wrote (after initialize()).
+  void load_forcing(const CheckpointFields& in) {
+    if (forcing_.empty()) return;
+    const std::size_t n = system_.size();
+    work_ = in.f64_value("stepper.forcing.work");
+    for (const auto& [name, arr] : {std::pair{"stepper.forcing.force", &ext_force_},
+                                    std::pair{"stepper.forcing.torque", &ext_torque_}}) {
+      const std::vector<double>& v = in.f64(name, 3 * n);
+      for (std::size_t a = 0; a < n; ++a) (*arr)[a] = Vector3<double>(v[3 * a], v[3 * a + 1], v[3 * a + 2]);
+    }
+    forcing_.load(in, n);
+    sum_wrenches();
   }
   /// Restores what forcing_internal wrote (after initialize()).
   void restore_forcing(const double* d) {

@@ -37,6 +37,15 @@ class ExplicitStepperBase : public StepperBase<I> {
     if (!internal.empty()) throw InvalidInput(std::string("checkpoint: ") + name_ + " has no internal state");
     this->initialize(s, t);
   }
+  /// No checkpoint fields: the state is all (a checkpoint of versions 2 to 4
+  /// holds an empty "stepper.internal").
+  void save(CheckpointFields&) const {}
+  void load(const SystemState& s, double t, const CheckpointFields& in) {
+    if (in.has("stepper.internal"))
+      detail::reading_stepper_internal([&] { resume(s, t, in.f64("stepper.internal")); });
+    else
+      this->initialize(s, t);
+  }
 
  protected:
   ExplicitStepperBase(System system, I potential, Parallelism par, const char* name)

@@ -5,6 +5,7 @@
 // from it and adds its rotation solve only.
 #pragma once
 
+#include <lgvi/checkpoint_fields.hpp>
 #include <lgvi/error.hpp>
 #include <lgvi/interaction.hpp>
 #include <lgvi/rotation_solver.hpp>
@@ -75,6 +76,26 @@ class ImplicitStepperBase : public StepperBase<I> {
     return v;
   }
 
+  /// A checkpoint's fields (checkpoint_fields.hpp): the method's own
+  /// (save_extra); "stepper.predictors", the predictors' history
+  /// (Predictor::serialized_size numbers each, stage by stage, body by body
+  /// within a stage); the forcing's; "stepper.position_carry", per body the
+  /// carry of the compensated position sum (drift), 3 numbers.
+  void save(CheckpointFields& out) const {
+    save_extra(out);
+    std::vector<double> p;
+    p.reserve(predictors_.size() * Predictor::serialized_size);
+    for (const Predictor& predictor : predictors_) {
+      const std::vector<double> v = predictor.serialize();
+      p.insert(p.end(), v.begin(), v.end());
+    }
+    out.put_f64("stepper.predictors", std::move(p));
+    this->save_forcing(out);
+    std::vector<double> carry;
+    for (const Vector3<double>& c : x_carry_) carry.insert(carry.end(), {c.x(), c.y(), c.z()});
+    out.put_f64("stepper.position_carry", std::move(carry));
+  }
+
  protected:
   ImplicitStepperBase(System system, I potential, SolverOptions solver, Parallelism par)
       : StepperBase<I>(std::move(system), std::move(potential), par),
@@ -94,6 +115,30 @@ class ImplicitStepperBase : public StepperBase<I> {
   virtual void serialize_extra(std::size_t, std::vector<double>&) const {}
   virtual std::size_t extra_size() const { return 0; }
   virtual void deserialize_extra(std::size_t, const double*) {}
+
+  /// A method's own checkpoint fields (none by default).
+  virtual void save_extra(CheckpointFields&) const {}
+  virtual void load_extra(const CheckpointFields&) {}
+
+  /// Restores what save() wrote, after initialize(); or, from a checkpoint
+  /// of versions 2 to 4, the numbers of internal_state() held in the field
+  /// "stepper.internal" (restore).
+  void load_fields(const CheckpointFields& in, const char* what) {
+    if (in.has("stepper.internal")) {
+      detail::reading_stepper_internal([&] { restore(in.f64("stepper.internal"), what); });
+      return;
+    }
+    const std::size_t n = this->system_.size();
+    load_extra(in);
+    const std::vector<double>& p = in.f64("stepper.predictors", predictors_.size() * Predictor::serialized_size);
+    for (std::size_t i = 0; i < predictors_.size(); ++i) {
+      const auto first = p.begin() + static_cast<std::ptrdiff_t>(i * Predictor::serialized_size);
+      predictors_[i].deserialize(std::vector<double>(first, first + Predictor::serialized_size));
+    }
+    this->load_forcing(in);
+    const std::vector<double>& carry = in.f64("stepper.position_carry", 3 * n);
+    for (std::size_t a = 0; a < n; ++a) x_carry_[a] = Vector3<double>(carry[3 * a], carry[3 * a + 1], carry[3 * a + 2]);
+  }
 
   /// Restores the state written by internal_state(), after initialize().
   /// A checkpoint written before the positions' carry was kept has none: it

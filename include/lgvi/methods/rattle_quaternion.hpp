@@ -202,6 +202,11 @@ class RattleQuaternionIntegrator<I> : public detail::ImplicitStepperBase<I, Rota
     initialize(s, t);
     this->restore(internal, "the predictor");
   }
+  /// Resumes from a checkpoint's fields (ImplicitStepperBase::save).
+  void load(const SystemState& s, double t, const CheckpointFields& in) {
+    initialize(s, t);
+    this->load_fields(in, "the predictor");
+  }
 
  private:
   void solve(std::size_t a, const Vector4<double>& q0, const Vector4<double>& rhs, const Vector3<double>& b,

@@ -205,6 +205,12 @@ class So3LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I
     initialize(s, t);
     this->restore(internal, "SO(3) integrator");
   }
+  /// Resumes from a checkpoint's fields: the base's (ImplicitStepperBase::save)
+  /// and "stepper.rotation_matrix", per body R (9 numbers, row-major).
+  void load(const SystemState& s, double t, const CheckpointFields& in) {
+    initialize(s, t);
+    this->load_fields(in, "SO(3) integrator");
+  }
 
   /// The unit quaternion of R closest to `previous` (sign with positive
   /// inner product), by Shepperd's method, normalized.
@@ -222,6 +228,19 @@ class So3LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I
       for (int j = 0; j < 3; ++j) v.push_back(R_[a](i, j));
   }
   std::size_t extra_size() const override { return 9; }
+  void save_extra(CheckpointFields& out) const override {
+    std::vector<double> r;
+    for (const Matrix3<double>& m : R_)
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) r.push_back(m(i, j));
+    out.put_f64("stepper.rotation_matrix", std::move(r));
+  }
+  void load_extra(const CheckpointFields& in) override {
+    const std::vector<double>& r = in.f64("stepper.rotation_matrix", 9 * R_.size());
+    for (std::size_t a = 0; a < R_.size(); ++a)
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) R_[a](i, j) = r[9 * a + static_cast<std::size_t>(3 * i + j)];
+  }
   void deserialize_extra(std::size_t a, const double* d) override {
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) R_[a](i, j) = d[i * 3 + j];
