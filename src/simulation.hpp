@@ -9,7 +9,7 @@
 #include "trajectory_sink.hpp"
 
 #include <lgvi/interaction.hpp>
-#include <lgvi/lennard_jones.hpp>
+#include <lgvi/forces/lennard_jones.hpp>
 #include <lgvi/mutual_gravity.hpp>
 #include <lgvi/parallel.hpp>
 #include <lgvi/potential.hpp>

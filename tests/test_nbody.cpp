@@ -284,14 +284,14 @@ TEST(MutualInteractions, CollisionIsReportedNamingTheBodies) {
 }
 
 TEST(LennardJonesPairs, VectorizedTermsAreTheScalarFormulaBitForBit) {
-  // detail::lennard_jones_terms runs 2 or 4 entries at a time (SSE2, or its
+  // detail::pair_terms runs 2 or 4 entries at a time (SSE2, or its
   // AVX2 clone where the processor has one). Each term is one correctly
   // rounded IEEE operation in the same order as the scalar formula below, and
   // no multiply-add is fused, so the results must be equal bit for bit:
   // that is what keeps a run's output independent of the processor.
   const double sigma = 1.1, eps = 0.7, cutoff = 2.5 * sigma;
   const double sr6c = std::pow(sigma * sigma / (cutoff * cutoff), 3), shift = 4.0 * eps * (sr6c * sr6c - sr6c);
-  const lgvi::detail::LennardJonesConstants c{sigma * sigma, -24.0 * eps, 4.0 * eps, shift, cutoff * cutoff};
+  const lgvi::LennardJonesKernel c(eps, sigma, cutoff);
   std::vector<double> dx, dy, dz;
   for (int k = 0; k < 203; ++k) {  // odd: the vector loop's remainder too
     const V3 d = t::random_vector(3.2);  // |d| from 0 to 5.5: inside and beyond r_c
@@ -303,8 +303,8 @@ TEST(LennardJonesPairs, VectorizedTermsAreTheScalarFormulaBitForBit) {
   dy.push_back(0.0);
   dz.push_back(0.0);
   std::vector<double> fx(dx.size()), fy(dx.size()), fz(dx.size()), energy(dx.size());
-  ASSERT_TRUE(lgvi::detail::lennard_jones_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), fx.data(), fy.data(),
-                                                fz.data(), energy.data()));
+  ASSERT_TRUE(lgvi::detail::pair_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), fx.data(), fy.data(), fz.data(),
+                                       energy.data()));
   int inside = 0;
   for (std::size_t k = 0; k < dx.size(); ++k) {
     const double r2 = (dx[k] * dx[k] + dy[k] * dy[k]) + dz[k] * dz[k];
@@ -321,8 +321,8 @@ TEST(LennardJonesPairs, VectorizedTermsAreTheScalarFormulaBitForBit) {
   EXPECT_LT(inside, 200);
   // A separation of zero (two sites on top of each other) is reported.
   dx[7] = dy[7] = dz[7] = 0.0;
-  EXPECT_FALSE(lgvi::detail::lennard_jones_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), fx.data(), fy.data(),
-                                                 fz.data(), energy.data()));
+  EXPECT_FALSE(lgvi::detail::pair_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), fx.data(), fy.data(), fz.data(),
+                                        energy.data()));
 }
 
 TEST(LennardJonesPairs, ForcesTorquesAndEnergyEqualADirectSumOverAllPairs) {
