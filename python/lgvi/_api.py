@@ -649,7 +649,7 @@ class Scenario:
 # Many bodies from arrays
 
 _INTERACTION_KEYS = {"none": set(), "gravity": {"G", "model"},
-                     "lennard-jones": {"epsilon", "sigma", "cutoff", "skin"}}
+                     "lennard-jones": {"epsilon", "sigma", "cutoff", "skin"}, "wca": {"epsilon", "sigma", "skin"}}
 
 
 def _interaction(interaction):

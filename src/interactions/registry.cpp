@@ -2,6 +2,7 @@
 
 #include "interactions/gravity.hpp"
 #include "interactions/lennard_jones.hpp"
+#include "interactions/wca.hpp"
 
 #include <algorithm>
 #include <stdexcept>
@@ -15,6 +16,7 @@ namespace {
 const InteractionDescriptor* const registered[] = {
     &gravity_interaction,
     &lennard_jones_interaction,
+    &wca_interaction,
 };
 }  // namespace
 
