@@ -105,13 +105,15 @@ namespace detail {
 /// the same IEEE operation in the same order in either clone (no fused
 /// multiply-add: AVX2 does not include FMA), so the results are bit-identical
 /// on any x86-64 processor (in a build that does not itself target FMA, as
-/// the project's does not).
+/// the project's does not). The AVX2 clone is GCC's: Clang does not take
+/// target_clones on a function template (it compiles the default one only,
+/// with the same results).
 template <PairKernel Kernel>
 #if defined(__GNUC__) && !defined(__clang__)
 __attribute__((optimize("no-trapping-math")))
-#endif
-#if defined(__GNUC__) && defined(__x86_64__)
+#if defined(__x86_64__)
 __attribute__((target_clones("avx2", "default")))
+#endif
 #endif
 bool pair_terms(std::size_t count, const Kernel& kernel, const double* __restrict dx, const double* __restrict dy,
                 const double* __restrict dz, double* __restrict fx, double* __restrict fy, double* __restrict fz,
