@@ -81,7 +81,7 @@ StateError state_error(const RigidBodyState& a, const RigidBodyState& ref, const
 /// converged order-8 lgvi run (converged_reference), with per-body errors (system_error). The single-body
 /// scenarios keep their references (the exact flow, RK4 of the continuous equations).
 bool is_system(const Scenario& sc) {
-  return sc.bodies_format || sc.bodies() > 1 || sc.interaction.kind != InteractionKind::None;
+  return sc.bodies_format || sc.bodies() > 1 || !sc.interaction.none();
 }
 
 /// The system's mass-weighted centre.
@@ -121,11 +121,10 @@ StateError system_error(const System& sys, const SystemState& s, const SystemSta
 /// [integrator] method (scenario.cpp), asked of every compared method.
 std::string not_applicable(const Scenario& sc, Method m) {
   const MethodTraits& t = m.traits();
-  if (t.free_body_only && (sc.bodies() > 1 || sc.interaction.kind != InteractionKind::None ||
-                           sc.potential.kind != PotentialKind::None))
+  if (t.free_body_only && (sc.bodies() > 1 || !sc.interaction.none() || sc.potential.kind != PotentialKind::None))
     return fmt::format("the exact flow of one free body; this scenario has {} bod{}{}{}", sc.bodies(),
                        sc.bodies() == 1 ? "y" : "ies",
-                       sc.interaction.kind != InteractionKind::None ? ", an [interaction]" : "",
+                       !sc.interaction.none() ? ", an [interaction]" : "",
                        sc.potential.kind != PotentialKind::None ? ", a [potential]" : "");
   if (t.needs_principal_axes)
     for (std::size_t a = 0; a < sc.bodies(); ++a)
@@ -352,7 +351,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
   fs::create_directories(dir);
   const double h_min = h0 / std::pow(2.0, opt.ladder - 1);
   // No potential and no interaction: nothing to count but right-hand-side stages.
-  const bool free_body = base.potential.kind == PotentialKind::None && base.interaction.kind == InteractionKind::None;
+  const bool free_body = base.potential.kind == PotentialKind::None && base.interaction.none();
   const SystemReference system_reference =
       system ? converged_reference(base, T, h0, h_min, opt.quiet) : SystemReference{};
   const std::string reference_name =

@@ -1,4 +1,5 @@
 #include "scenario.hpp"
+#include "interactions/registry.hpp"
 #include "toml_writer.hpp"
 
 #include <lgvi/error.hpp>
@@ -17,6 +18,7 @@
 #include <limits>
 #include <numbers>
 #include <random>
+#include <span>
 #include <sstream>
 #include <string_view>
 
@@ -47,6 +49,10 @@ class Reader {
 
   /// Rejects keys of `t` not in `allowed`.
   void only_keys(const toml::table& t, const std::string& prefix, std::initializer_list<std::string_view> allowed) const {
+    only_keys(t, prefix, std::span<const std::string_view>(allowed.begin(), allowed.size()));
+  }
+
+  void only_keys(const toml::table& t, const std::string& prefix, std::span<const std::string_view> allowed) const {
     for (const auto& [k, v] : t) {
       bool ok = false;
       for (auto a : allowed) ok = ok || k.str() == a;
@@ -94,6 +100,11 @@ class Reader {
 
   std::string string(const toml::table& t, const std::string& prefix, const std::string& name,
                      std::initializer_list<std::string_view> allowed) const {
+    return string(t, prefix, name, std::span<const std::string_view>(allowed.begin(), allowed.size()));
+  }
+
+  std::string string(const toml::table& t, const std::string& prefix, const std::string& name,
+                     std::span<const std::string_view> allowed) const {
     const toml::node* n = t.get(name);
     const std::string key = join(prefix, name);
     std::string list;
@@ -650,33 +661,39 @@ void require_no_overlap(const Reader& r, const System& system, const SystemState
                                   "); move the bodies apart");
 }
 
+/// The [interaction] table's keys for a descriptor's `read`, with the
+/// reader's messages (each key named interaction.<key>).
+class TableInteractionReader final : public InteractionReader {
+ public:
+  TableInteractionReader(const Reader& r, const toml::table& t) : r_(r), t_(t) {}
+  bool has(std::string_view key) const override { return t_.contains(key); }
+  double number(std::string_view key) const override { return r_.number(t_, "interaction", std::string(key)); }
+  std::string choice(std::string_view key, std::initializer_list<std::string_view> allowed) const override {
+    return r_.string(t_, "interaction", std::string(key), allowed);
+  }
+  [[noreturn]] void fail(std::string_view key, const std::string& what) const override {
+    r_.fail("interaction." + std::string(key), what);
+  }
+
+ private:
+  const Reader& r_;
+  const toml::table& t_;
+};
+
+/// [interaction]: kind "none" or a registered kind (interactions/registry.hpp),
+/// its keys only, read and checked by its descriptor.
 InteractionSpec read_interaction(const Reader& r, const toml::table& root) {
   InteractionSpec spec;
   const toml::table* t = r.optional_table(root, "", "interaction");
   if (!t) return spec;
-  const std::string kind = r.string(*t, "interaction", "kind", {"none", "gravity", "lennard-jones"});
-  if (kind == "none") {
-    r.only_keys(*t, "interaction", {"kind"});
-  } else if (kind == "gravity") {
-    r.only_keys(*t, "interaction", {"kind", "G", "model"});
-    spec.kind = InteractionKind::GravityBalls;
-    if (t->contains("model") && r.string(*t, "interaction", "model", {"balls", "inertia"}) == "inertia")
-      spec.kind = InteractionKind::GravityInertia;
-    spec.G = r.number(*t, "interaction", "G");
-    if (!(spec.G > 0.0)) r.fail("interaction.G", "must be > 0 (the gravitational constant in the scenario's units)");
-  } else {
-    r.only_keys(*t, "interaction", {"kind", "epsilon", "sigma", "cutoff", "skin"});
-    spec.kind = InteractionKind::LennardJones;
-    spec.epsilon = r.number(*t, "interaction", "epsilon");
-    if (!(spec.epsilon > 0.0)) r.fail("interaction.epsilon", "must be > 0 (the depth of the potential well)");
-    spec.sigma = r.number(*t, "interaction", "sigma");
-    if (!(spec.sigma > 0.0)) r.fail("interaction.sigma", "must be > 0 (where the potential is zero)");
-    spec.cutoff = t->contains("cutoff") ? r.number(*t, "interaction", "cutoff") : 2.5 * spec.sigma;
-    if (!(spec.cutoff > spec.sigma))
-      r.fail("interaction.cutoff", "must be > sigma (2.5 sigma is usual); the energy is shifted to 0 there");
-    spec.skin = t->contains("skin") ? r.number(*t, "interaction", "skin") : 0.3 * spec.sigma;
-    if (!(spec.skin >= 0.0)) r.fail("interaction.skin", "must be >= 0 (0.3 sigma is usual)");
-  }
+  std::vector<std::string_view> kinds{"none"};
+  for (const InteractionDescriptor* d : interaction_kinds()) kinds.push_back(d->kind);
+  const std::string kind = r.string(*t, "interaction", "kind", kinds);
+  spec.descriptor = find_interaction(kind);
+  std::vector<std::string_view> keys{"kind"};
+  if (spec.descriptor) keys.insert(keys.end(), spec.descriptor->keys.begin(), spec.descriptor->keys.end());
+  r.only_keys(*t, "interaction", keys);
+  if (spec.descriptor) spec.descriptor->read(TableInteractionReader(r, *t), spec);
   return spec;
 }
 
@@ -995,10 +1012,10 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   if (method.free_body_only && potential.kind != PotentialKind::None)
     r.fail("integrator.method", "\"" + std::string(method.name) +
                                     "\" is the free body's exact flow: it needs [potential] kind = \"none\"");
-  if (method.free_body_only && (bodies.size() > 1 || interaction.kind != InteractionKind::None))
+  if (method.free_body_only && (bodies.size() > 1 || !interaction.none()))
     r.fail("integrator.method", "\"" + std::string(method.name) + "\" is the exact flow of one free body; this scenario has " +
                                     std::to_string(bodies.size()) + " bodies" +
-                                    (interaction.kind != InteractionKind::None ? " and an [interaction]" : ""));
+                                    (!interaction.none() ? " and an [interaction]" : ""));
   if (method.needs_principal_axes) {
     for (std::size_t a = 0; a < bodies.size(); ++a) {
       if (!bodies[a].has_principal_axes())
@@ -1063,9 +1080,10 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   if (bodies_format) require_no_overlap(r, sc.system, initial);
   // Contact between bodies is checked at every step unless [run] on_contact
   // says otherwise; a Lennard-Jones system is exempt unless it says so (its
-  // balls' radii only shape the inertia: the potential keeps molecules apart).
+  // balls' radii only shape the inertia: the potential keeps molecules apart;
+  // so is any interaction whose descriptor says it keeps bodies apart).
   sc.on_contact_given = on_contact.has_value();
-  sc.on_contact = on_contact.value_or(!bodies_format || interaction.kind == InteractionKind::LennardJones
+  sc.on_contact = on_contact.value_or(!bodies_format || (interaction.descriptor && interaction.descriptor->keeps_bodies_apart)
                                           ? OnContact::Ignore
                                           : OnContact::Stop);
   bool inlined = false;
@@ -1160,16 +1178,6 @@ const char* to_string(PotentialKind k) {
     case PotentialKind::Central: return "central";
     case PotentialKind::Uniform: return "uniform";
     case PotentialKind::HeavyTop: return "heavy-top";
-  }
-  return "?";
-}
-
-const char* to_string(InteractionKind k) {
-  switch (k) {
-    case InteractionKind::None: return "none";
-    case InteractionKind::GravityBalls:
-    case InteractionKind::GravityInertia: return "gravity";
-    case InteractionKind::LennardJones: return "lennard-jones";
   }
   return "?";
 }

@@ -15,6 +15,8 @@
 #include "trajectory_sink.hpp"
 
 #include <cstdint>
+#include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -35,15 +37,23 @@ struct PotentialSpec {
   Vector3<double> pivot_to_com = Vector3<double>::Zero();  // heavy-top: chi, body frame
 };
 
-/// Mutual interactions between the bodies (`[interaction]`).
-enum class InteractionKind { None, GravityBalls, GravityInertia, LennardJones };
+struct InteractionDescriptor;  // interactions/registry.hpp
 
+/// Mutual interactions between the bodies (`[interaction]`): which one (its
+/// descriptor, interactions/registry.hpp; null: none) and its keys as read,
+/// defaults filled in.
 struct InteractionSpec {
-  InteractionKind kind = InteractionKind::None;
-  double G = 0.0;                                    // gravity
-  double epsilon = 0.0, sigma = 0.0, cutoff = 0.0;  // lennard-jones
-  double skin = 0.0;                                 // lennard-jones: Verlet list skin
+  const InteractionDescriptor* descriptor = nullptr;
+  std::map<std::string, double, std::less<>> numbers;      ///< e.g. G, epsilon, sigma, cutoff, skin
+  std::map<std::string, std::string, std::less<>> words;  ///< e.g. model
+  bool none() const { return descriptor == nullptr; }
+  /// A key the descriptor has read (std::logic_error otherwise).
+  double number(std::string_view key) const;
+  const std::string& word(std::string_view key) const;
 };
+
+/// [interaction] kind: "none" or the descriptor's kind.
+std::string interaction_kind(const InteractionSpec& spec);
 
 /// What a run does when two bodies overlap (`[run] on_contact`): the model
 /// has no contact forces, so from there on it does not describe what it
@@ -126,7 +136,6 @@ const char* to_string(OnContact c);
 /// distance at which the two pieces, named by their semi-axes, radius or as
 /// a point, would just touch along their line.
 std::string describe_reach(const System& system, const Contact& c);
-const char* to_string(InteractionKind k);
 const char* to_string(Method m);
 
 /// User text echoed in a message, with control characters escaped so that

@@ -1,5 +1,7 @@
 #include "simulation.hpp"
 
+#include "interactions/registry.hpp"
+
 #include "formats/particles.hpp"
 #include "method_registry.hpp"
 
@@ -64,14 +66,8 @@ ScenarioSystemPotential scenario_system_potential(const Scenario& s, const Calla
       case PotentialKind::None: break;
     }
   }
-  ScenarioSystemPotential::Mutual mutual = NoMutualInteraction{};
-  const InteractionSpec& i = s.interaction;
-  switch (i.kind) {
-    case InteractionKind::GravityBalls: mutual = MutualGravityBalls(s.system, i.G, par); break;
-    case InteractionKind::GravityInertia: mutual = MutualGravityInertia(s.system, i.G, par); break;
-    case InteractionKind::LennardJones: mutual = LennardJones(s.system, i.epsilon, i.sigma, i.cutoff, par, i.skin); break;
-    case InteractionKind::None: break;
-  }
+  ScenarioSystemPotential::Mutual mutual;
+  if (s.interaction.descriptor) mutual = s.interaction.descriptor->build(s.system, s.interaction, par);
   return {std::move(external), std::move(mutual), evaluations};
 }
 

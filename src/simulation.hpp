@@ -5,12 +5,11 @@
 #pragma once
 
 #include "checkpoint.hpp"
+#include "interactions/any_mutual.hpp"
 #include "scenario.hpp"
 #include "trajectory_sink.hpp"
 
 #include <lgvi/interaction.hpp>
-#include <lgvi/lennard_jones.hpp>
-#include <lgvi/mutual_gravity.hpp>
 #include <lgvi/parallel.hpp>
 #include <lgvi/potential.hpp>
 #include <lgvi/state.hpp>
@@ -43,20 +42,20 @@ class ScenarioSystemPotential {
   using External = std::variant<ExternalField<NoPotential>, ExternalField<CentralGravity>,
                                 ExternalField<UniformGravity>, ExternalField<HeavyTop>,
                                 ExternalField<CallablePotential>>;
-  using Mutual = std::variant<NoMutualInteraction, MutualGravityBalls, MutualGravityInertia, LennardJones>;
+  using Mutual = AnyMutualInteraction;  ///< empty: none
 
   ScenarioSystemPotential(External external, Mutual mutual, std::int64_t* evaluations)
       : external_(std::move(external)), mutual_(std::move(mutual)), evaluations_(evaluations) {}
 
   void evaluate(const SystemState& s, SystemEvaluation& e) const {
     std::visit([&](const auto& field) { field.evaluate(s, e); }, external_);
-    std::visit([&](const auto& m) { m.add(s, e); }, mutual_);
+    mutual_.add(s, e);
     ++*evaluations_;
   }
   /// No field and no interaction: the free body (for method "exact").
   bool is_free() const {
     return std::holds_alternative<ExternalField<NoPotential>>(external_) &&
-           std::holds_alternative<NoMutualInteraction>(mutual_);
+           mutual_.empty();
   }
 
  private:

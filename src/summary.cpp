@@ -1,5 +1,6 @@
 #include "summary.hpp"
 
+#include "interactions/registry.hpp"
 #include "json_io.hpp"
 
 #include <cmath>
@@ -39,8 +40,10 @@ std::string contact_check(const Scenario& s) {
   if (s.on_contact == OnContact::Ignore)
     return s.on_contact_given ? "not checked during the run ([run] on_contact = \"ignore\"); overlaps at the start are "
                                 "errors"
-                              : "not checked during the run: a Lennard-Jones system, whose balls' radii only shape "
-                                "the inertia (give [run] on_contact to check); overlaps at the start are errors";
+                              : "not checked during the run: a " +
+                                    std::string(s.interaction.descriptor ? s.interaction.descriptor->title : "?") +
+                                    " system, whose balls' radii only shape the inertia (give [run] on_contact to "
+                                    "check); overlaps at the start are errors";
   return "after every step: bounding spheres swept along x, then exactly: balls and spheres by their radii, "
          "ellipsoids by the Perram-Wertheim contact function; a body given by mass + inertia without radius is its "
          "centre of mass";
@@ -97,17 +100,8 @@ Json setup_json(const Scenario& s) {
   o["potential"] = std::move(pot);
   if (s.bodies_format) {
     Json inter;
-    inter["kind"] = to_string(s.interaction.kind);
-    if (s.interaction.kind == InteractionKind::GravityBalls || s.interaction.kind == InteractionKind::GravityInertia) {
-      inter["G"] = s.interaction.G;
-      inter["model"] = s.interaction.kind == InteractionKind::GravityBalls ? "balls" : "inertia";
-    }
-    if (s.interaction.kind == InteractionKind::LennardJones) {
-      inter["epsilon"] = s.interaction.epsilon;
-      inter["sigma"] = s.interaction.sigma;
-      inter["cutoff"] = s.interaction.cutoff;
-      inter["skin"] = s.interaction.skin;
-    }
+    inter["kind"] = interaction_kind(s.interaction);
+    if (s.interaction.descriptor) s.interaction.descriptor->describe(s.interaction, inter);
     o["interaction"] = std::move(inter);
     o["on_contact"] = to_string(s.on_contact);
     o["contact_check"] = contact_check(s);

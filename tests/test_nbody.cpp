@@ -6,6 +6,7 @@
 #include "test_support.hpp"
 
 #include <lgvi/integrate.hpp>
+#include <lgvi/forces/wca.hpp>
 #include <lgvi/lennard_jones.hpp>
 #include <lgvi/lgvi.hpp>
 #include <lgvi/methods/no_squish.hpp>
@@ -32,6 +33,7 @@ namespace {
 using lgvi::Ball;
 using lgvi::Coupled;
 using lgvi::ExternalField;
+using lgvi::WeeksChandlerAndersen;
 using lgvi::LennardJones;
 using lgvi::MutualGravityBalls;
 using lgvi::MutualGravityInertia;
@@ -284,14 +286,14 @@ TEST(MutualInteractions, CollisionIsReportedNamingTheBodies) {
 }
 
 TEST(LennardJonesPairs, VectorizedTermsAreTheScalarFormulaBitForBit) {
-  // detail::lennard_jones_terms runs 2 or 4 entries at a time (SSE2, or its
+  // detail::pair_terms runs 2 or 4 entries at a time (SSE2, or its
   // AVX2 clone where the processor has one). Each term is one correctly
   // rounded IEEE operation in the same order as the scalar formula below, and
   // no multiply-add is fused, so the results must be equal bit for bit:
   // that is what keeps a run's output independent of the processor.
   const double sigma = 1.1, eps = 0.7, cutoff = 2.5 * sigma;
   const double sr6c = std::pow(sigma * sigma / (cutoff * cutoff), 3), shift = 4.0 * eps * (sr6c * sr6c - sr6c);
-  const lgvi::detail::LennardJonesConstants c{sigma * sigma, -24.0 * eps, 4.0 * eps, shift, cutoff * cutoff};
+  const lgvi::LennardJonesKernel c(eps, sigma, cutoff);
   std::vector<double> dx, dy, dz;
   for (int k = 0; k < 203; ++k) {  // odd: the vector loop's remainder too
     const V3 d = t::random_vector(3.2);  // |d| from 0 to 5.5: inside and beyond r_c
@@ -303,8 +305,8 @@ TEST(LennardJonesPairs, VectorizedTermsAreTheScalarFormulaBitForBit) {
   dy.push_back(0.0);
   dz.push_back(0.0);
   std::vector<double> fx(dx.size()), fy(dx.size()), fz(dx.size()), energy(dx.size());
-  ASSERT_TRUE(lgvi::detail::lennard_jones_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), fx.data(), fy.data(),
-                                                fz.data(), energy.data()));
+  ASSERT_TRUE(lgvi::detail::pair_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), fx.data(), fy.data(), fz.data(),
+                                       energy.data()));
   int inside = 0;
   for (std::size_t k = 0; k < dx.size(); ++k) {
     const double r2 = (dx[k] * dx[k] + dy[k] * dy[k]) + dz[k] * dz[k];
@@ -321,8 +323,8 @@ TEST(LennardJonesPairs, VectorizedTermsAreTheScalarFormulaBitForBit) {
   EXPECT_LT(inside, 200);
   // A separation of zero (two sites on top of each other) is reported.
   dx[7] = dy[7] = dz[7] = 0.0;
-  EXPECT_FALSE(lgvi::detail::lennard_jones_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), fx.data(), fy.data(),
-                                                 fz.data(), energy.data()));
+  EXPECT_FALSE(lgvi::detail::pair_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), fx.data(), fy.data(), fz.data(),
+                                        energy.data()));
 }
 
 TEST(LennardJonesPairs, ForcesTorquesAndEnergyEqualADirectSumOverAllPairs) {
@@ -831,6 +833,181 @@ TEST(NBodyLgvi, LennardJonesClusterConservesMomentaAndBoundsEnergy) {
   // the first by sqrt(10) = 3.2 (measured 0.59 to 2.64 over seeds 1..8 and
   // 20261121), where a drift linear in t would make it 10: bound 4.
   EXPECT_LE(r.energy_last, 4.0 * r.energy_first);
+}
+
+// --- Weeks-Chandler-Andersen (forces/wca.hpp): a pair kernel on PairInteraction -----
+
+/// Three molecules placed by hand (fixed attitudes, not drawn) so that three
+/// pairs of balls lie inside r_c = 2^(1/6) sigma (the nearest at 0.86 sigma)
+/// and none within 0.2 sigma of it (checked below, to 1e-2): the derivatives
+/// must not straddle the cutoff, where the force is continuous but its
+/// derivative jumps.
+SystemState wca_three_molecules() {
+  SystemState s(3);
+  s.x = {V3(0.0, 0.0, 0.0), V3(1.36, 1.58, 1.19), V3(1.36, 0.17, 0.61)};
+  s.q = {S3d::exp(V3(0.1, -0.2, 0.3)), S3d::exp(V3(-0.4, 0.25, 0.1)), S3d::exp(V3(0.3, 0.5, -0.2))};
+  return s;
+}
+
+/// The distances of every pair of balls of different bodies at s.
+std::vector<double> ball_pair_distances(const System& sys, const SystemState& s) {
+  std::vector<V3> at;
+  std::vector<std::size_t> owner;
+  for (std::size_t a = 0; a < sys.size(); ++a)
+    for (const Ball& b : sys.body(a).balls()) {
+      at.push_back(s.x[a] + s.q[a].act(b.position));
+      owner.push_back(a);
+    }
+  std::vector<double> r;
+  for (std::size_t i = 0; i < at.size(); ++i)
+    for (std::size_t j = i + 1; j < at.size(); ++j)
+      if (owner[i] != owner[j]) r.push_back((at[j] - at[i]).norm());
+  return r;
+}
+
+TEST(WcaPairs, ForceIsMinusTheCentralDifferenceOfTheEnergy) {
+  // Two single-site bodies (mass and inertia: one site at the centre) at
+  // separations r from 0.85 to 1.12 sigma (inside r_c = 1.1225 sigma, at
+  // least 2.5e-3 from it), eps = 0.7: each component of the force on body 0
+  // against -(V(x + h) - V(x - h)) / 2h, h = 1e-6. Truncation
+  // h^2 / 6 |V^(3)| <= 1.7e-13 * 4 eps 2184 / 0.85^15 ~ 1.2e-8; round-off ~
+  // eps_mach |V| / h <= 2.2e-16 * 20 / 1e-6 ~ 4.4e-9; together < 2e-8, while
+  // |F| = 24 eps (2 (s/r)^12 - (s/r)^6) / r is 0.3 at the point nearest r_c
+  // and 230 at 0.85: bound 1e-7 absolute plus 1e-9 relative, so that a wrong
+  // factor or sign (an O(1) error) fails.
+  const RigidBody point(1.0, lgvi::Matrix3<double>::Identity());
+  const System sys(std::vector<RigidBody>(2, point));
+  const WeeksChandlerAndersen wca(sys, 0.7, 1.0);
+  const V3 direction = V3(0.48, -0.6, 0.64).normalized();
+  int points = 0;
+  for (double r = 0.85; r < 1.1225 - 2.5e-3; r += 0.0135, ++points) {
+    SystemState s(2);
+    s.x = {V3(0.3, -0.2, 0.1), V3(0.3, -0.2, 0.1) + r * direction};
+    SystemEvaluation e(2);
+    wca.add(s, e);
+    const double h = 1e-6;
+    for (int k = 0; k < 3; ++k) {
+      auto energy_at = [&](double t) {
+        SystemState moved = s;
+        moved.x[0](k) += t;
+        SystemEvaluation probe(2);
+        wca.add(moved, probe);
+        return probe.energy;
+      };
+      const double fd = -(energy_at(h) - energy_at(-h)) / (2.0 * h);
+      EXPECT_NEAR(e.force[0](k), fd, 1e-7 + 1e-9 * e.force[0].norm()) << "r = " << r << ", component " << k;
+    }
+    // Exactly opposite forces on the two sites (the pair's force negated).
+    EXPECT_EQ(e.force[1], (-e.force[0]).eval());
+  }
+  EXPECT_EQ(points, 20);
+  // At and beyond r_c: no force and no energy (exact zeros, as every pair
+  // kernel's beyond its cutoff), and V(r_c^-) ~ 0 (continuous).
+  SystemState s(2);
+  s.x = {V3::Zero(), std::pow(2.0, 1.0 / 6.0) * V3::UnitX()};
+  SystemEvaluation e(2);
+  wca.add(s, e);
+  EXPECT_EQ(e.energy, 0.0);
+  EXPECT_EQ(e.force[0], V3::Zero());
+  s.x[1] = (1.0 - 1e-9) * std::pow(2.0, 1.0 / 6.0) * V3::UnitX();
+  e.reset(2);
+  wca.add(s, e);
+  // V'(r_c) = 0, so V(r_c (1 - d)) ~ V''(r_c) (r_c d)^2 / 2 ~ 57 eps 1e-18,
+  // below the rounding of the sum 4 eps (x^2 - x) + eps, a few eps_mach eps.
+  EXPECT_LE(std::abs(e.energy), 8 * std::numeric_limits<double>::epsilon());
+}
+
+TEST(WcaPairs, ForcesAndTorquesOfMoleculesMatchFiniteDifferences) {
+  const System msys = molecules(3);
+  const SystemState s = wca_three_molecules();
+  const double cutoff = std::pow(2.0, 1.0 / 6.0);
+  int inside = 0;
+  for (const double r : ball_pair_distances(msys, s)) {
+    ASSERT_GT(std::abs(r - cutoff), 1e-2) << "a pair straddles the cutoff: move the molecules";
+    inside += r < cutoff ? 1 : 0;
+  }
+  ASSERT_EQ(inside, 3);  // the test has something to test
+  const auto wca = lgvi::check_system_derivatives(WeeksChandlerAndersen(msys, 1.0, 1.0), s);
+  // Fourth-order differences (check_system_derivatives: h = eps^(1/5) max(1,
+  // |x_a|) ~ 1.8e-3 here). Their truncation h^4 |V^(5)| / 30 at the nearest
+  // pair, r = 0.86 sigma, where V^(5) ~ 4 eps 12*13*14*15*16 / r^17 ~ 2.7e7,
+  // is ~ 1e-5 against |F| ~ 300: ~ 3e-8 relative (measured 1.4e-8), above
+  // derivative_tolerance's 1e-8 (which assumes r ~ 1.1). Bound 1e-6: a
+  // margin of 30, while an error of a formula shows as O(1).
+  EXPECT_LT(wca.force_error, 1e-6);
+  EXPECT_LT(wca.torque_error, 1e-6);
+}
+
+TEST(WcaPairs, NewtonsThirdLawAndInvariance) {
+  const System msys = molecules(27);
+  expect_third_law_and_invariance(msys, WeeksChandlerAndersen(msys, 1.0, 1.0), lattice_state(27, 1.5, 0.0));
+  const System three = molecules(3);
+  expect_third_law_and_invariance(three, WeeksChandlerAndersen(three, 1.0, 1.0), wca_three_molecules());
+}
+
+TEST(WcaPairs, EqualsLennardJonesCutAtItsMinimumPlusAShift) {
+  // An independent reference: WCA is Lennard-Jones cut at r_c = 2^(1/6) sigma
+  // (LennardJones with that cutoff: the same lists, the same force
+  // operations), with every pair's energy raised by eps instead of lowered
+  // by LJ's V(r_c) = -eps (to rounding). So forces and torques are equal bit
+  // for bit, and the energies differ by n (eps + V_LJ(r_c)) for n pairs
+  // within r_c, counted here by a direct loop over all pairs of balls.
+  const System sys = molecules(64);
+  const SystemState s = lattice_state(64, 1.6, 0.0);
+  const double eps = 0.8, sigma = 1.0, cutoff = std::pow(2.0, 1.0 / 6.0) * sigma;
+  const WeeksChandlerAndersen wca(sys, eps, sigma);
+  const LennardJones lj(sys, eps, sigma, cutoff);
+  SystemEvaluation ew(64), el(64);
+  wca.add(s, ew);
+  lj.add(s, el);
+  for (std::size_t a = 0; a < 64; ++a) {
+    EXPECT_EQ(ew.force[a], el.force[a]) << a;
+    EXPECT_EQ(ew.torque[a], el.torque[a]) << a;
+  }
+  std::size_t inside = 0;
+  for (const double r : ball_pair_distances(sys, s)) inside += r < cutoff ? 1 : 0;
+  ASSERT_GT(inside, 20u);
+  const double shift = lj.kernel().shift();
+  // V_LJ(r_c) is -eps to the rounding of pow and of a few products.
+  EXPECT_NEAR(shift, -eps, 8 * std::numeric_limits<double>::epsilon() * eps);
+  // Each pair's energy is rounded once in each (a few eps_mach of its terms,
+  // at most 4 eps (s/r)^12 ~ 4 eps 2^2 at r > 0.9 sigma), and the sums of n
+  // terms add n roundings of a running sum of size ~ n eps: 1e-13 n eps is
+  // far above that and far below one pair's eps.
+  EXPECT_NEAR(ew.energy - el.energy, static_cast<double>(inside) * (eps + shift),
+              1e-13 * static_cast<double>(inside) * eps);
+}
+
+using WcaSystem = Coupled<ExternalField<NoPotential>, WeeksChandlerAndersen>;
+
+TEST(WcaPairs, LgviConservesMomentaToRoundOffAndBoundsEnergy) {
+  // 27 triangle molecules on a lattice of spacing 2.2 centred at the origin
+  // (balls of neighbours at least 2.2 - 2 / sqrt(3) = 1.05 sigma apart, some
+  // within r_c), momenta of scale 0.5: they collide; 20000 steps of h = 0.002. Linear
+  // and angular momentum: discrete Noether (the potential is invariant under
+  // translation and rotation), so only round-off, a random walk ~ eps_mach
+  // sqrt(n) ~ 3e-14 relative to their terms; bound 1e-12 as for
+  // Lennard-Jones. Energy: bounded, no drift - its error over the last tenth
+  // at most 4 times that over the first (the bound of the Lennard-Jones
+  // cluster, whose argument holds a fortiori: here the force is continuous
+  // at r_c), and small: measured 5e-6 (seed 20261121) for a kinetic energy
+  // of order 1; bound 1e-3, a margin of 200 for other seeds' collisions.
+  const System sys = molecules(27);
+  SystemState s = lattice_state(27, 2.2, 0.5);
+  for (V3& x : s.x) x -= V3(2.2, 2.2, 2.2);
+  lgvi::LieGroupVariationalIntegrator<WcaSystem> integ(
+      sys, WcaSystem(ExternalField<NoPotential>::uniform(NoPotential{}, sys.size()),
+                     WeeksChandlerAndersen(sys, 1.0, 1.0)));
+  const Invariants r = run_invariants(integ, s, 0.002, 20000);
+  std::printf("[ lgvi     ] WCA gas, 2e4 steps: angular momentum %.3g, linear %.3g, |q| - 1 %.3g, max energy error "
+              "first tenth %.3g, last tenth %.3g, overall %.3g\n",
+              r.angular, r.linear, r.quat, r.energy_first, r.energy_last, r.energy_max);
+  EXPECT_LE(r.linear, 1e-12);
+  EXPECT_LE(r.angular, 1e-12);
+  EXPECT_LE(r.quat, 1e-13);
+  EXPECT_GT(r.energy_first, 0.0);
+  EXPECT_LE(r.energy_last, 4.0 * r.energy_first);
+  EXPECT_LE(r.energy_max, 1e-3);
 }
 
 // --- threads --------------------------------------------------------------------

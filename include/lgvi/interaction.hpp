@@ -9,7 +9,7 @@
 //
 //  * ExternalField<P>: a single-body potential P (none, central, uniform,
 //    a user's) acting on every body by itself, V = sum_a V_a(x_a, q_a).
-//  * Mutual interactions (mutual_gravity.hpp, lennard_jones.hpp): V depends on
+//  * Mutual interactions (mutual_gravity.hpp, forces/): V depends on
 //    pairs of bodies. Their `add` adds energy, forces and torques to an
 //    evaluation; they act between the interaction sites of different bodies.
 //  * Coupled<E, M>: an external field plus a mutual interaction.
@@ -196,6 +196,25 @@ class InteractionSites {
   std::vector<Vector3<double>> rho_;
   std::vector<double> mass_, radius_;
   std::vector<std::size_t> body_, offset_;
+};
+
+/// The one reduction of forces at interaction sites to a body's force and
+/// torque: forces f at the body's sites (arms R_a rho_i, inertial frame) added
+/// one by one, in the caller's order, F_a = sum f and M_a = R_a^T sum arm x f,
+/// then added to an evaluation. Every mutual interaction between sites
+/// (PairInteraction, MutualGravityBalls) sums through it, so the order of the
+/// additions, and with it every bit of the result, is the caller's.
+struct SiteWrench {
+  Vector3<double> force = Vector3<double>::Zero(), torque = Vector3<double>::Zero();
+  void add(const Vector3<double>& arm, const Vector3<double>& f) {
+    force += f;
+    torque += arm.cross(f);
+  }
+  /// Adds the sums to body a's force and (body-frame) torque in e.
+  void add_to(const SystemState& s, std::size_t a, SystemEvaluation& e) const {
+    e.force[a] += force;
+    e.torque[a] += s.q[a].inverse().act(torque);
+  }
 };
 
 namespace detail {

@@ -47,7 +47,7 @@ class MutualGravityBalls {
     sites_.place(s, par_, position_, arm_);
     energy_.assign(n, 0.0);
     parallel_for(n, par_, [&](std::size_t a) {
-      Vector3<double> force = Vector3<double>::Zero(), torque = Vector3<double>::Zero();
+      SiteWrench wrench;  // the pairs' forces at site i, in order of j
       double energy = 0.0;
       for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
         const Vector3<double>& xi = position_[i];
@@ -60,15 +60,12 @@ class MutualGravityBalls {
             const double inv_r = 1.0 / std::sqrt(r2);
             const double gmm_inv_r = G_ * (mi * sites_.mass(j)) * inv_r;
             if (!std::isfinite(gmm_inv_r)) detail::close_approach(sys_, sites_, i, j, std::sqrt(r2));
-            const Vector3<double> f = (gmm_inv_r * inv_r * inv_r) * d;  // towards site j
-            force += f;
-            torque += arm_[i].cross(f);
+            wrench.add(arm_[i], (gmm_inv_r * inv_r * inv_r) * d);  // towards site j
             if (b > a) energy -= gmm_inv_r;
           }
         }
       }
-      e.force[a] += force;
-      e.torque[a] += s.q[a].inverse().act(torque);
+      wrench.add_to(s, a, e);
       energy_[a] = energy;
     });
     for (std::size_t a = 0; a < n; ++a) e.energy += energy_[a];

@@ -31,7 +31,7 @@ Method = Literal["lgvi", "lgvi-lagrangian", "so3-lgvi", "rattle-quaternion", "rk
 Solver = Literal["newton", "newton-exp", "broyden"]
 OutputFormat = Literal["csv", "npz", "hdf5", "xyz", "vtk"]
 #: [interaction] kind, the value of interaction={"kind": ...}.
-InteractionKind = Literal["none", "gravity", "lennard-jones"]
+InteractionKind = Literal["none", "gravity", "lennard-jones", "wca"]
 Vector3 = Union[Sequence[float], npt.NDArray[np.float64]]
 #: A unit quaternion, scalar-first (w, x, y, z).
 Quaternion = Union[Sequence[float], npt.NDArray[np.float64]]

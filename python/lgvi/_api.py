@@ -609,8 +609,8 @@ class Scenario:
 # ---------------------------------------------------------------------------
 # Many bodies from arrays
 
-_INTERACTION_KEYS = {"none": set(), "gravity": {"G", "model"},
-                     "lennard-jones": {"epsilon", "sigma", "cutoff", "skin"}}
+# [interaction] kind -> the keys it takes besides kind: the reader's registry (src/interactions/registry.cpp).
+_INTERACTION_KEYS = {kind: set(keys) for kind, keys in _core.INTERACTION_KEYS.items()}
 
 
 def _interaction(interaction):

@@ -14,6 +14,7 @@ METHODS: Tuple[str, ...]
 SOLVERS: Tuple[str, ...]
 FORMATS: Tuple[str, ...]
 INTERACTIONS: Tuple[str, ...]
+INTERACTION_KEYS: Dict[str, Tuple[str, ...]]
 Array = npt.NDArray[np.float64]
 
 class IntegrationError(RuntimeError):

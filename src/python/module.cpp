@@ -15,6 +15,7 @@
 
 #include "memory_sink.hpp"
 #include "ensemble.hpp"
+#include "interactions/registry.hpp"
 #include "method_registry.hpp"
 #include "scenario.hpp"
 #include "simulation.hpp"
@@ -593,16 +594,21 @@ PYBIND11_MODULE(_core, m) {
   for (const lgvi::MethodTraits& t : Method::all()) methods.append(t.name);
   for (SolverKind k : {SolverKind::Newton, SolverKind::NewtonExp, SolverKind::Broyden}) solvers.append(to_string(k));
   for (const auto& [format, name] : format_names) formats.append(name);
-  // [interaction] kind: every InteractionKind's name, once (gravity's two models share "gravity").
-  for (InteractionKind k : {InteractionKind::None, InteractionKind::GravityBalls, InteractionKind::GravityInertia,
-                            InteractionKind::LennardJones}) {
-    const py::str name(to_string(k));
-    if (!interactions.contains(name)) interactions.append(name);
+  // [interaction] kind: "none" and every registered kind (interactions/registry.cpp), with the keys each takes.
+  py::dict interaction_keys;
+  interactions.append("none");
+  interaction_keys["none"] = py::tuple();
+  for (const lgvi::app::InteractionDescriptor* d : lgvi::app::interaction_kinds()) {
+    py::list keys;
+    for (std::string_view key : d->keys) keys.append(std::string(key));
+    interactions.append(std::string(d->kind));
+    interaction_keys[py::str(std::string(d->kind))] = py::tuple(keys);
   }
   m.attr("METHODS") = py::tuple(methods);
   m.attr("SOLVERS") = py::tuple(solvers);
   m.attr("FORMATS") = py::tuple(formats);
   m.attr("INTERACTIONS") = py::tuple(interactions);
+  m.attr("INTERACTION_KEYS") = interaction_keys;
 
   // lgvi::IntegrationFailure -> IntegrationError(RuntimeError) with .step, .time and .result (None here).
   static py::exception<IntegrationFailure> integration_error(m, "IntegrationError", PyExc_RuntimeError);

@@ -1,0 +1,58 @@
+// A mutual interaction of any type behind one value type: what an
+// interaction's descriptor builds (registry.hpp) and the run evaluates.
+#pragma once
+
+#include <lgvi/interaction.hpp>
+
+#include <memory>
+#include <type_traits>
+#include <utility>
+
+namespace lgvi::app {
+
+/// A mutual interaction of any type (a MutualInteraction), held by value:
+/// copies are deep (each copy has its own caches, e.g. neighbour lists), so
+/// copies may run on different threads. Empty: no interaction.
+class AnyMutualInteraction {
+ public:
+  AnyMutualInteraction() = default;
+  template <MutualInteraction M>
+    requires(!std::is_same_v<std::remove_cvref_t<M>, AnyMutualInteraction>)
+  AnyMutualInteraction(M m) : held_(std::make_unique<Model<M>>(std::move(m))) {}  // NOLINT(google-explicit-constructor)
+  AnyMutualInteraction(const AnyMutualInteraction& o) : held_(o.held_ ? o.held_->clone() : nullptr) {}
+  AnyMutualInteraction(AnyMutualInteraction&&) noexcept = default;
+  AnyMutualInteraction& operator=(const AnyMutualInteraction& o) {
+    if (this != &o) held_ = o.held_ ? o.held_->clone() : nullptr;
+    return *this;
+  }
+  AnyMutualInteraction& operator=(AnyMutualInteraction&&) noexcept = default;
+  ~AnyMutualInteraction() = default;
+
+  void add(const SystemState& s, SystemEvaluation& e) const {
+    if (held_) held_->add(s, e);
+  }
+  bool empty() const { return !held_; }
+  /// The held interaction if it is an M, else null.
+  template <class M>
+  const M* get() const {
+    const auto* model = dynamic_cast<const Model<M>*>(held_.get());
+    return model ? &model->m : nullptr;
+  }
+
+ private:
+  struct Concept {
+    virtual ~Concept() = default;
+    virtual void add(const SystemState& s, SystemEvaluation& e) const = 0;
+    virtual std::unique_ptr<Concept> clone() const = 0;
+  };
+  template <class M>
+  struct Model final : Concept {
+    explicit Model(M held) : m(std::move(held)) {}
+    void add(const SystemState& s, SystemEvaluation& e) const override { m.add(s, e); }
+    std::unique_ptr<Concept> clone() const override { return std::make_unique<Model>(m); }
+    M m;
+  };
+  std::unique_ptr<Concept> held_;
+};
+
+}  // namespace lgvi::app

@@ -1,0 +1,33 @@
+// [interaction] kind = "gravity": mutual gravity between the bodies
+// (mutual_gravity.hpp), model "balls" (default) or "inertia".
+#pragma once
+
+#include "interactions/registry.hpp"
+
+#include <lgvi/mutual_gravity.hpp>
+
+namespace lgvi::app {
+
+inline const InteractionDescriptor gravity_interaction{
+    .kind = "gravity",
+    .title = "mutual gravity",
+    .keys = {"G", "model"},
+    .read =
+        [](const InteractionReader& r, InteractionSpec& spec) {
+          spec.words["model"] = r.has("model") ? r.choice("model", {"balls", "inertia"}) : "balls";
+          const double G = r.number("G");
+          if (!(G > 0.0)) r.fail("G", "must be > 0 (the gravitational constant in the scenario's units)");
+          spec.numbers["G"] = G;
+        },
+    .build = [](const System& system, const InteractionSpec& spec, Parallelism par) -> AnyMutualInteraction {
+      if (spec.word("model") == "inertia") return MutualGravityInertia(system, spec.number("G"), par);
+      return MutualGravityBalls(system, spec.number("G"), par);
+    },
+    .describe =
+        [](const InteractionSpec& spec, Json& out) {
+          out["G"] = spec.number("G");
+          out["model"] = spec.word("model");
+        },
+};
+
+}  // namespace lgvi::app

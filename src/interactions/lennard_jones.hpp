@@ -1,0 +1,39 @@
+// [interaction] kind = "lennard-jones" (forces/lennard_jones.hpp): epsilon,
+// sigma, cutoff (default 2.5 sigma), Verlet list skin (default 0.3 sigma).
+#pragma once
+
+#include "interactions/registry.hpp"
+
+#include <lgvi/forces/lennard_jones.hpp>
+
+namespace lgvi::app {
+
+inline const InteractionDescriptor lennard_jones_interaction{
+    .kind = "lennard-jones",
+    .title = "Lennard-Jones",
+    .keys = {"epsilon", "sigma", "cutoff", "skin"},
+    .read =
+        [](const InteractionReader& r, InteractionSpec& spec) {
+          const double epsilon = r.number("epsilon");
+          if (!(epsilon > 0.0)) r.fail("epsilon", "must be > 0 (the depth of the potential well)");
+          const double sigma = r.number("sigma");
+          if (!(sigma > 0.0)) r.fail("sigma", "must be > 0 (where the potential is zero)");
+          const double cutoff = r.has("cutoff") ? r.number("cutoff") : 2.5 * sigma;
+          if (!(cutoff > sigma))
+            r.fail("cutoff", "must be > sigma (2.5 sigma is usual); the energy is shifted to 0 there");
+          const double skin = r.has("skin") ? r.number("skin") : 0.3 * sigma;
+          if (!(skin >= 0.0)) r.fail("skin", "must be >= 0 (0.3 sigma is usual)");
+          spec.numbers = {{"epsilon", epsilon}, {"sigma", sigma}, {"cutoff", cutoff}, {"skin", skin}};
+        },
+    .build = [](const System& system, const InteractionSpec& spec, Parallelism par) -> AnyMutualInteraction {
+      return LennardJones(system, spec.number("epsilon"), spec.number("sigma"), spec.number("cutoff"), par,
+                          spec.number("skin"));
+    },
+    .describe =
+        [](const InteractionSpec& spec, Json& out) {
+          for (const char* key : {"epsilon", "sigma", "cutoff", "skin"}) out[key] = spec.number(key);
+        },
+    .keeps_bodies_apart = true,
+};
+
+}  // namespace lgvi::app

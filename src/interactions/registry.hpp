@@ -1,0 +1,63 @@
+// The interactions a scenario's [interaction] table can name: each one a
+// descriptor (its kind, the keys it takes, how they are read and checked, how
+// it is built, what it writes to the summary), defined in the file of that
+// interaction (gravity.hpp, lennard_jones.hpp, ... here) and listed once
+// in registry.cpp. The reader, the run and the summary go through this table
+// only: a new pair potential is its kernel (include/lgvi/forces/), its
+// descriptor here, and its entry in registry.cpp (an include and a line).
+#pragma once
+
+#include "interactions/any_mutual.hpp"
+#include "json_io.hpp"
+#include "scenario.hpp"
+
+#include <lgvi/parallel.hpp>
+#include <lgvi/system.hpp>
+
+#include <initializer_list>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace lgvi::app {
+
+/// The [interaction] table as a descriptor reads it: each method names a key
+/// of the table (e.g. "epsilon") and fails with the scenario reader's message
+/// naming "interaction.<key>".
+class InteractionReader {
+ public:
+  virtual ~InteractionReader() = default;
+  virtual bool has(std::string_view key) const = 0;
+  /// The key's number (finite); fails if missing or not a number.
+  virtual double number(std::string_view key) const = 0;
+  /// The key's string, one of `allowed`; fails otherwise.
+  virtual std::string choice(std::string_view key, std::initializer_list<std::string_view> allowed) const = 0;
+  [[noreturn]] virtual void fail(std::string_view key, const std::string& what) const = 0;
+};
+
+/// One interaction kind.
+struct InteractionDescriptor {
+  std::string_view kind;   ///< [interaction] kind = "..."
+  std::string_view title;  ///< its name in words, e.g. "Lennard-Jones" (the summary's notes)
+  /// The keys it takes besides kind, in the order the reader lists them.
+  std::vector<std::string_view> keys;
+  /// Reads and checks the keys into spec.numbers / spec.words (defaults
+  /// filled in: the summary writes what the run used).
+  void (*read)(const InteractionReader& r, InteractionSpec& spec);
+  /// The interaction of a scenario's system (spec as read).
+  AnyMutualInteraction (*build)(const System& system, const InteractionSpec& spec, Parallelism par);
+  /// Its keys in the summary's "interaction" object, after "kind".
+  void (*describe)(const InteractionSpec& spec, Json& out);
+  /// The potential keeps bodies apart (a repulsive core): contact is not
+  /// checked during a run unless [run] on_contact says so.
+  bool keeps_bodies_apart = false;
+};
+
+/// Every interaction kind, in registration order (registry.cpp).
+std::span<const InteractionDescriptor* const> interaction_kinds();
+
+/// The descriptor of `kind`, or null if there is none (also for "none").
+const InteractionDescriptor* find_interaction(std::string_view kind);
+
+}  // namespace lgvi::app

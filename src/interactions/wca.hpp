@@ -1,0 +1,39 @@
+// [interaction] kind = "wca": Weeks-Chandler-Andersen (forces/wca.hpp),
+// epsilon and sigma, cutoff fixed at 2^(1/6) sigma, Verlet list skin
+// (default 0.3 sigma).
+#pragma once
+
+#include "interactions/registry.hpp"
+
+#include <lgvi/forces/wca.hpp>
+
+namespace lgvi::app {
+
+inline const InteractionDescriptor wca_interaction{
+    .kind = "wca",
+    .title = "Weeks-Chandler-Andersen",
+    .keys = {"epsilon", "sigma", "skin"},
+    .read =
+        [](const InteractionReader& r, InteractionSpec& spec) {
+          const double epsilon = r.number("epsilon");
+          if (!(epsilon > 0.0)) r.fail("epsilon", "must be > 0 (the depth of the potential well)");
+          const double sigma = r.number("sigma");
+          if (!(sigma > 0.0)) r.fail("sigma", "must be > 0 (where the potential is zero)");
+          const double skin = r.has("skin") ? r.number("skin") : 0.3 * sigma;
+          if (!(skin >= 0.0)) r.fail("skin", "must be >= 0 (0.3 sigma is usual)");
+          spec.numbers = {{"epsilon", epsilon}, {"sigma", sigma}, {"skin", skin}};
+        },
+    .build = [](const System& system, const InteractionSpec& spec, Parallelism par) -> AnyMutualInteraction {
+      return WeeksChandlerAndersen(system, spec.number("epsilon"), spec.number("sigma"), par, spec.number("skin"));
+    },
+    .describe =
+        [](const InteractionSpec& spec, Json& out) {
+          out["epsilon"] = spec.number("epsilon");
+          out["sigma"] = spec.number("sigma");
+          out["cutoff"] = WcaKernel(spec.number("epsilon"), spec.number("sigma")).cutoff();  // 2^(1/6) sigma
+          out["skin"] = spec.number("skin");
+        },
+    .keeps_bodies_apart = true,
+};
+
+}  // namespace lgvi::app
