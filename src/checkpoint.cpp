@@ -288,7 +288,9 @@ CheckpointFields read_fields(const std::string& path, const std::string& bytes, 
     else
       throw InvalidInput(field + " has an unknown type (" + std::to_string(type) +
                          "): written by a newer lgvi? resume with the lgvi that wrote it");
-    if (n < 0 || size < 0 || static_cast<std::uint64_t>(size) != static_cast<std::uint64_t>(n) * element)
+    // n is checked against size / element first, so that n * element cannot wrap around.
+    if (n < 0 || size < 0 || static_cast<std::uint64_t>(n) > static_cast<std::uint64_t>(size) / element ||
+        static_cast<std::uint64_t>(size) != static_cast<std::uint64_t>(n) * element)
       throw InvalidInput(field + " is damaged: " + std::to_string(size) + " bytes for " + std::to_string(n) + " " +
                          CheckpointFields::type_name(static_cast<CheckpointFields::Type>(type)) + " values");
     if (static_cast<std::uint64_t>(size) > bytes.size() - pos)

@@ -8,7 +8,9 @@
 namespace lgvi::app {
 
 /// Installs the SIGINT/SIGTERM handlers for its lifetime (restoring the
-/// previous ones after) and clears the request on installation.
+/// previous ones after) and clears the request on installation. For the
+/// outermost scope of a command only: not nested (an inner one would clear a
+/// request made before it) and not per thread (installing is not thread-safe).
 class StopSignals {
  public:
   StopSignals();

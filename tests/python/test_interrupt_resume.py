@@ -281,3 +281,16 @@ def test_a_field_of_the_wrong_size_is_one_clear_error(tmp_path, new_checkpoint):
     assert proc.returncode == 2, proc.stderr
     assert proc.stderr.count("\n") == 1, proc.stderr
     assert str(checkpoint) in proc.stderr and "checkpoint field 'run.step' holds 0 values, expected 1" in proc.stderr
+
+
+def test_a_count_whose_size_wraps_around_is_one_clear_error(tmp_path, new_checkpoint):
+    """A damaged count n with n * 8 wrapping around 2^64 to the field's real byte size
+    (n = 2^61 + 1: 8 bytes) is refused as damaged, not allocated."""
+    def damage(data):
+        return write_fields([(n, k, 2**61 + 1, p) if n == "run.step" else (n, k, c, p)
+                             for n, k, c, p in read_fields(data)])
+    out, checkpoint = changed_copy(tmp_path, new_checkpoint, damage)
+    proc = run("--resume", out)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.count("\n") == 1, proc.stderr
+    assert str(checkpoint) in proc.stderr and "checkpoint field 'run.step' is damaged" in proc.stderr

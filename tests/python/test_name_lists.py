@@ -1,7 +1,8 @@
 """The lists of methods, interactions and output formats agree everywhere a user reads them
 (issue 27): the command line's messages, the Python API and its stubs, and README.md all name
-exactly the entries of the C++ tables (src/scenario.hpp method_names, src/trajectory_sink.hpp
-format_names, the InteractionKind names), in their order.
+exactly the entries of the C++ registries (src/method_registry.hpp registered_method_traits,
+src/trajectory_sink.hpp format_names, src/interactions/registry.cpp interaction_kinds), in their
+order.
 
 The truth is lgvi._core.METHODS, FORMATS and INTERACTIONS, which the compiled module reads from
 those tables (src/python/module.cpp), not retyped. A method, format or interaction added to a
@@ -170,8 +171,8 @@ def _scenario_text(**changes):
 @pytest.mark.parametrize("kind", ["method", "format", "interaction"])
 def test_cli_scenario_messages_list_the_tables(kind, tmp_path):
     # lgvi run reads the scenario with the C++ reader; a name it does not know is refused with the
-    # list it accepts (the reader's own list, which for formats and interactions is spelled out
-    # in scenario.cpp rather than read from a table: this is where a drift would show).
+    # list it accepts (the reader's own list, built from the registries: this is where a drift
+    # between the reader and the compiled module's tables would show).
     if kind == "method":
         text = _scenario_text().replace('method = "lgvi"', 'method = "no-such-method"')
     elif kind == "format":
