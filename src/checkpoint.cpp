@@ -4,6 +4,8 @@
 
 #include <lgvi/error.hpp>
 
+#include <fmt/format.h>
+
 #include <cstring>
 #include <fstream>
 #include <iterator>
@@ -269,12 +271,13 @@ CheckpointFields read_fields(const std::string& path, const std::string& bytes, 
     std::int64_t name_size = 0, type = 0, n = 0, size = 0;
     get(name_size, "name");
     if (name_size <= 0 || static_cast<std::uint64_t>(name_size) > bytes.size() - pos)
-      throw InvalidInput(path + ": truncated or damaged checkpoint: the name of the field after " + after +
-                         " is cut off or has a length of " + std::to_string(name_size));
+      throw InvalidInput(fmt::format("{}: truncated or damaged checkpoint: the name of the field after {} is cut off "
+                                     "or has a length of {}",
+                                     path, after, name_size));
     const std::string name = bytes.substr(pos, static_cast<std::size_t>(name_size));
     pos += static_cast<std::size_t>(name_size);
     after = "'" + name + "'";
-    const std::string field = path + ": checkpoint field '" + name + "'";
+    const std::string field = fmt::format("{}: checkpoint field '{}'", path, name);
     if (pos + 3 * sizeof(std::int64_t) > bytes.size()) throw InvalidInput(field + " is truncated (its header is cut off)");
     get(type, "type");
     get(n, "count");

@@ -6,7 +6,6 @@
 
 #include <lgvi/methods/method_traits.hpp>
 
-#include <compare>
 #include <cstddef>
 #include <span>
 #include <string>
@@ -32,7 +31,9 @@ class Method {
   const char* name() const { return traits().name; }
   std::size_t index() const { return index_; }
 
-  auto operator<=>(const Method&) const = default;
+  bool operator==(const Method&) const = default;
+  /// Registry (display) order.
+  bool operator<(const Method& other) const { return index_ < other.index_; }
 
  private:
   explicit constexpr Method(std::size_t index) : index_(index) {}

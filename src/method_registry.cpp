@@ -49,8 +49,8 @@ std::string method_table() {
     if (t.needs_principal_axes) props += ", principal axes only";
     if (t.free_body_only) props += ", one free body only";
     const std::string name(t.name);
-    out += "  " + name + std::string(width - name.size(), ' ') + props + "\n" + std::string(2 + width, ' ') +
-           t.summary + "\n";
+    out.append("  ").append(name).append(width - name.size(), ' ').append(props).append("\n");
+    out.append(2 + width, ' ').append(t.summary).append("\n");
   }
   return out + "\n";
 }

@@ -47,12 +47,10 @@ constexpr std::array<MethodTraits, sizeof...(S)> traits_of(StepperList<S...> /*l
 /// make.template operator()<S>() for the index-th class S of the list.
 template <std::size_t K, template <class> class S, template <class> class... Rest, class Make>
 decltype(auto) dispatch_at(std::size_t index, Make& make) {
-  if constexpr (sizeof...(Rest) == 0)
-    return make.template operator()<S>();
-  else if (index == K)
-    return make.template operator()<S>();
-  else
-    return dispatch_at<K + 1, Rest...>(index, make);
+  if constexpr (sizeof...(Rest) > 0) {
+    if (index != K) return dispatch_at<K + 1, Rest...>(index, make);
+  }
+  return make.template operator()<S>();
 }
 
 template <template <class> class... S, class Make>
