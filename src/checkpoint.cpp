@@ -305,13 +305,13 @@ CheckpointFields read_fields(const std::string& path, const std::string& bytes, 
       switch (static_cast<CheckpointFields::Type>(type)) {
         case CheckpointFields::Type::F64: {
           std::vector<double> v(un);
-          std::memcpy(v.data(), data, 8 * un);
+          if (un > 0) std::memcpy(v.data(), data, 8 * un);  // an empty vector's data() may be null
           f.put_f64(name, std::move(v));
           break;
         }
         case CheckpointFields::Type::I64: {
           std::vector<std::int64_t> v(un);
-          std::memcpy(v.data(), data, 8 * un);
+          if (un > 0) std::memcpy(v.data(), data, 8 * un);
           f.put_i64(name, std::move(v));
           break;
         }
