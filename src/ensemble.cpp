@@ -9,6 +9,7 @@
 #include "run.hpp"
 #include "simulation.hpp"
 #include "summary.hpp"
+#include "toml_reader.hpp"
 #include "toml_writer.hpp"
 #include "trajectory_sink.hpp"
 
@@ -112,44 +113,6 @@ std::string csv_field(const std::string& s) {
 // ---------------------------------------------------------------------------
 // The sweep file
 
-class SweepReader {
- public:
-  explicit SweepReader(std::string file) : file_(std::move(file)) {}
-  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
-    throw InvalidInput(file_ + ": " + (key.empty() ? "" : "key '" + key + "': ") + what);
-  }
-  void only_keys(const toml::table& t, const std::string& prefix, std::initializer_list<std::string_view> allowed) const {
-    for (const auto& [k, v] : t) {
-      (void)v;
-      if (std::find(allowed.begin(), allowed.end(), k.str()) == allowed.end()) {
-        std::string list;
-        for (auto a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
-        fail(prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str()), "unknown key; allowed: " + list);
-      }
-    }
-  }
-  double number(const toml::node& n, const std::string& key) const {
-    if (!n.is_number()) fail(key, "must be a number");
-    const double v = n.is_integer() ? static_cast<double>(n.as_integer()->get()) : n.as_floating_point()->get();
-    if (!std::isfinite(v)) fail(key, "must be finite");
-    return v;
-  }
-  /// A number or an array of numbers; `scalar` says which it was.
-  std::vector<double> numbers(const toml::node& n, const std::string& key, bool& scalar) const {
-    scalar = n.is_number();
-    if (scalar) return {number(n, key)};
-    const toml::array* a = n.as_array();
-    if (!a || a->empty()) fail(key, "must be a number or a non-empty array of numbers");
-    std::vector<double> v;
-    for (std::size_t i = 0; i < a->size(); ++i) v.push_back(number(*a->get(i), key + "[" + std::to_string(i) + "]"));
-    return v;
-  }
-  const std::string& file() const { return file_; }
-
- private:
-  std::string file_;
-};
-
 std::vector<std::string> split_key(const std::string& key) {
   std::vector<std::string> parts;
   std::stringstream ss(key);
@@ -186,7 +149,7 @@ toml::table* key_table(toml::table& root, const std::vector<std::string>& parts,
   return t;
 }
 
-VarySpec read_vary(const SweepReader& r, const toml::table& v, std::size_t index, bool& random) {
+VarySpec read_vary(const TomlReader& r, const toml::table& v, std::size_t index, bool& random) {
   const std::string p = "vary[" + std::to_string(index) + "]";
   r.only_keys(v, p, {"key", "normal", "uniform", "values", "rotation"});
   VarySpec s;
@@ -352,7 +315,7 @@ std::string EnsemblePlan::member_toml(std::int64_t i) const {
 /// columns and the format): for a plan whose members were checked already.
 static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std::string& name, const std::string& base_dir,
                                  const std::string* scenario_text, bool check_members = true) {
-  const SweepReader r(name);
+  const TomlReader r(name);
   toml::table root;
   try {
     root = toml::parse(sweep_text, name);

@@ -7,7 +7,7 @@
 #include <string>
 #include <string_view>
 
-#include "scenario.hpp"
+#include "toml_reader.hpp"
 
 namespace lgvi::app {
 

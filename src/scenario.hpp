@@ -138,8 +138,4 @@ const char* to_string(OnContact c);
 std::string describe_reach(const System& system, const Contact& c);
 const char* to_string(Method m);
 
-/// User text echoed in a message, with control characters escaped so that
-/// every message stays one line.
-std::string printable(std::string_view text);
-
 }  // namespace lgvi::app
