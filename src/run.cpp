@@ -72,9 +72,12 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
   std::unique_ptr<TrajectorySink> sink;
   try {
     fs::create_directories(dir);
-    // A summary left by an earlier run must not describe this one.
-    fs::remove(summary_path);
+    // A summary left by an earlier run must not describe this one. A resumed
+    // run keeps the summary of the run it continues until it writes its own,
+    // so that a resume refused below (a checkpoint field this lgvi cannot
+    // read) leaves the folder as it found it.
     if (!resume) {
+      fs::remove(summary_path);
       fs::remove(checkpoint_path);
       write_file_atomically((fs::path(dir) / "scenario.toml").string(), sc.source_text);
     }

@@ -244,10 +244,14 @@ def test_an_unknown_field_is_one_clear_error(tmp_path, new_checkpoint, name):
     field, whether the run's or the stepper's."""
     out, checkpoint = changed_copy(tmp_path, new_checkpoint,
                                    lambda d: write_fields(read_fields(d) + [(name, 1, 1, struct.pack("<d", 1.0))]))
+    before = {f.name: f.read_bytes() for f in out.iterdir()}
     proc = run("--resume", out)
     assert proc.returncode == 2, proc.stderr
     assert proc.stderr.count("\n") == 1, proc.stderr
     assert str(checkpoint) in proc.stderr and f"unknown checkpoint field '{name}'" in proc.stderr
+    # Refused: the folder is as it was (its summary still says where the run stopped), whether the
+    # field was refused on reading the file or by the stepper after the trajectory was reopened.
+    assert {f.name: f.read_bytes() for f in out.iterdir()} == before
 
 
 @pytest.mark.parametrize("missing", ["run.state", "sink.position", "stepper."])
