@@ -15,9 +15,7 @@ inline const InteractionDescriptor gravity_interaction{
     .read =
         [](const InteractionReader& r, InteractionSpec& spec) {
           spec.words["model"] = r.has("model") ? r.choice("model", {"balls", "inertia"}) : "balls";
-          const double G = r.number("G");
-          if (!(G > 0.0)) r.fail("G", "must be > 0 (the gravitational constant in the scenario's units)");
-          spec.numbers["G"] = G;
+          spec.numbers["G"] = r.positive("G", "the gravitational constant in the scenario's units");
         },
     .build = [](const System& system, const InteractionSpec& spec, Parallelism par) -> AnyMutualInteraction {
       if (spec.word("model") == "inertia") return MutualGravityInertia(system, spec.number("G"), par);

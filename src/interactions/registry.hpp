@@ -34,6 +34,19 @@ class InteractionReader {
   /// The key's string, one of `allowed`; fails otherwise.
   virtual std::string choice(std::string_view key, std::initializer_list<std::string_view> allowed) const = 0;
   [[noreturn]] virtual void fail(std::string_view key, const std::string& what) const = 0;
+
+  /// The key's number, which must be > 0; `meaning` (what it is) ends the message otherwise.
+  double positive(std::string_view key, const std::string& meaning) const {
+    const double v = number(key);
+    if (!(v > 0.0)) fail(key, "must be > 0 (" + meaning + ")");
+    return v;
+  }
+  /// The key's number, `fallback` if it is absent, which must be >= 0; `usual` (its usual value) ends the message.
+  double nonnegative_or(std::string_view key, double fallback, const std::string& usual) const {
+    const double v = has(key) ? number(key) : fallback;
+    if (!(v >= 0.0)) fail(key, "must be >= 0 (" + usual + ")");
+    return v;
+  }
 };
 
 /// One interaction kind.

@@ -15,12 +15,9 @@ inline const InteractionDescriptor wca_interaction{
     .keys = {"epsilon", "sigma", "skin"},
     .read =
         [](const InteractionReader& r, InteractionSpec& spec) {
-          const double epsilon = r.number("epsilon");
-          if (!(epsilon > 0.0)) r.fail("epsilon", "must be > 0 (the depth of the potential well)");
-          const double sigma = r.number("sigma");
-          if (!(sigma > 0.0)) r.fail("sigma", "must be > 0 (where the potential is zero)");
-          const double skin = r.has("skin") ? r.number("skin") : 0.3 * sigma;
-          if (!(skin >= 0.0)) r.fail("skin", "must be >= 0 (0.3 sigma is usual)");
+          const double epsilon = r.positive("epsilon", "the depth of the potential well");
+          const double sigma = r.positive("sigma", "where the potential is zero");
+          const double skin = r.nonnegative_or("skin", 0.3 * sigma, "0.3 sigma is usual");
           spec.numbers = {{"epsilon", epsilon}, {"sigma", sigma}, {"skin", skin}};
         },
     .build = [](const System& system, const InteractionSpec& spec, Parallelism par) -> AnyMutualInteraction {
