@@ -55,8 +55,7 @@ inline constexpr const char* smaller_step_hint_pi =
     "take a smaller step, so that the rotation |Omega| h per step stays well below pi";
 
 /// Solves a r = y for a 3x3 matrix by its adjugate (Cramer's rule): about 40
-/// flops and one division, several times faster than a general LU at this
-/// size. A singular or non-finite system gives non-finite values, which the
+/// flops and one division (docs/tuning.md). A singular or non-finite system gives non-finite values, which the
 /// solvers report as a failed step. x = a^{-1} y, for T double or SIMD lanes
 /// of doubles (RotationSolveBatch): one operation order for both.
 template <class T>

@@ -187,10 +187,7 @@ class S3 {
   /// expression, as in Eigen's cross(), and the products q_s u separate
   /// statements, as Eigen's functors are: a compiler that fuses multiply-adds
   /// only within an expression (Clang's default) then fuses the same ones in
-  /// both. Always inlined: GCC kept this one out of line too, called per
-  /// body several times a step (the wrench, the momentum update, the run's
-  /// diagnostics), and inlined, the Lennard-Jones gas's run took 2.5 % less
-  /// user time (the same operations, so the same results).
+  /// both. Always inlined (a hot path GCC kept out of line; docs/tuning.md).
   [[gnu::always_inline]] Tangent act(const Tangent& v) const {
     const Scalar qs = q_.w(), qx = q_.x(), qy = q_.y(), qz = q_.z();
     Scalar ux = qy * v.z() - qz * v.y(), uy = qz * v.x() - qx * v.z(), uz = qx * v.y() - qy * v.x();

@@ -36,8 +36,8 @@
 // A pair within r_c now is in the lists (the skin's argument) and was within
 // r_c + delta at the pruning (each site has moved at most delta/2 since), so
 // no pair within r_c is missed. Results do not depend on it (pairs beyond r_c
-// add exact zeros, below). The README's section on the Lennard-Jones gas gives
-// the measured fractions of pairs and costs.
+// add exact zeros, below). The measured fractions of pairs and costs are in
+// the README's section on the Lennard-Jones gas and in docs/tuning.md.
 //
 // Half lists (as LAMMPS with newton on): each pair is in the list of its
 // lower site only (the sites of higher bodies within r_c + skin). One pass
@@ -637,13 +637,11 @@ class PairInteraction {
     };
     // First ranges of about equal pairs; then, as a crossing body's terms
     // are computed before the barrier by all threads, ranges of about equal
-    // work after it: a pair costs its sum, and its terms if its body does not
-    // cross (gathering the separations and the vectorized terms take about
-    // twice the sums' time in a profile of one thread; weights 2 and 4 gave
-    // 1 % more and 1 % less time at N = 1000 on 2 threads, 1 % more each at
-    // 10^4). Which bodies cross is taken from the first split; the second
-    // moves its bounds a little, and the crossing bodies are then found
-    // again for it (an estimate: results do not depend on the split).
+    // work after it: a pair costs 1 for its sum, and 2 more for its terms if
+    // its body does not cross (the weights' measurement: docs/tuning.md). Which
+    // bodies cross is taken from the first split; the second moves its
+    // bounds a little, and the crossing bodies are then found again for it
+    // (an estimate: results do not depend on the split).
     // Split at a build, kept at the prunings in between (the lists shrink
     // about alike everywhere), which saves their serial cost.
     if (new_ranges || range_bounds_.size() != static_cast<std::size_t>(threads) + 1) {
@@ -725,9 +723,8 @@ class PairInteraction {
   mutable Vector3<double> origin_ = Vector3<double>::Zero(), inv_cell_ = Vector3<double>::Ones();
   mutable std::array<std::int64_t, 3> dims_{1, 1, 1};
   /// The pruned lists hold the pairs within r_c + delta, delta =
-  /// prune_fraction * skin. Measured in the benchmarks' gas (lgvi run, one
-  /// thread, medians of 5 runs, us per step): 1/5 318.5, 1/4 311.0, 1/3
-  /// 311.9, 2/5 324.5, 1/2 317.3, 1 (pruning to the outer lists) 324.4.
+  /// prune_fraction * skin (any fraction in (0, 1] gives the same results;
+  /// this one was the fastest measured, docs/tuning.md).
   static constexpr double prune_fraction = 1.0 / 3.0;
   /// The lists are built in this many chunks of bodies (fixed, so that the
   /// work split does not depend on the threads; enough for load balance).
@@ -735,7 +732,7 @@ class PairInteraction {
   /// Cells are at least reach / cells_per_reach wide (reach = r_c + skin): a
   /// body's candidates are in the cells that meet its sites' bounding box
   /// extended by reach, a volume closer to that box's than with cells of
-  /// side reach (measured: 3 is no faster than 2 in the benchmarks' gas).
+  /// side reach (docs/tuning.md).
   static constexpr double cells_per_reach = 2.0;
   mutable std::vector<std::size_t> cell_index_, cell_start_, fill_, sorted_, list_start_, neighbours_;
   mutable std::vector<double> cell_x_, cell_y_, cell_z_;  ///< the sites' positions in cell order

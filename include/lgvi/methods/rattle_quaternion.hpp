@@ -37,10 +37,9 @@
 //   w1 = Im(q1^* ((4/h) q0 (0, J a) + h q1 (0, M1))),
 // equal to the LGVI's (4/h)(f_s J f_v - f_v x J f_v) + h M1. This literal
 // form takes (4/h) times the solve's residual into w1, as lgvi.hpp notes for
-// the paper's formula: on the paper's orbit (h = 0.01, 1e5 steps) the
-// angular momentum wanders by 6.6e-13 relative, against 1.1e-13 if w1 were
-// taken in the LGVI's rotated form pi(f)^T (w0 + h M0) + h M1 (measured, not
-// adopted: this class keeps Wendlandt & Marsden's D2 L_d). The translational
+// the paper's formula; this class keeps Wendlandt & Marsden's D2 L_d rather
+// than the LGVI's rotated form pi(f)^T (w0 + h M0) + h M1 (the difference in
+// angular momentum, measured: docs/tuning.md). The translational
 // part is the LGVI's (x1 = x0 + (h/m)(p0 + h/2 F0), p1 = p0 + h/2 (F0 + F1)).
 // Same L_d, same equations on the constraint: the same trajectory as the
 // LGVI, to rounding. Unlike the LGVI, q1 comes out of the solve rather than a
