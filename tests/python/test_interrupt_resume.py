@@ -226,6 +226,18 @@ def changed_copy(tmp_path, new_checkpoint, change):
     return out, checkpoint
 
 
+def refused(out, checkpoint, message):
+    """`lgvi run --resume OUT` refuses the damaged checkpoint: exit 2, one line naming the file and
+    `message`, and the folder as it was (its summary still says where the run stopped), whether the
+    damage is found on reading the file or by the stepper after the trajectory was reopened."""
+    before = {f.name: f.read_bytes() for f in out.iterdir()}
+    proc = run("--resume", out)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.count("\n") == 1, proc.stderr
+    assert str(checkpoint) in proc.stderr and message in proc.stderr, proc.stderr
+    assert {f.name: f.read_bytes() for f in out.iterdir()} == before
+
+
 def test_a_checkpoint_is_named_typed_fields(new_checkpoint):
     fields = read_fields((new_checkpoint / "checkpoint.bin").read_bytes())
     names = [f[0] for f in fields]
@@ -244,14 +256,7 @@ def test_an_unknown_field_is_one_clear_error(tmp_path, new_checkpoint, name):
     field, whether the run's or the stepper's."""
     out, checkpoint = changed_copy(tmp_path, new_checkpoint,
                                    lambda d: write_fields(read_fields(d) + [(name, 1, 1, struct.pack("<d", 1.0))]))
-    before = {f.name: f.read_bytes() for f in out.iterdir()}
-    proc = run("--resume", out)
-    assert proc.returncode == 2, proc.stderr
-    assert proc.stderr.count("\n") == 1, proc.stderr
-    assert str(checkpoint) in proc.stderr and f"unknown checkpoint field '{name}'" in proc.stderr
-    # Refused: the folder is as it was (its summary still says where the run stopped), whether the
-    # field was refused on reading the file or by the stepper after the trajectory was reopened.
-    assert {f.name: f.read_bytes() for f in out.iterdir()} == before
+    refused(out, checkpoint, f"unknown checkpoint field '{name}'")
 
 
 @pytest.mark.parametrize("missing", ["run.state", "sink.position", "stepper."])
@@ -260,20 +265,14 @@ def test_a_missing_field_is_one_clear_error(tmp_path, new_checkpoint, missing):
     dropped = next(f[0] for f in fields if f[0].startswith(missing))
     out, checkpoint = changed_copy(tmp_path, new_checkpoint,
                                    lambda d: write_fields([f for f in read_fields(d) if f[0] != dropped]))
-    proc = run("--resume", out)
-    assert proc.returncode == 2, proc.stderr
-    assert proc.stderr.count("\n") == 1, proc.stderr
-    assert str(checkpoint) in proc.stderr and f"checkpoint field '{dropped}' is missing" in proc.stderr
+    refused(out, checkpoint, f"checkpoint field '{dropped}' is missing")
 
 
 def test_a_truncated_field_is_one_clear_error(tmp_path, new_checkpoint):
     data = (new_checkpoint / "checkpoint.bin").read_bytes()
     end = data.index(b"run.state") + len("run.state") + 24 + 20  # 20 bytes into the state's values
     out, checkpoint = changed_copy(tmp_path, new_checkpoint, lambda d: d[:end])
-    proc = run("--resume", out)
-    assert proc.returncode == 2, proc.stderr
-    assert proc.stderr.count("\n") == 1, proc.stderr
-    assert str(checkpoint) in proc.stderr and "checkpoint field 'run.state' is truncated" in proc.stderr
+    refused(out, checkpoint, "checkpoint field 'run.state' is truncated")
 
 
 def test_a_field_of_the_wrong_size_is_one_clear_error(tmp_path, new_checkpoint):
@@ -281,10 +280,7 @@ def test_a_field_of_the_wrong_size_is_one_clear_error(tmp_path, new_checkpoint):
         return write_fields([(n, k, c - 1, p[:-8]) if n == "run.step" else (n, k, c, p)
                              for n, k, c, p in read_fields(data)])
     out, checkpoint = changed_copy(tmp_path, new_checkpoint, shorten)
-    proc = run("--resume", out)
-    assert proc.returncode == 2, proc.stderr
-    assert proc.stderr.count("\n") == 1, proc.stderr
-    assert str(checkpoint) in proc.stderr and "checkpoint field 'run.step' holds 0 values, expected 1" in proc.stderr
+    refused(out, checkpoint, "checkpoint field 'run.step' holds 0 values, expected 1")
 
 
 def test_a_count_whose_size_wraps_around_is_one_clear_error(tmp_path, new_checkpoint):
@@ -294,7 +290,4 @@ def test_a_count_whose_size_wraps_around_is_one_clear_error(tmp_path, new_checkp
         return write_fields([(n, k, 2**61 + 1, p) if n == "run.step" else (n, k, c, p)
                              for n, k, c, p in read_fields(data)])
     out, checkpoint = changed_copy(tmp_path, new_checkpoint, damage)
-    proc = run("--resume", out)
-    assert proc.returncode == 2, proc.stderr
-    assert proc.stderr.count("\n") == 1, proc.stderr
-    assert str(checkpoint) in proc.stderr and "checkpoint field 'run.step' is damaged" in proc.stderr
+    refused(out, checkpoint, "checkpoint field 'run.step' is damaged")
