@@ -66,8 +66,11 @@ struct TrajectoryLayout {
   int columns = trajectory_columns;
   std::int64_t bodies = 0;  ///< 0: the single-body layout, 2-D arrays; N >= 1: the long layout
   /// The bodies' shapes, one per row of a step: needed by the particle
-  /// exports (xyz, vtk) only; the other formats ignore them.
+  /// exports (xyz, vtk, lammps-dump) only; the other formats ignore them.
   std::vector<BodyShape> shapes = {};
+  /// The time step h, by which the LAMMPS dump numbers its frames' steps
+  /// (round(t / h)); 0 if unknown, then they are numbered by output index.
+  double step = 0.0;
 
   static TrajectoryLayout single_body(bool forced = false) {
     if (forced) return {forced_trajectory_header, trajectory_columns + 1, 0};

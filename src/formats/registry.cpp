@@ -10,12 +10,12 @@
 
 namespace lgvi::app {
 
-extern const FormatDescriptor csv_format, npz_format, hdf5_format, xyz_format, vtk_format;
+extern const FormatDescriptor csv_format, npz_format, hdf5_format, xyz_format, vtk_format, lammps_dump_format;
 
 namespace {
 // The order of [output] format's list, --help and lgvi.FORMATS; the first is the default.
-const std::array<const FormatDescriptor*, 5> registered_formats{&csv_format, &npz_format, &hdf5_format,
-                                                                &xyz_format, &vtk_format};
+const std::array<const FormatDescriptor*, 6> registered_formats{&csv_format, &npz_format, &hdf5_format,
+                                                                &xyz_format, &vtk_format, &lammps_dump_format};
 }  // namespace
 
 std::span<const FormatDescriptor* const> trajectory_formats() { return registered_formats; }

@@ -95,7 +95,7 @@ def test_docstrings_list_the_tables():
     doc = lgvi.Scenario.__doc__
     assert _between(doc, "``method`` one of lgvi.METHODS", "``solver``") == core.METHODS
     assert _between(doc, "``output_format`` for the CLI", "``name``") == core.FORMATS
-    assert _between(lgvi.Scenario.output_format.__doc__, "format:", "(ParaView)") == core.FORMATS
+    assert _between(lgvi.Scenario.output_format.__doc__, "format:", "(LAMMPS)") == core.FORMATS
 
 
 def _readme_setting(key, table_line):
