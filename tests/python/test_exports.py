@@ -368,57 +368,19 @@ def test_lammps_dump_frames_equal_the_csv_run(runs):
     assert frames[-1][0] == 300  # the last step is written: 3.0 / 0.01
 
 
-TWINS = """
-[[bodies]]
-name = "a"
-position = [0.0, 0.0, 0.0]
-quaternion = [1.0, 0.0, 0.0, 0.0]
-momentum = [0.0, 0.0, 0.0]
-omega = [0.0, 0.0, 0.0]
-[[bodies.ball]]
-position = [0.0, 0.0, 0.0]
-mass = 1.0
-radius = 0.3
-[[bodies.ball]]
-position = [0.7, 0.0, 0.0]
-mass = 0.5
-radius = 0.2
+def molecule(name, x, balls):
+    """A [[bodies]] entry at rest at x, made of balls [(body-frame position, mass, radius)]."""
+    text = (f'[[bodies]]\nname = "{name}"\nposition = {x}\nquaternion = [1.0, 0.0, 0.0, 0.0]\n'
+            "momentum = [0.0, 0.0, 0.0]\nomega = [0.0, 0.0, 0.0]\n")
+    for position, mass, radius in balls:
+        text += f"[[bodies.ball]]\nposition = {position}\nmass = {mass}\nradius = {radius}\n"
+    return text
 
-[[bodies]]
-name = "b"
-position = [3.0, 0.0, 0.0]
-quaternion = [1.0, 0.0, 0.0, 0.0]
-momentum = [0.0, 0.0, 0.0]
-omega = [0.0, 0.0, 0.0]
-[[bodies.ball]]
-position = [0.0, 0.0, 0.0]
-mass = 1.0
-radius = 0.3
-[[bodies.ball]]
-position = [0.7, 0.0, 0.0]
-mass = 0.5
-radius = 0.2
 
-[[bodies]]
-name = "c"
-position = [0.0, 3.0, 0.0]
-quaternion = [1.0, 0.0, 0.0, 0.0]
-momentum = [0.0, 0.0, 0.0]
-omega = [0.0, 0.0, 0.0]
-[[bodies.ball]]
-position = [0.0, 0.0, 0.0]
-mass = 1.0
-radius = 0.2
-
-[potential]
-kind = "none"
-
-[integrator]
-step = 0.01
-duration = 0.1
-
-[output]
-"""
+PAIR = [([0.0, 0.0, 0.0], 1.0, 0.3), ([0.7, 0.0, 0.0], 0.5, 0.2)]
+TWINS = (molecule("a", [0.0, 0.0, 0.0], PAIR) + molecule("b", [3.0, 0.0, 0.0], PAIR)
+         + molecule("c", [0.0, 3.0, 0.0], [([0.0, 0.0, 0.0], 1.0, 0.2)])
+         + '[potential]\nkind = "none"\n\n[integrator]\nstep = 0.01\nduration = 0.1\n\n[output]\n')
 
 
 def test_lammps_dump_types_are_shared_by_equal_radii(tmp_path):
