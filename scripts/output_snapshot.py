@@ -9,7 +9,7 @@ between two builds (a refactor must leave them unchanged):
 
 With --all, also every many-body ([[bodies]]) and forced ([[forcing]])
 scenario, under every method and in every trajectory format (xyz and vtk
-too): the set a refactor of the library's internals is compared on (tests/reference holds
+and lammps-dump too): the set a refactor of the library's internals is compared on (tests/reference holds
 hashes of the default set only, which tests/python/test_single_body_outputs.py
 checks).
 
@@ -40,7 +40,7 @@ def blank_wall(text):
 def variants(path, every_format=False):
     text = path.read_text()
     free = 'kind = "none"' in text
-    formats = ("csv", "npz", "hdf5", "xyz", "vtk") if every_format else ("csv", "npz", "hdf5")
+    formats = ("csv", "npz", "hdf5", "xyz", "vtk", "lammps-dump") if every_format else ("csv", "npz", "hdf5")
     for method in METHODS:
         if method == "exact" and not free:
             continue

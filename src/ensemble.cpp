@@ -2,7 +2,6 @@
 // draws, one member's run and row, the journal, and the threads runner.
 #include "ensemble.hpp"
 
-#include "formats/formats.hpp"
 #include "json_io.hpp"
 
 #include "output.hpp"
@@ -577,7 +576,8 @@ void write_members(const std::string& dir, const EnsemblePlan& plan, const std::
   for (const std::string& r : rows)
     if (!r.empty()) text += r + "\n";
   write_file_atomically((fs::path(dir) / "members.csv").string(), text);
-  if (plan.output_format != TrajectoryFormat::Npz && plan.output_format != TrajectoryFormat::Hdf5) return;
+  const FormatDescriptor& format = plan.output_format.descriptor();
+  if (!format.write_table) return;
   // The same table as arrays, parsed from the rows just written.
   using Kind = ColumnTable::Column::Kind;
   ColumnTable table;
@@ -604,10 +604,7 @@ void write_members(const std::string& dir, const EnsemblePlan& plan, const std::
         c.numbers.push_back(std::strtod(f[k].c_str(), nullptr));  // {:.17g}: the same double; "nan" is NaN
     }
   }
-  if (plan.output_format == TrajectoryFormat::Npz)
-    write_npz_table((fs::path(dir) / "members.npz").string(), table);
-  else
-    write_hdf5_table((fs::path(dir) / "members.h5").string(), table);
+  format.write_table((fs::path(dir) / format.table_file_name).string(), table);
 }
 
 bool row_failed(const std::string& row, const EnsemblePlan& plan) {

@@ -59,7 +59,7 @@ struct EnsemblePlan {
   /// conserve (a forcing or an external field; conservation_laws), as
   /// summary.json's conserved.changes_not_errors says for one run.
   std::vector<std::string> changes_not_errors;
-  TrajectoryFormat output_format = TrajectoryFormat::Csv;  ///< the base scenario's: members.npz / .h5 beside the CSV
+  TrajectoryFormat output_format;  ///< the base scenario's: its members table (members.npz, .h5) beside the CSV
 
   std::int64_t members() const { return static_cast<std::int64_t>(varied.size()); }
   /// Member i's scenario as TOML text (the base with the varied values written in).

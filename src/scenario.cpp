@@ -933,14 +933,11 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
       if (every < 1) r.fail("output.every", "must be an integer >= 1");
     }
   }
-  TrajectoryFormat format = TrajectoryFormat::Csv;
+  TrajectoryFormat format;
   if (const toml::table* out = root.get_as<toml::table>("output"); out && out->contains("format")) {
-    static_assert(std::size(format_names) == 5, "list every format below");
-    const std::string f = r.string(*out, "output", "format",
-                                   {format_names[0].second, format_names[1].second, format_names[2].second,
-                                    format_names[3].second, format_names[4].second});
-    for (const auto& [kind, name] : format_names)
-      if (f == name) format = kind;
+    std::vector<std::string_view> names;
+    for (const FormatDescriptor* d : trajectory_formats()) names.push_back(d->name);
+    format = TrajectoryFormat::named(r.string(*out, "output", "format", names));
   }
   const std::string stem = std::filesystem::path(name).stem().string();
   Scenario sc;

@@ -12,7 +12,7 @@
 #include <lgvi/system.hpp>
 
 #include "method.hpp"
-#include "trajectory_sink.hpp"
+#include "formats/registry.hpp"
 
 #include <cstdint>
 #include <functional>
@@ -90,7 +90,7 @@ struct Scenario {
   bool on_contact_given = false;             ///< whether [run] on_contact was given
   IntegratorSpec integrator;
   std::int64_t output_every = 1;
-  TrajectoryFormat output_format = TrajectoryFormat::Csv;
+  TrajectoryFormat output_format;  ///< [output] format (default csv)
   std::string source_text;  ///< the TOML text it was read from
 
   /// Body 0 and its initial state: the body of a single-body scenario.

@@ -77,6 +77,7 @@ TrajectoryLayout scenario_layout(const Scenario& s) {
                                 ? TrajectoryLayout::long_format(static_cast<std::int64_t>(s.bodies()), forced)
                                 : TrajectoryLayout::single_body(forced);
   if (!holds_columns(s.output_format)) layout.shapes = body_shapes(s.system);
+  layout.step = s.integrator.step;
   return layout;
 }
 

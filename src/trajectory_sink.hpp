@@ -1,7 +1,7 @@
-// Where a run's trajectory rows go: CSV, npz or HDF5 files, the particle
-// exports for OVITO (extended XYZ) and ParaView (VTK XML) (and, for the
-// Python package, memory). One interface, so that the run loop, checkpoints
-// and resume do not depend on the format.
+// Where a run's trajectory rows go: the columns and layout of the rows, and
+// the interface every format's sink implements (the formats and their
+// registry: formats/; for the Python package, memory). One interface, so that
+// the run loop, checkpoints and resume do not depend on the format.
 #pragma once
 
 #include <array>
@@ -66,8 +66,11 @@ struct TrajectoryLayout {
   int columns = trajectory_columns;
   std::int64_t bodies = 0;  ///< 0: the single-body layout, 2-D arrays; N >= 1: the long layout
   /// The bodies' shapes, one per row of a step: needed by the particle
-  /// exports (xyz, vtk) only; the other formats ignore them.
+  /// exports (xyz, vtk, lammps-dump) only; the other formats ignore them.
   std::vector<BodyShape> shapes = {};
+  /// The time step h, by which the LAMMPS dump numbers its frames' steps
+  /// (round(t / h)); 0 if unknown, then they are numbered by output index.
+  double step = 0.0;
 
   static TrajectoryLayout single_body(bool forced = false) {
     if (forced) return {forced_trajectory_header, trajectory_columns + 1, 0};
@@ -105,37 +108,5 @@ class TrajectorySink {
   /// summary.json). Throws std::runtime_error on a write error.
   virtual void close(const std::string& scenario_toml, const std::string& summary_json) = 0;
 };
-
-enum class TrajectoryFormat { Csv, Npz, Hdf5, Xyz, Vtk };
-
-/// Every format with its scenario name (`[output] format`), in display order.
-inline constexpr std::pair<TrajectoryFormat, const char*> format_names[] = {
-    {TrajectoryFormat::Csv, "csv"}, {TrajectoryFormat::Npz, "npz"}, {TrajectoryFormat::Hdf5, "hdf5"},
-    {TrajectoryFormat::Xyz, "xyz"}, {TrajectoryFormat::Vtk, "vtk"}};
-
-/// The scenario name of a format ("csv", ..., "vtk").
-const char* to_string(TrajectoryFormat f);
-
-/// Whether the format holds the trajectory's columns (csv, npz, hdf5), which
-/// lgvi.load and the figures read; the others (xyz, vtk) are exports of the
-/// bodies' spheres for viewers, not for analysis.
-constexpr bool holds_columns(TrajectoryFormat f) {
-  return f == TrajectoryFormat::Csv || f == TrajectoryFormat::Npz || f == TrajectoryFormat::Hdf5;
-}
-
-/// The file name of the trajectory in a run folder for each format.
-const char* trajectory_file_name(TrajectoryFormat f);
-
-/// Opens a new trajectory file (truncating), or, with `resume`, reopens one
-/// and truncates it back to that position to append. Throws
-/// std::runtime_error naming the file on failure.
-std::unique_ptr<TrajectorySink> open_trajectory(TrajectoryFormat format, const std::string& path,
-                                                const TrajectoryLayout& layout = {},
-                                                const SinkPosition* resume = nullptr);
-/// The single-body layout.
-inline std::unique_ptr<TrajectorySink> open_trajectory(TrajectoryFormat format, const std::string& path,
-                                                       const SinkPosition* resume) {
-  return open_trajectory(format, path, TrajectoryLayout::single_body(), resume);
-}
 
 }  // namespace lgvi::app

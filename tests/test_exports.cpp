@@ -4,7 +4,7 @@
 // contents against a real run are checked by tests/python/test_exports.py
 // (with VTK's own reader).
 #include "formats/particles.hpp"
-#include "trajectory_sink.hpp"
+#include "formats/registry.hpp"
 
 #include <gtest/gtest.h>
 
@@ -27,6 +27,9 @@ using lgvi::app::TrajectoryFormat;
 using lgvi::app::TrajectoryLayout;
 using lgvi::app::TrajectorySink;
 namespace fs = std::filesystem;
+
+// The particle exports by their registered names (formats/registry.cpp).
+const TrajectoryFormat Xyz = TrajectoryFormat::named("xyz"), Vtk = TrajectoryFormat::named("vtk");
 
 /// Two bodies: three balls, and one body given by mass and inertia.
 TrajectoryLayout two_bodies() {
@@ -122,7 +125,7 @@ TEST_P(ExportFormatTest, ResumeAfterCrashIsByteIdentical) {
   sink->close("scenario", "{}");
   sink.reset();
   const auto a = contents("a"), b = contents("b");
-  EXPECT_EQ(a.size(), GetParam() == TrajectoryFormat::Xyz ? 1u : 1u + steps);  // the .pvd and one .vtp a step
+  EXPECT_EQ(a.size(), GetParam() == Xyz ? 1u : 1u + steps);  // the .pvd and one .vtp a step
   EXPECT_TRUE(a == b) << "the resumed export differs from the uninterrupted one";
 }
 
@@ -177,7 +180,7 @@ TEST_P(ExportFormatTest, UnwritablePathThrowsNamingIt) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Formats, ExportFormatTest, ::testing::Values(TrajectoryFormat::Xyz, TrajectoryFormat::Vtk),
+INSTANTIATE_TEST_SUITE_P(Formats, ExportFormatTest, ::testing::Values(Xyz, Vtk),
                          [](const ::testing::TestParamInfo<TrajectoryFormat>& info) {
                            return std::string(lgvi::app::to_string(info.param));  // xyz, vtk
                          });

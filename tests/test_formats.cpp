@@ -1,11 +1,11 @@
-// Trajectory file formats (src/trajectory_sink.hpp, src/formats/): written by
+// Trajectory file formats (src/formats/, the sink interface src/trajectory_sink.hpp): written by
 // the formats' writers, read back independently: the CSV parsed with
 // from_chars, the npz by a small ZIP and .npy reader below (with its own
 // CRC-32), the HDF5 file with the HDF5 C API.
 //
 // FormatSamples.Write writes sample files for tests/python/test_formats.py
 // (numpy and h5py read them) when LGVI_FORMAT_SAMPLES_DIR is set.
-#include "trajectory_sink.hpp"
+#include "formats/registry.hpp"
 
 #include <gtest/gtest.h>
 
@@ -15,6 +15,7 @@
 #endif
 
 #include <bit>
+#include <cctype>
 #include <cfloat>
 #include <charconv>
 #include <cstdint>
@@ -39,6 +40,10 @@ using lgvi::app::SinkPosition;
 using lgvi::app::TrajectoryFormat;
 using lgvi::app::TrajectorySink;
 namespace fs = std::filesystem;
+
+// The formats by their registered names (formats/registry.cpp).
+const TrajectoryFormat Csv = TrajectoryFormat::named("csv"), Npz = TrajectoryFormat::named("npz"),
+                       Hdf5 = TrajectoryFormat::named("hdf5");
 
 constexpr int columns = lgvi::app::trajectory_columns;
 
@@ -453,25 +458,17 @@ Trajectory read_hdf5(const std::string&, Hdf5Layout* = nullptr) {
 // ---- all formats ------------------------------------------------------------
 
 Trajectory read_back(TrajectoryFormat f, const std::string& path) {
-  switch (f) {
-    case TrajectoryFormat::Csv: return read_csv(path);
-    case TrajectoryFormat::Npz: return read_npz(path);
-    case TrajectoryFormat::Hdf5: return read_hdf5(path);
-    case TrajectoryFormat::Xyz:
-    case TrajectoryFormat::Vtk: break;  // the particle exports hold sites, not these columns: test_exports.cpp
-  }
-  throw std::logic_error("format");
+  if (f == Csv) return read_csv(path);
+  if (f == Npz) return read_npz(path);
+  if (f == Hdf5) return read_hdf5(path);
+  throw std::logic_error("format");  // the particle exports hold sites, not these columns: test_exports.cpp
 }
 
+/// "Csv", "Npz", "Hdf5": the test names' suffixes.
 std::string format_name(TrajectoryFormat f) {
-  switch (f) {
-    case TrajectoryFormat::Csv: return "Csv";
-    case TrajectoryFormat::Npz: return "Npz";
-    case TrajectoryFormat::Hdf5: return "Hdf5";
-    case TrajectoryFormat::Xyz: return "Xyz";
-    case TrajectoryFormat::Vtk: return "Vtk";
-  }
-  return "?";
+  std::string name = lgvi::app::to_string(f);
+  name[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(name[0])));
+  return name;
 }
 
 /// Compares bit patterns: -0.0 differs from 0.0.
@@ -495,7 +492,7 @@ bool bitwise_equal(const std::vector<double>& a, const std::vector<double>& b) {
 class TrajectoryFormatTest : public ::testing::TestWithParam<TrajectoryFormat> {
  protected:
   std::string path() const { return dir_.file(lgvi::app::trajectory_file_name(GetParam())); }
-  bool stores_texts() const { return GetParam() != TrajectoryFormat::Csv; }
+  bool stores_texts() const { return GetParam() != Csv; }
 
   /// Writes rows [0, rows) without interruption and closes.
   void write_reference(const std::string& file, std::int64_t rows) const {
@@ -506,7 +503,7 @@ class TrajectoryFormatTest : public ::testing::TestWithParam<TrajectoryFormat> {
 
   /// After a resume from `resume`, the result is the same as an uninterrupted write.
   void expect_same_as_reference(const std::string& reference) const {
-    if (GetParam() == TrajectoryFormat::Hdf5) {
+    if (GetParam() == Hdf5) {
       const Trajectory a = read_back(GetParam(), path()), b = read_back(GetParam(), reference);
       EXPECT_EQ(a.rows, b.rows);
       EXPECT_TRUE(bitwise_equal(a.values, b.values));
@@ -559,7 +556,7 @@ TEST_P(TrajectoryFormatTest, ResumeAfterCrashGivesTheUninterruptedResult) {
     write_rows(*sink, synced, synced + 1000, 7.0);  // different values, discarded by the resume
     // Destroyed without close(), as when a run dies: the file stays mid-way.
   }
-  if (GetParam() == TrajectoryFormat::Npz) {
+  if (GetParam() == Npz) {
     EXPECT_ANY_THROW(read_npz(path())) << "not a ZIP archive before close(): no central directory yet";
   }
 
@@ -629,7 +626,7 @@ TEST_P(TrajectoryFormatTest, UnwritablePathThrowsNamingIt) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Formats, TrajectoryFormatTest,
-                         ::testing::Values(TrajectoryFormat::Csv, TrajectoryFormat::Npz, TrajectoryFormat::Hdf5),
+                         ::testing::Values(Csv, Npz, Hdf5),
                          [](const ::testing::TestParamInfo<TrajectoryFormat>& info) { return format_name(info.param); });
 
 // ---- npz specifics ----------------------------------------------------------
@@ -640,7 +637,7 @@ TEST(NpzFormat, LayoutIsStoredZip64WithAlignedData) {
   const std::int64_t rows = 4321;
   SinkPosition position;
   {
-    auto sink = open_trajectory(TrajectoryFormat::Npz, path);
+    auto sink = open_trajectory(Npz, path);
     write_rows(*sink, 0, 1234);
     position = sink->sync();
     // The position's CRC-32 is that of trajectory.npy's bytes so far, as they are in the file.
@@ -692,14 +689,14 @@ TEST(NpzFormat, ResumeChecksThePositionAgainstTheFile) {
   const std::string path = dir.file("trajectory.npz");
   SinkPosition position;
   {
-    auto sink = open_trajectory(TrajectoryFormat::Npz, path);
+    auto sink = open_trajectory(Npz, path);
     write_rows(*sink, 0, 100);
     position = sink->sync();
     write_rows(*sink, 100, 150);
   }
   auto expect_refused = [&](SinkPosition p, const std::string& why) {
     try {
-      open_trajectory(TrajectoryFormat::Npz, path, &p);
+      open_trajectory(Npz, path, &p);
       ADD_FAILURE() << "resume accepted: " << why;
     } catch (const std::runtime_error& e) {
       EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
@@ -717,7 +714,7 @@ TEST(NpzFormat, ResumeChecksThePositionAgainstTheFile) {
   expect_refused(p, "beyond the end of the file");
   {
     // Refusals leave the file as it was: the right position still resumes.
-    auto sink = open_trajectory(TrajectoryFormat::Npz, path, &position);
+    auto sink = open_trajectory(Npz, path, &position);
     write_rows(*sink, 100, 200);
     sink->close(scenario_text, summary_text);
   }
@@ -736,7 +733,7 @@ TEST(Hdf5Format, ChunkedExtendibleFloat64WithUtf8Attributes) {
   TempDir dir;
   const std::string path = dir.file("trajectory.h5");
   {
-    auto sink = open_trajectory(TrajectoryFormat::Hdf5, path);
+    auto sink = open_trajectory(Hdf5, path);
     write_rows(*sink, 0, 5000);
     sink->close(scenario_text, summary_text);
   }
@@ -757,19 +754,19 @@ TEST(Hdf5Format, ErrorsNameTheFile) {
   write_text(path, "this is not an HDF5 file\n");
   SinkPosition p;
   try {
-    open_trajectory(TrajectoryFormat::Hdf5, path, &p);
+    open_trajectory(Hdf5, path, &p);
     FAIL() << "opened a text file as HDF5";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("HDF5"), std::string::npos) << e.what();
   }
   {
-    auto sink = open_trajectory(TrajectoryFormat::Hdf5, path);
+    auto sink = open_trajectory(Hdf5, path);
     write_rows(*sink, 0, 10);
     sink->close("", "");
   }
   p.rows = 11;  // more rows than the file has
-  EXPECT_THROW(open_trajectory(TrajectoryFormat::Hdf5, path, &p), std::runtime_error);
+  EXPECT_THROW(open_trajectory(Hdf5, path, &p), std::runtime_error);
 }
 
 // ---- samples for tests/python/test_formats.py -------------------------------
@@ -788,7 +785,7 @@ TEST(FormatSamples, Write) {
   if (const char* f = std::getenv("LGVI_FORMAT_SAMPLES_FORMATS")) formats = f;
   fs::create_directories(dir);
   const std::pair<const char*, TrajectoryFormat> all[] = {
-      {"csv", TrajectoryFormat::Csv}, {"npz", TrajectoryFormat::Npz}, {"h5", TrajectoryFormat::Hdf5}};
+      {"csv", Csv}, {"npz", Npz}, {"h5", Hdf5}};
   for (const auto& [name, format] : all) {
     if (("," + formats + ",").find(std::string(",") + name + ",") == std::string::npos) continue;
     auto sink = open_trajectory(format, (fs::path(dir) / lgvi::app::trajectory_file_name(format)).string());

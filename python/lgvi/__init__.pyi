@@ -29,7 +29,7 @@ INTERACTIONS: Tuple[str, ...]
 Method = Literal["lgvi", "lgvi-lagrangian", "so3-lgvi", "rattle-quaternion", "rk4-normalized", "euler-exp",
                  "no-squish", "splitting-dlm", "exact"]
 Solver = Literal["newton", "newton-exp", "broyden"]
-OutputFormat = Literal["csv", "npz", "hdf5", "xyz", "vtk"]
+OutputFormat = Literal["csv", "npz", "hdf5", "xyz", "vtk", "lammps-dump"]
 #: [interaction] kind, the value of interaction={"kind": ...}.
 InteractionKind = Literal["none", "gravity", "lennard-jones", "wca"]
 Vector3 = Union[Sequence[float], npt.NDArray[np.float64]]

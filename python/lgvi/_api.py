@@ -334,7 +334,8 @@ class Scenario:
     ``every`` (a
     trajectory row every this many steps, plus the first and last; default
     1); ``output_format`` for the CLI ("csv", "npz", "hdf5", or the viewer
-    exports "xyz" for OVITO and "vtk" for ParaView); ``name``.
+    exports "xyz" for OVITO, "vtk" for ParaView and "lammps-dump" for
+    LAMMPS's tools, OVITO and VMD); ``name``.
 
     The scenario is written as TOML (``.toml``) and read by the CLI's own
     reader, so a code-built scenario is validated exactly like a file and
@@ -586,7 +587,7 @@ class Scenario:
 
     @property
     def output_format(self):
-        """The CLI's trajectory format: "csv", "npz", "hdf5", "xyz" (OVITO) or "vtk" (ParaView)."""
+        """The CLI's trajectory format: "csv", "npz", "hdf5", "xyz" (OVITO), "vtk" (ParaView) or "lammps-dump" (LAMMPS)."""
         return self._core.output_format
 
     def evaluate_potential(self, position, quaternion):

@@ -13,6 +13,7 @@ FORCED_BODIES_TRAJECTORY_HEADER: str
 METHODS: Tuple[str, ...]
 SOLVERS: Tuple[str, ...]
 FORMATS: Tuple[str, ...]
+FORMAT_FILES: Dict[str, Tuple[str, bool]]
 INTERACTIONS: Tuple[str, ...]
 INTERACTION_KEYS: Dict[str, Tuple[str, ...]]
 Array = npt.NDArray[np.float64]

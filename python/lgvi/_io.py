@@ -1,7 +1,7 @@
 """Reading trajectories: a run folder of the CLI, or a trajectory file
 (.csv, .npz, .h5). Pure numpy (h5py only for .h5), no compiled code.
 
-Layouts (src/formats/formats.hpp, src/trajectory_sink.hpp):
+Layouts (src/formats/csv.cpp, npz.cpp, hdf5.cpp; the columns: src/trajectory_sink.hpp):
 
 * trajectory.csv: the header line, then rows of 21 numbers with 17
   significant digits; the summary and the scenario are the side files
@@ -97,14 +97,15 @@ def read_h5(path):
     return data, names, scenario, summary
 
 
-#: The particle exports for viewers ([output] format = "xyz" | "vtk"): sites,
-#: not the trajectory's columns, so lgvi.load refuses them (_refuse_export).
-EXPORT_FILES = ("trajectory.xyz", "trajectory.pvd")
+#: The particle exports for viewers ([output] format = "xyz" | "vtk" | "lammps-dump"):
+#: sites, not the trajectory's columns, so lgvi.load refuses them (_refuse_export).
+EXPORT_FILES = ("trajectory.xyz", "trajectory.pvd", "trajectory.lammpstrj")
 
 
 def _refuse_export(path):
     raise ValueError(f"{path}: an export for viewers ([output] format = \"xyz\" for OVITO, \"vtk\" for "
-                     f"ParaView), not a trajectory lgvi.load reads; for analysis run the scenario with "
+                     f"ParaView, \"lammps-dump\" for LAMMPS), not a trajectory lgvi.load reads; for analysis "
+                     f"run the scenario with "
                      f"[output] format = \"csv\", \"npz\" or \"hdf5\" (or lgvi.simulate)")
 
 
@@ -123,9 +124,10 @@ def _trajectory_in(folder):
 def load(path):
     """Load a run folder of the CLI, or a trajectory file (.csv, .npz, .h5), into a Result.
 
-    The exports for viewers (trajectory.xyz, trajectory.pvd) are refused with
-    a ValueError saying to use csv, npz or hdf5 for analysis: they hold the
-    bodies' spheres for OVITO and ParaView, not the trajectory's columns.
+    The exports for viewers (trajectory.xyz, .pvd, .lammpstrj) are refused
+    with a ValueError saying to use csv, npz or hdf5 for analysis: they hold
+    the bodies' spheres for OVITO, ParaView and LAMMPS, not the trajectory's
+    columns.
 
     A folder is read through its trajectory.csv, trajectory.npz or trajectory.h5
     and its summary.json; a file's summary and scenario come from the file
@@ -150,7 +152,7 @@ def load(path):
         data, names, scenario, summary_text = read_npz(file)
     elif ext in (".h5", ".hdf5"):
         data, names, scenario, summary_text = read_h5(file)
-    elif ext in (".xyz", ".pvd", ".vtp"):
+    elif ext in (".xyz", ".pvd", ".vtp", ".lammpstrj"):
         _refuse_export(file)
     else:
         raise ValueError(f"{file}: unknown trajectory format (expected .csv, .npz or .h5)")

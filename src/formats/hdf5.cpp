@@ -27,7 +27,7 @@
 // Every HDF5 failure becomes a std::runtime_error naming the file, the
 // operation and HDF5's innermost error message; HDF5's own error printing is
 // switched off.
-#include "formats/formats.hpp"
+#include "formats/registry.hpp"
 
 #include <hdf5.h>
 
@@ -269,17 +269,14 @@ class Hdf5Trajectory final : public TrajectorySink {
   std::vector<double> buffer_;
 };
 
-}  // namespace
-
 std::unique_ptr<TrajectorySink> open_hdf5(const std::string& path, const TrajectoryLayout& layout,
                                           const SinkPosition* resume) {
   return std::make_unique<Hdf5Trajectory>(path, layout, resume);
 }
 
-}  // namespace lgvi::app
-
-namespace lgvi::app {
-
+/// One 1-D dataset per column at the root (IEEE float64 LE, int64 LE,
+/// variable-length UTF-8 strings), no timestamps, written to a temporary name
+/// and renamed.
 void write_hdf5_table(const std::string& path, const ColumnTable& table) {
   using Kind = ColumnTable::Column::Kind;
   const std::string tmp = path + ".tmp";
@@ -328,5 +325,10 @@ void write_hdf5_table(const std::string& path, const ColumnTable& table) {
   std::filesystem::rename(tmp, path, ec);
   if (ec) throw std::runtime_error("renaming " + tmp + " to " + path + " failed: " + ec.message());
 }
+
+}  // namespace
+
+extern const FormatDescriptor hdf5_format;  // listed in formats/registry.cpp
+const FormatDescriptor hdf5_format{.name = "hdf5", .file_name = "trajectory.h5", .holds_columns = true, .open = open_hdf5, .write_table = write_hdf5_table, .table_file_name = "members.h5"};
 
 }  // namespace lgvi::app

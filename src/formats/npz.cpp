@@ -41,7 +41,7 @@
 // as it is in the file at that point, i.e. of bytes [64, bytes) with the
 // .npy header saying N = 0. Resume checks these against the file (reading
 // its data once) before truncating it back.
-#include "formats/formats.hpp"
+#include "formats/registry.hpp"
 #include "formats/npy.hpp"
 #include "formats/zip_stream.hpp"
 #include "output.hpp"
@@ -284,14 +284,10 @@ class NpzTrajectory final : public TrajectorySink {
   std::vector<unsigned char> buffer_;
 };
 
-}  // namespace
-
 std::unique_ptr<TrajectorySink> open_npz(const std::string& path, const TrajectoryLayout& layout,
                                          const SinkPosition* resume) {
   return std::make_unique<NpzTrajectory>(path, layout, resume);
 }
-
-namespace {
 
 /// Little-endian bytes of 64-bit values (float64 or int64), as .npy stores them.
 template <class T>
@@ -318,8 +314,10 @@ std::string npy_column(const ColumnTable::Column& column) {
   return out;
 }
 
-}  // namespace
-
+/// One 1-D array per column, named by it ('<f8', '<i8' or '<U': numpy's
+/// loader gives float64, int64 and str arrays), stored uncompressed in column
+/// order. Written whole to a temporary name and renamed: never half-written.
+/// The bytes depend on the table alone.
 void write_npz_table(const std::string& path, const ColumnTable& table) {
   std::string archive;
   std::vector<Entry> entries;
@@ -339,5 +337,10 @@ void write_npz_table(const std::string& path, const ColumnTable& table) {
   archive += cd + end_records(entries.size(), archive.size(), cd.size());
   write_file_atomically(path, archive);
 }
+
+}  // namespace
+
+extern const FormatDescriptor npz_format;  // listed in formats/registry.cpp
+const FormatDescriptor npz_format{.name = "npz", .file_name = "trajectory.npz", .holds_columns = true, .open = open_npz, .write_table = write_npz_table, .table_file_name = "members.npz"};
 
 }  // namespace lgvi::app

@@ -6,7 +6,9 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <stdexcept>
 
 namespace lgvi::app {
@@ -142,6 +144,44 @@ SinkPosition particle_file_position(const char* format, const ParticleFrames& fr
   p.rows = frames.rows();
   p.bytes = static_cast<std::int64_t>(std::ftell(file));
   return p;
+}
+
+ParticleTextFile::ParticleTextFile(const char* format, const std::string& path, const TrajectoryLayout& layout,
+                                   const SinkPosition* resume)
+    : format_(format), path_(path), frames_(layout) {
+  if (resume) {
+    frames_.resume_at(resume->rows);
+    std::error_code ec;
+    std::filesystem::resize_file(path, static_cast<std::uintmax_t>(resume->bytes), ec);
+    if (ec) throw std::runtime_error("cannot truncate " + path + " to resume: " + ec.message());
+    file_ = std::fopen(path.c_str(), "ab");
+  } else {
+    file_ = std::fopen(path.c_str(), "wb");
+  }
+  if (!file_) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
+}
+
+ParticleTextFile::~ParticleTextFile() {
+  if (file_) std::fclose(file_);  // not closed: a crash; the file is valid up to its last whole frame
+}
+
+void ParticleTextFile::row(const double* values) {
+  const ParticleFrame* frame = frames_.row(values);
+  if (!frame || !error_.empty()) return;
+  text_.clear();
+  format_frame(*frame, text_);
+  if (std::fwrite(text_.data(), 1, text_.size(), file_) != text_.size())
+    error_ = "writing " + path_ + " failed: " + std::strerror(errno);
+}
+
+SinkPosition ParticleTextFile::sync() { return particle_file_position(format_, frames_, file_, path_, error_); }
+
+void ParticleTextFile::close(const std::string&, const std::string&) {
+  if (!file_) return;
+  const int rc = std::fclose(file_);
+  file_ = nullptr;
+  if (!error_.empty()) throw std::runtime_error(error_);
+  if (rc != 0) throw std::runtime_error("closing " + path_ + " failed: " + std::strerror(errno));
 }
 
 }  // namespace lgvi::app

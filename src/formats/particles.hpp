@@ -93,6 +93,39 @@ std::array<double, 3> site_position(const double* x, const double* q_wxyz, const
 SinkPosition particle_file_position(const char* format, const ParticleFrames& frames, std::FILE* file,
                                     const std::string& path, const std::string& error);
 
+/// A particle export that is one text file, a block of text per frame
+/// (extended XYZ, LAMMPS dump): the file opened new, or on resume truncated
+/// back to the checkpoint's position and appended to; a write error kept and
+/// thrown by sync() or close(). A crash leaves the file valid up to its last
+/// whole frame. A format derives from it and writes a frame's text.
+class ParticleTextFile : public TrajectorySink {
+ public:
+  /// `format` names it in messages ("xyz"). Throws std::runtime_error naming
+  /// the file if it cannot be opened or truncated.
+  ParticleTextFile(const char* format, const std::string& path, const TrajectoryLayout& layout,
+                   const SinkPosition* resume);
+  ~ParticleTextFile() override;
+  ParticleTextFile(const ParticleTextFile&) = delete;
+  ParticleTextFile& operator=(const ParticleTextFile&) = delete;
+
+  void row(const double* values) final;
+  SinkPosition sync() final;
+  void close(const std::string& scenario_toml, const std::string& summary_json) final;
+
+ protected:
+  const ParticleFrames& frames() const { return frames_; }
+  /// Appends the frame's text to `text` (empty on entry).
+  virtual void format_frame(const ParticleFrame& frame, std::string& text) = 0;
+
+ private:
+  const char* format_;
+  std::string path_;
+  ParticleFrames frames_;
+  std::FILE* file_ = nullptr;
+  std::string text_;
+  std::string error_;
+};
+
 /// Appends v with 17 significant digits (%.17g, as the CSV writer prints
 /// them: every double round-trips exactly).
 void append_number(std::string& text, double v);

@@ -15,7 +15,7 @@
 // and speed (about 2.5 times the bytes of raw Float64 and a formatting cost
 // per number like the CSV's): these files are for watching a run, which
 // rarely needs more than some thousands of frames; npz or HDF5 are for bulk.
-#include "formats/formats.hpp"
+#include "formats/registry.hpp"
 #include "formats/particles.hpp"
 #include "output.hpp"
 
@@ -186,11 +186,14 @@ class VtkTrajectory final : public TrajectorySink {
   std::string error_;
 };
 
-}  // namespace
-
 std::unique_ptr<TrajectorySink> open_vtk(const std::string& path, const TrajectoryLayout& layout,
                                          const SinkPosition* resume) {
   return std::make_unique<VtkTrajectory>(path, layout, resume);
 }
+
+}  // namespace
+
+extern const FormatDescriptor vtk_format;  // listed in formats/registry.cpp
+const FormatDescriptor vtk_format{.name = "vtk", .file_name = "trajectory.pvd", .holds_columns = false, .open = open_vtk};
 
 }  // namespace lgvi::app

@@ -18,18 +18,21 @@
 // key=value pairs (Time, energy, ...) as the frame's Comment attribute (it
 // splits them into attributes only when a Lattice is given); ASE's extxyz
 // reader reads them as the frame's info.
-#include "formats/formats.hpp"
+#include "formats/registry.hpp"
 #include "formats/particles.hpp"
 
-#include <cerrno>
-#include <cstdio>
-#include <cstring>
-#include <filesystem>
-#include <stdexcept>
+#include <initializer_list>
+#include <string>
+#include <vector>
 
 namespace lgvi::app {
 
 namespace {
+
+/// The `Properties=` of the frames: the columns of each line; orientation is
+/// (qx, qy, qz, qw), OVITO's order.
+constexpr const char* xyz_properties =
+    "Properties=species:S:1:pos:R:3:orientation:R:4:radius:R:1:body:I:1:id:I:1:velo:R:3:omega:R:3";
 
 /// Species names: the body's name with anything but letters, digits, '_'
 /// and '-' replaced by '_' (a species is one whitespace-free token).
@@ -42,92 +45,58 @@ std::string species_of(const std::string& name) {
   return s;
 }
 
-class XyzTrajectory final : public TrajectorySink {
+class XyzTrajectory final : public ParticleTextFile {
  public:
   XyzTrajectory(const std::string& path, const TrajectoryLayout& layout, const SinkPosition* resume)
-      : path_(path), frames_(layout) {
-    for (const BodyShape& s : frames_.shapes()) species_.push_back(species_of(s.name));
-    if (resume) {
-      frames_.resume_at(resume->rows);
-      std::error_code ec;
-      std::filesystem::resize_file(path, static_cast<std::uintmax_t>(resume->bytes), ec);
-      if (ec) throw std::runtime_error("cannot truncate " + path + " to resume: " + ec.message());
-      file_ = std::fopen(path.c_str(), "ab");
-    } else {
-      file_ = std::fopen(path.c_str(), "wb");
-    }
-    if (!file_) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
-  }
-
-  ~XyzTrajectory() override {
-    if (file_) std::fclose(file_);  // not closed: a crash; the file is valid up to its last whole frame
-  }
-
-  void row(const double* values) override {
-    const ParticleFrame* frame = frames_.row(values);
-    if (frame && error_.empty()) write_frame(*frame);
-  }
-
-  SinkPosition sync() override { return particle_file_position("xyz", frames_, file_, path_, error_); }
-
-  void close(const std::string&, const std::string&) override {
-    if (!file_) return;
-    const int rc = std::fclose(file_);
-    file_ = nullptr;
-    if (!error_.empty()) throw std::runtime_error(error_);
-    if (rc != 0) throw std::runtime_error("closing " + path_ + " failed: " + std::strerror(errno));
+      : ParticleTextFile("xyz", path, layout, resume) {
+    for (const BodyShape& s : frames().shapes()) species_.push_back(species_of(s.name));
   }
 
  private:
-  void write_frame(const ParticleFrame& f) {
-    text_.clear();
-    text_ += std::to_string(f.particles.size());
-    text_.push_back('\n');
-    text_ += xyz_properties;
-    text_ += " Time=";
-    append_number(text_, f.t);
-    text_ += " energy=";
-    append_number(text_, f.energy);
-    text_ += " energy_error=";
-    append_number(text_, f.energy_error);
-    text_ += " momentum_error=";
-    append_number(text_, f.momentum_error);
-    text_ += " frame=";
-    text_ += std::to_string(f.index);
-    text_.push_back('\n');
+  void format_frame(const ParticleFrame& f, std::string& text) override {
+    text += std::to_string(f.particles.size());
+    text.push_back('\n');
+    text += xyz_properties;
+    text += " Time=";
+    append_number(text, f.t);
+    text += " energy=";
+    append_number(text, f.energy);
+    text += " energy_error=";
+    append_number(text, f.energy_error);
+    text += " momentum_error=";
+    append_number(text, f.momentum_error);
+    text += " frame=";
+    text += std::to_string(f.index);
+    text.push_back('\n');
     for (const Particle& p : f.particles) {
-      text_ += species_[static_cast<std::size_t>(p.body)];
+      text += species_[static_cast<std::size_t>(p.body)];
       auto numbers = [&](std::initializer_list<double> values) {
         for (double v : values) {
-          text_.push_back(' ');
-          append_number(text_, v);
+          text.push_back(' ');
+          append_number(text, v);
         }
       };
       numbers({p.position[0], p.position[1], p.position[2], p.q[1], p.q[2], p.q[3], p.q[0], p.radius});
-      text_.push_back(' ');
-      text_ += std::to_string(p.body);
-      text_.push_back(' ');
-      text_ += std::to_string(p.site);
+      text.push_back(' ');
+      text += std::to_string(p.body);
+      text.push_back(' ');
+      text += std::to_string(p.site);
       numbers({p.velocity[0], p.velocity[1], p.velocity[2], p.omega[0], p.omega[1], p.omega[2]});
-      text_.push_back('\n');
+      text.push_back('\n');
     }
-    if (std::fwrite(text_.data(), 1, text_.size(), file_) != text_.size())
-      error_ = "writing " + path_ + " failed: " + std::strerror(errno);
   }
 
-  std::string path_;
-  ParticleFrames frames_;
   std::vector<std::string> species_;
-  std::FILE* file_ = nullptr;
-  std::string text_;
-  std::string error_;
 };
-
-}  // namespace
 
 std::unique_ptr<TrajectorySink> open_xyz(const std::string& path, const TrajectoryLayout& layout,
                                          const SinkPosition* resume) {
   return std::make_unique<XyzTrajectory>(path, layout, resume);
 }
+
+}  // namespace
+
+extern const FormatDescriptor xyz_format;  // listed in formats/registry.cpp
+const FormatDescriptor xyz_format{.name = "xyz", .file_name = "trajectory.xyz", .holds_columns = false, .open = open_xyz};
 
 }  // namespace lgvi::app

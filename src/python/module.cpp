@@ -593,7 +593,13 @@ PYBIND11_MODULE(_core, m) {
   py::list methods, solvers, formats, interactions;
   for (const lgvi::MethodTraits& t : Method::all()) methods.append(t.name);
   for (SolverKind k : {SolverKind::Newton, SolverKind::NewtonExp, SolverKind::Broyden}) solvers.append(to_string(k));
-  for (const auto& [format, name] : format_names) formats.append(name);
+  // [output] format: every registered format (formats/registry.cpp), with its file in a run folder and
+  // whether that file holds the trajectory's columns (lgvi.load reads it) or is an export for viewers.
+  py::dict format_files;
+  for (const lgvi::app::FormatDescriptor* d : lgvi::app::trajectory_formats()) {
+    formats.append(std::string(d->name));
+    format_files[py::str(std::string(d->name))] = py::make_tuple(std::string(d->file_name), d->holds_columns);
+  }
   // [interaction] kind: "none" and every registered kind (interactions/registry.cpp), with the keys each takes.
   py::dict interaction_keys;
   interactions.append("none");
@@ -607,6 +613,7 @@ PYBIND11_MODULE(_core, m) {
   m.attr("METHODS") = py::tuple(methods);
   m.attr("SOLVERS") = py::tuple(solvers);
   m.attr("FORMATS") = py::tuple(formats);
+  m.attr("FORMAT_FILES") = format_files;
   m.attr("INTERACTIONS") = py::tuple(interactions);
   m.attr("INTERACTION_KEYS") = interaction_keys;
 

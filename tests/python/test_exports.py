@@ -1,13 +1,16 @@
-"""The exports for viewers, [output] format = "xyz" (extended XYZ for OVITO) and
-"vtk" (VTK XML PolyData series with a .pvd index for ParaView): the same
-scenario is run through the CLI in csv, xyz and vtk, and the exports are read
-back (the XYZ by the small parser below, the VTK by VTK's own
-vtkXMLPolyDataReader from Debian's python3-vtk9) and compared with the CSV.
-Interrupted and killed runs resume to byte-identical files. Run by ctest
-(python.exports_xyz_vtk) with LGVI_BINARY set."""
+"""The exports for viewers, [output] format = "xyz" (extended XYZ for OVITO),
+"vtk" (VTK XML PolyData series with a .pvd index for ParaView) and
+"lammps-dump" (a LAMMPS text dump): the same scenario is run through the CLI in
+csv and each export, and the exports are read back (the XYZ and the dump by the
+small parsers below, the VTK by VTK's own vtkXMLPolyDataReader from Debian's
+python3-vtk9, the dump also by LAMMPS's own read_dump and rerun where Debian's
+lammps is installed) and compared with the CSV. Interrupted and killed runs
+resume to byte-identical files. Run by ctest (python.exports_xyz_vtk) with
+LGVI_BINARY set."""
 import json
 import os
 import pathlib
+import shutil
 import signal
 import subprocess
 import time
@@ -20,7 +23,7 @@ BINARY = os.environ.get("LGVI_BINARY")
 SOURCE = pathlib.Path(os.environ.get("LGVI_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
 pytestmark = pytest.mark.skipif(BINARY is None, reason="LGVI_BINARY not set (run through ctest)")
 
-# The columns of an XYZ line as the writer promises them (src/formats/formats.hpp).
+# The columns of an XYZ line as the writer promises them (src/formats/xyz.cpp).
 PROPERTIES = "species:S:1:pos:R:3:orientation:R:4:radius:R:1:body:I:1:id:I:1:velo:R:3:omega:R:3"
 
 # A [[bodies]] scenario with both kinds of body: a rubble pile of three balls
@@ -83,10 +86,10 @@ def with_format(text, fmt):
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
-    """The MIXED scenario run in csv, xyz and vtk: {format: run folder}."""
+    """The MIXED scenario run in csv and every export: {format: run folder}."""
     tmp = tmp_path_factory.mktemp("exports")
     out = {}
-    for fmt in ("csv", "xyz", "vtk"):
+    for fmt in ("csv", "xyz", "vtk", "lammps-dump"):
         scenario = tmp / f"mixed-{fmt}.toml"
         scenario.write_text(with_format(MIXED, fmt))
         out[fmt] = tmp / fmt
@@ -305,6 +308,127 @@ def test_vtk_series_read_by_vtk_equals_the_csv_run(runs):
     assert read_vtp(index[k][1])[2]["energy_error"][0] == csv["energy_error"][k, 0]
 
 
+# ---- LAMMPS dump ---------------------------------------------------------------
+
+
+def read_lammps_dump(path):
+    """Frames of a LAMMPS text dump: [(timestep, box bounds (3, 2), boundary flags, {column: array})]."""
+    lines = path.read_text().splitlines()
+    frames, i = [], 0
+    while i < len(lines):
+        assert lines[i] == "ITEM: TIMESTEP", (i, lines[i])
+        step = int(lines[i + 1])
+        assert lines[i + 2] == "ITEM: NUMBER OF ATOMS"
+        n = int(lines[i + 3])
+        assert lines[i + 4].startswith("ITEM: BOX BOUNDS ")
+        flags = lines[i + 4].split()[3:]
+        box = np.array([[float(v) for v in lines[i + 5 + d].split()] for d in range(3)])
+        header = lines[i + 8].split()
+        assert header[:2] == ["ITEM:", "ATOMS"]
+        rows = [line.split() for line in lines[i + 9:i + 9 + n]]
+        assert len(rows) == n and all(len(r) == len(header) - 2 for r in rows)
+        columns = {}
+        for c, name in enumerate(header[2:]):
+            cells = [r[c] for r in rows]
+            columns[name] = (np.array(cells, dtype=np.int64) if name in ("id", "mol", "type", "ix", "iy", "iz")
+                             else np.array(cells, dtype=float))
+        frames.append((step, box, flags, columns))
+        i += 9 + n
+    return frames
+
+
+def types_by_radius(radii):
+    """LAMMPS types of the sites: their radii numbered from 1 in order of first appearance."""
+    seen = []
+    for r in radii:
+        if r not in seen:
+            seen.append(r)
+    return [seen.index(r) + 1 for r in radii]
+
+
+def test_lammps_dump_frames_equal_the_csv_run(runs):
+    csv = csv_rows(runs["csv"])
+    want = expected_frames(csv)
+    frames = read_lammps_dump(runs["lammps-dump"] / "trajectory.lammpstrj")
+    assert len(frames) == len(want) == csv["t"].shape[0]
+    for k, ((step, box, flags, cols), w) in enumerate(zip(frames, want)):
+        assert step == round(csv["t"][k, 0] / 0.01)  # the step number k of t = k h (h = 0.01)
+        assert flags == ["ss", "ss", "ss"]  # not periodic: shrink-wrapped
+        assert list(cols) == ["id", "mol", "type", "x", "y", "z", "ix", "iy", "iz"]
+        assert list(cols["id"]) == [1, 2, 3, 4]
+        assert list(cols["mol"]) == list(w["body"] + 1)
+        assert list(cols["type"]) == types_by_radius(list(w["radius"])) == [1, 2, 3, 4]
+        pos = np.column_stack([cols["x"], cols["y"], cols["z"]])
+        assert np.array_equal(pos, w["pos"]), f"frame {k}: {pos - w['pos']}"  # exact, as the XYZ's
+        # The spheres' extent: per axis, min(c - r) and max(c + r) over the sites.
+        r = w["radius"][:, None]
+        assert np.array_equal(box, np.column_stack([(pos - r).min(axis=0), (pos + r).max(axis=0)]))
+        for image in ("ix", "iy", "iz"):
+            assert not cols[image].any()
+    assert frames[-1][0] == 300  # the last step is written: 3.0 / 0.01
+
+
+def molecule(name, x, balls):
+    """A [[bodies]] entry at rest at x, made of balls [(body-frame position, mass, radius)]."""
+    text = (f'[[bodies]]\nname = "{name}"\nposition = {x}\nquaternion = [1.0, 0.0, 0.0, 0.0]\n'
+            "momentum = [0.0, 0.0, 0.0]\nomega = [0.0, 0.0, 0.0]\n")
+    for position, mass, radius in balls:
+        text += f"[[bodies.ball]]\nposition = {position}\nmass = {mass}\nradius = {radius}\n"
+    return text
+
+
+PAIR = [([0.0, 0.0, 0.0], 1.0, 0.3), ([0.7, 0.0, 0.0], 0.5, 0.2)]
+TWINS = (molecule("a", [0.0, 0.0, 0.0], PAIR) + molecule("b", [3.0, 0.0, 0.0], PAIR)
+         + molecule("c", [0.0, 3.0, 0.0], [([0.0, 0.0, 0.0], 1.0, 0.2)])
+         + '[potential]\nkind = "none"\n\n[integrator]\nstep = 0.01\nduration = 0.1\n\n[output]\n')
+
+
+def test_lammps_dump_types_are_shared_by_equal_radii(tmp_path):
+    # Two identical molecules and a ball of the second radius: three molecules, two types.
+    path = tmp_path / "twins.toml"
+    path.write_text(with_format(TWINS, "lammps-dump"))
+    proc = run(path, "--out", tmp_path / "out")
+    assert proc.returncode == 0, proc.stderr
+    step, box, _, cols = read_lammps_dump(tmp_path / "out" / "trajectory.lammpstrj")[0]
+    assert step == 0
+    assert list(cols["mol"]) == [1, 1, 2, 2, 3]
+    assert list(cols["type"]) == [1, 2, 1, 2, 2]
+    # All sites at z = 0, radii 0.3 and 0.2: the box is the spheres' extent, never flat.
+    assert list(box[2]) == [-0.3, 0.3]
+
+
+LAMMPS = shutil.which(os.environ.get("LMP_BINARY", "lmp"))
+
+
+@pytest.mark.skipif(LAMMPS is None, reason="LAMMPS (Debian's lammps, lmp) not installed")
+def test_lammps_reads_the_dump_back(runs, tmp_path):
+    # Another program's reader: LAMMPS takes the first frame's atoms (read_dump ... add keep), then
+    # steps through every frame (rerun) and dumps what it read with 17 digits. The positions, ids,
+    # types and time steps must come back unchanged.
+    dump = runs["lammps-dump"] / "trajectory.lammpstrj"
+    ours = read_lammps_dump(dump)
+    (tmp_path / "in.read").write_text(f"""
+units lj
+atom_style atomic
+boundary s s s
+region everywhere block -100 100 -100 100 -100 100
+create_box 4 everywhere
+mass * 1.0
+read_dump {dump} 0 x y z box yes add keep
+dump back all custom 1 {tmp_path}/back.lammpstrj id type x y z
+dump_modify back sort id format float %.17g
+rerun {dump} dump x y z box yes
+""")
+    proc = subprocess.run([LAMMPS, "-in", "in.read", "-log", "none", "-screen", "none"], cwd=tmp_path,
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    back = read_lammps_dump(tmp_path / "back.lammpstrj")
+    assert [f[0] for f in back] == [f[0] for f in ours]
+    for (step, box, _, cols), (_, box_back, _, cols_back) in zip(ours, back):
+        for name in ("id", "type", "x", "y", "z"):
+            assert np.array_equal(cols_back[name], cols[name]), (step, name)
+
+
 # ---- resume ------------------------------------------------------------------
 
 STEPS = 4_000_000  # ~1 s: long enough to be stopped mid-way
@@ -320,8 +444,9 @@ def long_scenario(tmp_path, fmt):
 
 def export_bytes(folder, fmt):
     """Every file of the export: {relative path: bytes}."""
-    if fmt == "xyz":
-        return {"trajectory.xyz": (folder / "trajectory.xyz").read_bytes()}
+    if fmt in ("xyz", "lammps-dump"):
+        name = "trajectory.xyz" if fmt == "xyz" else "trajectory.lammpstrj"
+        return {name: (folder / name).read_bytes()}
     files = {"trajectory.pvd": (folder / "trajectory.pvd").read_bytes()}
     for p in sorted((folder / "trajectory").iterdir()):
         files["trajectory/" + p.name] = p.read_bytes()
@@ -332,14 +457,14 @@ def export_bytes(folder, fmt):
 def uninterrupted(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("uninterrupted")
     out = {}
-    for fmt in ("xyz", "vtk"):
+    for fmt in ("xyz", "vtk", "lammps-dump"):
         out[fmt] = tmp / fmt
         proc = run(long_scenario(tmp, fmt), "--out", out[fmt])
         assert proc.returncode == 0, proc.stderr
     return out
 
 
-@pytest.mark.parametrize("fmt", ["xyz", "vtk"])
+@pytest.mark.parametrize("fmt", ["xyz", "vtk", "lammps-dump"])
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL])
 def test_stopped_or_killed_run_resumes_byte_identical(tmp_path, uninterrupted, fmt, sig):
     out = tmp_path / "run"
@@ -384,19 +509,20 @@ def test_unknown_format_names_the_key_and_lists_the_formats(tmp_path):
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1, proc.stderr
     assert "key 'output.format'" in lines[0]
-    assert '"ovito" is not one of "csv", "npz", "hdf5", "xyz", "vtk"' in lines[0]
+    assert '"ovito" is not one of "csv", "npz", "hdf5", "xyz", "vtk", "lammps-dump"' in lines[0]
 
 
 def test_python_accepts_the_exports_and_load_refuses_them(runs):
     lgvi = pytest.importorskip("lgvi")
-    assert lgvi.FORMATS == ("csv", "npz", "hdf5", "xyz", "vtk")
+    assert lgvi.FORMATS == ("csv", "npz", "hdf5", "xyz", "vtk", "lammps-dump")
     body = lgvi.Body(mass=1.0, inertia=np.diag([1.0, 2.0, 3.0]))
     s = lgvi.Scenario(body=body, step=0.1, duration=1.0, position=(0, 0, 0), quaternion=(1, 0, 0, 0),
                       momentum=(0, 0, 0), w=(0, 0, 0), output_format="vtk")
     assert s.output_format == "vtk"
-    with pytest.raises(ValueError, match='output_format: must be one of "csv", "npz", "hdf5", "xyz", "vtk"'):
+    with pytest.raises(ValueError, match='output_format: must be one of "csv", "npz", "hdf5", "xyz", "vtk", "lammps-dump"'):
         lgvi.Scenario(body=body, step=0.1, duration=1.0, position=(0, 0, 0), quaternion=(1, 0, 0, 0),
                       momentum=(0, 0, 0), w=(0, 0, 0), output_format="ovito")
-    for target in (runs["xyz"], runs["xyz"] / "trajectory.xyz", runs["vtk"], runs["vtk"] / "trajectory.pvd"):
+    for target in (runs["xyz"], runs["xyz"] / "trajectory.xyz", runs["vtk"], runs["vtk"] / "trajectory.pvd",
+                   runs["lammps-dump"], runs["lammps-dump"] / "trajectory.lammpstrj"):
         with pytest.raises(ValueError, match='export for viewers .* use|format = "csv", "npz" or "hdf5"'):
             lgvi.load(target)

@@ -1,7 +1,7 @@
 """The lists of methods, interactions and output formats agree everywhere a user reads them
 (issue 27): the command line's messages, the Python API and its stubs, and README.md all name
 exactly the entries of the C++ registries (src/method_registry.hpp registered_method_traits,
-src/trajectory_sink.hpp format_names, src/interactions/registry.cpp interaction_kinds), in their
+src/formats/registry.cpp registered_formats, src/interactions/registry.cpp interaction_kinds), in their
 order.
 
 The truth is lgvi._core.METHODS, FORMATS and INTERACTIONS, which the compiled module reads from
@@ -95,7 +95,7 @@ def test_docstrings_list_the_tables():
     doc = lgvi.Scenario.__doc__
     assert _between(doc, "``method`` one of lgvi.METHODS", "``solver``") == core.METHODS
     assert _between(doc, "``output_format`` for the CLI", "``name``") == core.FORMATS
-    assert _between(lgvi.Scenario.output_format.__doc__, "format:", "(ParaView)") == core.FORMATS
+    assert _between(lgvi.Scenario.output_format.__doc__, "format:", "(LAMMPS)") == core.FORMATS
 
 
 def _readme_setting(key, table_line):
@@ -218,3 +218,13 @@ def test_cli_help_lists_every_method_in_registry_order(command):
     table = text[text.index("Methods ([integrator] method"):].split("\n\n", 1)[0]
     listed = [line.split()[0] for line in table.splitlines()[1:] if not line.startswith("    ")]
     assert listed == list(core.METHODS), text
+
+
+def test_the_loader_knows_every_formats_file():
+    # lgvi.load (python/lgvi/_io.py, pure numpy: it does not import the compiled module) looks for a
+    # run folder's trajectory by file name, and refuses the exports for viewers by name: both lists
+    # must be the registry's, split by whether the format holds the trajectory's columns.
+    from lgvi import _io
+    assert set(core.FORMAT_FILES) == set(core.FORMATS)
+    assert _io.TRAJECTORY_FILES == tuple(f for f, columns in core.FORMAT_FILES.values() if columns)
+    assert _io.EXPORT_FILES == tuple(f for f, columns in core.FORMAT_FILES.values() if not columns)

@@ -1,6 +1,7 @@
-#include "trajectory_sink.hpp"
-
-#include "formats/formats.hpp"
+// [output] format = "csv" (the default): one text line per row, the
+// trajectory's columns with a header line; the scenario and the summary are
+// the run folder's side files (scenario.toml, summary.json).
+#include "formats/registry.hpp"
 
 #include <cerrno>
 #include <charconv>
@@ -144,35 +145,15 @@ class CsvTrajectory final : public TrajectorySink {
   std::string error_;  // set by the writer thread; read after sync() waits or after join
 };
 
+std::unique_ptr<TrajectorySink> open_csv(const std::string& path, const TrajectoryLayout& layout,
+                                         const SinkPosition* resume) {
+  return std::make_unique<CsvTrajectory>(path, layout, resume);
+}
+
 }  // namespace
 
-const char* trajectory_file_name(TrajectoryFormat f) {
-  switch (f) {
-    case TrajectoryFormat::Csv: return "trajectory.csv";
-    case TrajectoryFormat::Npz: return "trajectory.npz";
-    case TrajectoryFormat::Hdf5: return "trajectory.h5";
-    case TrajectoryFormat::Xyz: return "trajectory.xyz";
-    case TrajectoryFormat::Vtk: return "trajectory.pvd";
-  }
-  return "trajectory";
-}
-
-const char* to_string(TrajectoryFormat f) {
-  for (const auto& [format, name] : format_names)
-    if (format == f) return name;
-  return "?";
-}
-
-std::unique_ptr<TrajectorySink> open_trajectory(TrajectoryFormat format, const std::string& path,
-                                                const TrajectoryLayout& layout, const SinkPosition* resume) {
-  switch (format) {
-    case TrajectoryFormat::Csv: return std::make_unique<CsvTrajectory>(path, layout, resume);
-    case TrajectoryFormat::Npz: return open_npz(path, layout, resume);
-    case TrajectoryFormat::Hdf5: return open_hdf5(path, layout, resume);
-    case TrajectoryFormat::Xyz: return open_xyz(path, layout, resume);
-    case TrajectoryFormat::Vtk: return open_vtk(path, layout, resume);
-  }
-  throw std::runtime_error("unknown trajectory format");
-}
+extern const FormatDescriptor csv_format;  // listed in formats/registry.cpp
+const FormatDescriptor csv_format{
+    .name = "csv", .file_name = "trajectory.csv", .holds_columns = true, .open = open_csv};
 
 }  // namespace lgvi::app

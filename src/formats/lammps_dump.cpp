@@ -1,0 +1,97 @@
+// [output] format = "lammps-dump": the sites of every body as a LAMMPS text
+// dump (LAMMPS's `dump atom/custom` layout), which OVITO, VMD and LAMMPS's
+// own read_dump and rerun read. One block per output step:
+//
+//   ITEM: TIMESTEP               the step k = round(t / h)
+//   <k>
+//   ITEM: NUMBER OF ATOMS
+//   <sites>
+//   ITEM: BOX BOUNDS ss ss ss    shrink-wrapped, non-periodic: the extent of the
+//   <xlo> <xhi>                  sites' spheres (c -+ radius), widened by 0.5 each
+//                                way where it is flat (LAMMPS refuses lo = hi)
+//   <ylo> <yhi>
+//   <zlo> <zhi>
+//   ITEM: ATOMS id mol type x y z ix iy iz
+//   <id> <mol> <type> <x> <y> <z> 0 0 0    one line per site
+//
+// id numbers the sites of a frame from 1, mol the bodies from 1 (the bodies'
+// order in the scenario), and type the site radii from 1 in order of first
+// appearance, so that a viewer's per-type radius draws every site at its size
+// (LAMMPS's "types"; one type for a gas of identical molecules). The image
+// counts are 0: lgvi's space is not periodic. Coordinates are x + R(q) rho
+// with 17 significant digits, exactly the extended XYZ export's positions.
+// Resumes by truncation, as the XYZ export.
+#include "formats/particles.hpp"
+#include "formats/registry.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace lgvi::app {
+
+namespace {
+
+class LammpsDump final : public ParticleTextFile {
+ public:
+  LammpsDump(const std::string& path, const TrajectoryLayout& layout, const SinkPosition* resume)
+      : ParticleTextFile("lammps-dump", path, layout, resume), step_(layout.step) {
+    std::vector<double> radii;
+    for (const BodyShape& shape : frames().shapes())
+      for (const Site& site : shape.sites) {
+        const auto found = std::find(radii.begin(), radii.end(), site.radius);
+        types_.push_back(found - radii.begin() + 1);
+        if (found == radii.end()) radii.push_back(site.radius);
+      }
+  }
+
+ private:
+  void format_frame(const ParticleFrame& f, std::string& text) override {
+    const long long k = step_ > 0.0 ? std::llround(f.t / step_) : static_cast<long long>(f.index);
+    text += "ITEM: TIMESTEP\n" + std::to_string(k) + "\nITEM: NUMBER OF ATOMS\n" +
+            std::to_string(f.particles.size()) + "\nITEM: BOX BOUNDS ss ss ss\n";
+    for (std::size_t axis = 0; axis < 3; ++axis) {
+      double lo = 0.0, hi = 0.0;
+      for (std::size_t i = 0; i < f.particles.size(); ++i) {
+        const Particle& p = f.particles[i];
+        lo = i == 0 ? p.position[axis] - p.radius : std::min(lo, p.position[axis] - p.radius);
+        hi = i == 0 ? p.position[axis] + p.radius : std::max(hi, p.position[axis] + p.radius);
+      }
+      if (!(hi > lo)) {  // points in a plane (or no sites): a box of width 1 about them
+        lo -= 0.5;
+        hi += 0.5;
+      }
+      append_number(text, lo);
+      text.push_back(' ');
+      append_number(text, hi);
+      text.push_back('\n');
+    }
+    text += "ITEM: ATOMS id mol type x y z ix iy iz\n";
+    for (const Particle& p : f.particles) {
+      text += std::to_string(p.site + 1) + ' ' + std::to_string(p.body + 1) + ' ' +
+              std::to_string(types_[static_cast<std::size_t>(p.site)]);
+      for (const double c : p.position) {
+        text.push_back(' ');
+        append_number(text, c);
+      }
+      text += " 0 0 0\n";
+    }
+  }
+
+  double step_;
+  std::vector<std::ptrdiff_t> types_;  ///< per site of a frame: its radius's type, from 1
+};
+
+std::unique_ptr<TrajectorySink> open_lammps_dump(const std::string& path, const TrajectoryLayout& layout,
+                                                 const SinkPosition* resume) {
+  return std::make_unique<LammpsDump>(path, layout, resume);
+}
+
+}  // namespace
+
+extern const FormatDescriptor lammps_dump_format;  // listed in formats/registry.cpp
+const FormatDescriptor lammps_dump_format{
+    .name = "lammps-dump", .file_name = "trajectory.lammpstrj", .holds_columns = false, .open = open_lammps_dump};
+
+}  // namespace lgvi::app
