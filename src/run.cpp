@@ -70,14 +70,22 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
   const fs::path summary_path = fs::path(dir) / "summary.json";
   const fs::path checkpoint_path = fs::path(dir) / "checkpoint.bin";
   std::unique_ptr<TrajectorySink> sink;
+  // A resume is refused (a checkpoint field this lgvi cannot read) before the
+  // trajectory is reopened, which truncates it back to the checkpoint: a
+  // refused resume leaves the run folder as it was.
+  if (resume) {
+    try {
+      check_resume(sc, *resume);
+    } catch (const CheckpointError& e) {
+      std::cerr << "lgvi: error: " << e.what() << "\n";
+      return kBadInput;
+    }
+  }
   try {
     fs::create_directories(dir);
-    // A summary left by an earlier run must not describe this one. A resumed
-    // run keeps the summary of the run it continues until it writes its own,
-    // so that a resume refused below (a checkpoint field this lgvi cannot
-    // read) leaves the folder as it found it.
+    // A summary left by an earlier run must not describe this one.
+    fs::remove(summary_path);
     if (!resume) {
-      fs::remove(summary_path);
       fs::remove(checkpoint_path);
       write_file_atomically((fs::path(dir) / "scenario.toml").string(), sc.source_text);
     }

@@ -269,6 +269,23 @@ struct Recorder {
   }
 };
 
+/// Loads the checkpoint's state and the stepper's fields (resuming at its
+/// step): CheckpointError for a body count that differs or a stepper field
+/// that is unknown, missing or malformed; StepFailure (the step's) as thrown.
+template <class Stepper>
+void load_checkpoint(Stepper& stepper, const Scenario& sc, const Checkpoint& c, SystemState& state) {
+  if (c.state.size() != sc.bodies())
+    throw CheckpointError(c.path + ": checkpoint field 'run.state' holds " + std::to_string(c.state.size()) +
+                          " bodies, the scenario has " + std::to_string(sc.bodies()));
+  state = c.state;
+  try {
+    stepper.load(state, static_cast<double>(c.k) * sc.integrator.step, c.stepper);
+    c.stepper.require_all_read();  // what this stepper does not know
+  } catch (const InvalidInput& e) {
+    throw CheckpointError(c.path + ": " + e.what());
+  }
+}
+
 template <class Stepper>
 SimulationResult run_with(Stepper& stepper, const Scenario& sc, TrajectorySink& sink, const SimulationOptions& opt) {
   SimulationResult result;
@@ -277,11 +294,7 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, TrajectorySink& 
   std::int64_t k0 = 0;
   if (opt.resume) {
     stats = opt.resume->stats;
-    state = opt.resume->state;
-    k0 = opt.resume->k;
-    if (state.size() != sc.bodies())
-      throw CheckpointError(opt.resume->path + ": checkpoint field 'run.state' holds " +
-                            std::to_string(state.size()) + " bodies, the scenario has " + std::to_string(sc.bodies()));
+    k0 = opt.resume->k;  // the state: load_checkpoint below
   }
   ContactWatch contact(sc, stats);
   if (opt.resume) contact.resume_at(k0);
@@ -305,12 +318,7 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, TrajectorySink& 
   try {
     if (opt.resume) {
       try {
-        try {
-          stepper.load(state, static_cast<double>(k0) * h, opt.resume->stepper);
-          opt.resume->stepper.require_all_read();  // what this stepper does not know
-        } catch (const InvalidInput& e) {
-          throw CheckpointError(opt.resume->path + ": " + e.what());
-        }
+        load_checkpoint(stepper, sc, *opt.resume, state);
       } catch (const StepFailure& f) {
         throw IntegrationFailure(k0, static_cast<double>(k0) * h, f);
       }
@@ -382,6 +390,19 @@ SimulationResult simulate(const Scenario& sc, TrajectorySink& sink, const Simula
 SimulationResult simulate(const Scenario& sc, const CallablePotential& potential, TrajectorySink& sink,
                           const SimulationOptions& opt) {
   return simulate_with(sc, &potential, sink, opt);
+}
+
+void check_resume(const Scenario& sc, const Checkpoint& c) {
+  std::int64_t evaluations = 0;  // counted by the potential; not reported
+  const ScenarioSystemPotential potential = scenario_system_potential(sc, nullptr, &evaluations);
+  with_stepper(sc, potential, scenario_parallelism(sc), [&](auto& stepper) {
+    SystemState state;
+    try {
+      load_checkpoint(stepper, sc, c, state);
+    } catch (const StepFailure&) {
+      // Not a defect of the checkpoint: the resumed run reports it at its step.
+    }
+  });
 }
 
 }  // namespace lgvi::app

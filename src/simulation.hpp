@@ -127,5 +127,13 @@ SimulationResult simulate(const Scenario& scenario, TrajectorySink& sink, const 
 SimulationResult simulate(const Scenario& scenario, const CallablePotential& potential, TrajectorySink& sink,
                           const SimulationOptions& options = {});
 
+/// Whether `checkpoint` can resume `scenario`: builds the scenario's stepper
+/// and loads the checkpoint's state and stepper fields into it, as simulate()
+/// does on resume, with nothing written. Throws CheckpointError naming the
+/// file and the field (a body count that differs, a field this lgvi does not
+/// know or misses). lgvi run --resume calls it before it reopens the
+/// trajectory, so that a refused resume leaves the run folder as it was.
+void check_resume(const Scenario& scenario, const Checkpoint& checkpoint);
+
 
 }  // namespace lgvi::app

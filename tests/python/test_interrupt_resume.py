@@ -291,3 +291,36 @@ def test_a_count_whose_size_wraps_around_is_one_clear_error(tmp_path, new_checkp
                              for n, k, c, p in read_fields(data)])
     out, checkpoint = changed_copy(tmp_path, new_checkpoint, damage)
     refused(out, checkpoint, "checkpoint field 'run.step' is damaged")
+
+
+@pytest.mark.parametrize("fmt, sig", [("npz", signal.SIGINT), ("csv", signal.SIGKILL)])
+def test_a_refused_resume_reopens_nothing(tmp_path, fmt, sig):
+    """The stepper's fields are checked before the trajectory is reopened (reopening truncates it
+    back to the checkpoint): a refused resume leaves an npz closed by SIGINT readable, and the rows
+    a killed run wrote after its last checkpoint in place."""
+    path = scenario(tmp_path, every=10)  # rows enough to leave the CSV writer's buffer before the kill
+    path.write_text(path.read_text().replace("[output]\n", f'[output]\nformat = "{fmt}"\n', 1))
+    out = tmp_path / "run"
+    proc = subprocess.Popen([BINARY, "run", path, "--out", out, "--checkpoint-every", "1000000", "--no-figures",
+                             "-q"], stderr=subprocess.PIPE, text=True)
+    checkpoint, trajectory = out / "checkpoint.bin", out / f"trajectory.{fmt}"
+
+    def position():  # the trajectory's length in bytes at the checkpoint
+        fields = read_fields(checkpoint.read_bytes())
+        return struct.unpack("<3q", next(f for f in fields if f[0] == "sink.position")[3])[1]
+
+    # Signal once rows past the first checkpoint (step 10^6 of 4 10^6) are in the file.
+    deadline = time.monotonic() + 60
+    while not checkpoint.is_file() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.005)
+    while trajectory.stat().st_size <= position() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.005)
+    proc.send_signal(sig)
+    proc.communicate(timeout=60)
+    assert proc.returncode == (130 if sig == signal.SIGINT else -signal.SIGKILL)
+    # The case is the one meant: the file extends past the checkpoint's position (an npz's closing
+    # index, or a killed CSV's rows after the checkpoint), so reopening it would change it.
+    assert trajectory.stat().st_size > position()
+    fields = read_fields(checkpoint.read_bytes())
+    checkpoint.write_bytes(write_fields(fields + [("stepper.future_thing", 1, 1, struct.pack("<d", 1.0))]))
+    refused(out, checkpoint, "unknown checkpoint field 'stepper.future_thing'")
