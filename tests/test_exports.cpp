@@ -1,4 +1,4 @@
-// The particle exports (src/formats/xyz.cpp, vtk.cpp) at the sink level:
+// The particle exports (src/formats/xyz.cpp, vtk.cpp, lammps_dump.cpp) at the sink level:
 // resume after a crash or after close is byte-identical to an uninterrupted
 // write, the shapes must match the layout, errors name the file. Their
 // contents against a real run are checked by tests/python/test_exports.py
@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -15,6 +16,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <unistd.h>
 
@@ -28,8 +30,17 @@ using lgvi::app::TrajectoryLayout;
 using lgvi::app::TrajectorySink;
 namespace fs = std::filesystem;
 
-// The particle exports by their registered names (formats/registry.cpp).
-const TrajectoryFormat Xyz = TrajectoryFormat::named("xyz"), Vtk = TrajectoryFormat::named("vtk");
+// The one export that writes a file per step (formats/vtk.cpp).
+const TrajectoryFormat Vtk = TrajectoryFormat::named("vtk");
+
+/// Every registered format that is an export for viewers (holds no columns):
+/// each one passes the tests below.
+std::vector<TrajectoryFormat> export_formats() {
+  std::vector<TrajectoryFormat> out;
+  for (const lgvi::app::FormatDescriptor* d : lgvi::app::trajectory_formats())
+    if (!d->holds_columns) out.push_back(TrajectoryFormat::named(d->name));
+  return out;
+}
 
 /// Two bodies: three balls, and one body given by mass and inertia.
 TrajectoryLayout two_bodies() {
@@ -125,7 +136,7 @@ TEST_P(ExportFormatTest, ResumeAfterCrashIsByteIdentical) {
   sink->close("scenario", "{}");
   sink.reset();
   const auto a = contents("a"), b = contents("b");
-  EXPECT_EQ(a.size(), GetParam() == Xyz ? 1u : 1u + steps);  // the .pvd and one .vtp a step
+  EXPECT_EQ(a.size(), GetParam() == Vtk ? 1u + steps : 1u);  // vtk: the .pvd and one .vtp a step
   EXPECT_TRUE(a == b) << "the resumed export differs from the uninterrupted one";
 }
 
@@ -180,9 +191,11 @@ TEST_P(ExportFormatTest, UnwritablePathThrowsNamingIt) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Formats, ExportFormatTest, ::testing::Values(Xyz, Vtk),
+INSTANTIATE_TEST_SUITE_P(Formats, ExportFormatTest, ::testing::ValuesIn(export_formats()),
                          [](const ::testing::TestParamInfo<TrajectoryFormat>& info) {
-                           return std::string(lgvi::app::to_string(info.param));  // xyz, vtk
+                           std::string name = lgvi::app::to_string(info.param);  // xyz, vtk, lammps_dump
+                           std::replace(name.begin(), name.end(), '-', '_');
+                           return name;
                          });
 
 TEST(ExportFormat, SitePositionIsXPlusRRho) {

@@ -152,7 +152,7 @@ def load(path):
         data, names, scenario, summary_text = read_npz(file)
     elif ext in (".h5", ".hdf5"):
         data, names, scenario, summary_text = read_h5(file)
-    elif ext in (".xyz", ".pvd", ".vtp", ".lammpstrj"):
+    elif ext in {os.path.splitext(name)[1] for name in EXPORT_FILES} | {".vtp"}:  # .vtp: a vtk export's frame
         _refuse_export(file)
     else:
         raise ValueError(f"{file}: unknown trajectory format (expected .csv, .npz or .h5)")

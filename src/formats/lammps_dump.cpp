@@ -1,5 +1,5 @@
 // [output] format = "lammps-dump": the sites of every body as a LAMMPS text
-// dump (LAMMPS's `dump atom/custom` layout), which OVITO, VMD and LAMMPS's
+// dump (the layout of LAMMPS's `dump custom`), which OVITO, VMD and LAMMPS's
 // own read_dump and rerun read. One block per output step:
 //
 //   ITEM: TIMESTEP               the step k = round(t / h)
@@ -26,6 +26,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -37,12 +39,11 @@ class LammpsDump final : public ParticleTextFile {
  public:
   LammpsDump(const std::string& path, const TrajectoryLayout& layout, const SinkPosition* resume)
       : ParticleTextFile("lammps-dump", path, layout, resume), step_(layout.step) {
-    std::vector<double> radii;
+    std::map<double, std::int64_t> type_of_radius;  // O(sites log types)
     for (const BodyShape& shape : frames().shapes())
       for (const Site& site : shape.sites) {
-        const auto found = std::find(radii.begin(), radii.end(), site.radius);
-        types_.push_back(found - radii.begin() + 1);
-        if (found == radii.end()) radii.push_back(site.radius);
+        const std::int64_t next = static_cast<std::int64_t>(type_of_radius.size()) + 1;
+        types_.push_back(type_of_radius.emplace(site.radius, next).first->second);  // a radius seen keeps its type
       }
   }
 
@@ -80,7 +81,7 @@ class LammpsDump final : public ParticleTextFile {
   }
 
   double step_;
-  std::vector<std::ptrdiff_t> types_;  ///< per site of a frame: its radius's type, from 1
+  std::vector<std::int64_t> types_;  ///< per site of a frame: its radius's type, from 1
 };
 
 std::unique_ptr<TrajectorySink> open_lammps_dump(const std::string& path, const TrajectoryLayout& layout,

@@ -5,7 +5,7 @@ csv and each export, and the exports are read back (the XYZ and the dump by the
 small parsers below, the VTK by VTK's own vtkXMLPolyDataReader from Debian's
 python3-vtk9, the dump also by LAMMPS's own read_dump and rerun where Debian's
 lammps is installed) and compared with the CSV. Interrupted and killed runs
-resume to byte-identical files. Run by ctest (python.exports_xyz_vtk) with
+resume to byte-identical files. Run by ctest (python.exports) with
 LGVI_BINARY set."""
 import json
 import os
@@ -395,6 +395,22 @@ def test_lammps_dump_types_are_shared_by_equal_radii(tmp_path):
     assert list(cols["type"]) == [1, 2, 1, 2, 2]
     # All sites at z = 0, radii 0.3 and 0.2: the box is the spheres' extent, never flat.
     assert list(box[2]) == [-0.3, 0.3]
+
+
+def test_lammps_dump_box_is_never_flat(tmp_path):
+    # Point sites (radius 0) in the plane z = 0: their extent in z is empty, which LAMMPS refuses
+    # as a box; the dump widens it by 0.5 each way.
+    triangle = [([0.0, 0.0, 0.0], 1.0, 0.0), ([1.0, 0.0, 0.0], 1.0, 0.0), ([0.5, 0.8, 0.0], 1.0, 0.0)]
+    path = tmp_path / "flat.toml"
+    path.write_text(with_format(molecule("t", [0.0, 0.0, 0.0], triangle)
+                                + '[potential]\nkind = "none"\n\n[integrator]\nstep = 0.01\nduration = 0.1\n\n'
+                                  '[output]\n', "lammps-dump"))
+    proc = run(path, "--out", tmp_path / "out")
+    assert proc.returncode == 0, proc.stderr
+    for _, box, _, cols in read_lammps_dump(tmp_path / "out" / "trajectory.lammpstrj"):
+        assert not cols["z"].any()  # at rest in its plane
+        assert list(box[2]) == [-0.5, 0.5]
+        assert box[0, 1] - box[0, 0] == 1.0  # x: the sites' own extent, radius 0
 
 
 LAMMPS = shutil.which(os.environ.get("LMP_BINARY", "lmp"))
