@@ -161,7 +161,7 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
         st.last_k ? result.wall_seconds * 1e9 / static_cast<double>(st.last_k) : 0.0, st.max_energy_error,
         st.max_quat_error, l0 > 0 ? st.max_momentum_error / l0 : st.max_momentum_error, dir);
   // The figures are drawn from the trajectory's columns; the particle exports
-  // (xyz, vtk) do not hold them (lgvi.load refuses them), so those runs have none.
+  // (xyz, vtk, lammps-dump) do not hold them (lgvi.load refuses them), so those runs have none.
   if (opt.figures && !holds_columns(sc.output_format)) {
     if (!opt.quiet)
       std::cerr << "lgvi: no figures: they are drawn from csv, npz or hdf5 trajectories, this run wrote the "

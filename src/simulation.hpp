@@ -114,7 +114,8 @@ struct SingleBodyRow {
 
 /// The trajectory layout of a scenario: the single-body columns for a [body]
 /// scenario, the long (per body) format for a [[bodies]] one; with the
-/// bodies' shapes when the scenario's format is a particle export (xyz, vtk).
+/// bodies' shapes when the scenario's format is a particle export (xyz, vtk,
+/// lammps-dump), and the time step.
 TrajectoryLayout scenario_layout(const Scenario& s);
 
 /// Runs the scenario, handing rows (every `output_every` steps, the first and

@@ -36,7 +36,7 @@ inline constexpr const char* forced_bodies_trajectory_header =
     "t,body,x,y,z,qw,qx,qy,qz,px,py,pz,wx,wy,wz,quat_norm_error,energy,energy_error,Px,Py,Pz,"
     "linear_momentum_error,Lx,Ly,Lz,momentum_error,work";
 
-/// One sphere of a body as the particle exports (xyz, vtk) draw it: its
+/// One sphere of a body as the particle exports (xyz, vtk, lammps-dump) draw it: its
 /// centre in the body frame (about the centre of mass) and its radius.
 struct Site {
   std::array<double, 3> rho{};

@@ -57,7 +57,7 @@ int column_of(const char* header, const char* name) {
 ParticleFrames::ParticleFrames(const TrajectoryLayout& layout)
     : shapes_(layout.shapes), columns_(static_cast<std::size_t>(layout.columns)) {
   if (static_cast<std::int64_t>(shapes_.size()) != layout.rows_per_step())
-    throw std::runtime_error("the particle exports (xyz, vtk) need the shape of each of the " +
+    throw std::runtime_error("the particle exports (xyz, vtk, lammps-dump) need the shape of each of the " +
                              std::to_string(layout.rows_per_step()) + " bodies, got " +
                              std::to_string(shapes_.size()));
   const char* h = layout.header;

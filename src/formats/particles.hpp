@@ -1,5 +1,5 @@
 // The particles of the exports for viewers (extended XYZ for OVITO, VTK XML
-// for ParaView): every sphere of every body placed in the inertial frame, one
+// for ParaView, the LAMMPS dump): every sphere of every body placed in the inertial frame, one
 // frame per output step. The viewers draw particles, not rigid bodies, so the
 // exports carry each body's spheres ("sites") with the body's orientation.
 #pragma once
@@ -86,7 +86,7 @@ class ParticleFrames {
 std::array<double, 3> site_position(const double* x, const double* q_wxyz, const std::array<double, 3>& rho);
 
 /// Where a particle export written through stdio stands after `frames`'
-/// rows (TrajectorySink::sync for xyz and vtk): the rows taken and the
+/// rows (TrajectorySink::sync of the particle exports): the rows taken and the
 /// file's length once flushed. Throws std::logic_error in the middle of an
 /// output step ("FORMAT: sync() ..."), and std::runtime_error with the
 /// sink's recorded write error, if any, or the flush's.
