@@ -128,7 +128,7 @@ Prepared prepare(const std::string& sweep_path, const EnsembleOptions& options);
 /// The plan from an ensemble folder's copies (--resume; ranks other than 0).
 /// check_members false reads member 0's scenario only: ranks other than 0
 /// use the plan rank 0 has checked, so their start-up does not grow with the
-/// number of members (reading every member's scenario takes ~0.15 ms each).
+/// number of members.
 EnsemblePlan plan_of_folder(const std::string& dir, bool check_members = true);
 /// Appends a row to the journal and flushes it (what rank 0 has is on disk).
 void append_journal(const std::string& dir, const std::string& row);

@@ -74,9 +74,8 @@ class ExternalField {
       // No field: zeros (the same values as the loop below: every term is
       // 0), each body's written by the thread that computed its forces last
       // (a many-body run without a field, such as a Lennard-Jones gas, goes
-      // through this every step): written on one thread, the arrays' lines
-      // came from the other core's cache, 2.1 us per step at N = 1000 on 2
-      // threads against 0.6 on 1.
+      // through this every step), so that the arrays' cache lines stay on
+      // the core that uses them (docs/tuning.md).
       parallel_for(n, par_, [&](std::size_t a) {
         e.force[a] = Vector3<double>::Zero();
         e.torque[a] = Vector3<double>::Zero();

@@ -55,9 +55,10 @@ inline constexpr const char* smaller_step_hint_pi =
     "take a smaller step, so that the rotation |Omega| h per step stays well below pi";
 
 /// Solves a r = y for a 3x3 matrix by its adjugate (Cramer's rule): about 40
-/// flops and one division (docs/tuning.md). A singular or non-finite system gives non-finite values, which the
-/// solvers report as a failed step. x = a^{-1} y, for T double or SIMD lanes
-/// of doubles (RotationSolveBatch): one operation order for both.
+/// flops and one division (docs/tuning.md). A singular or non-finite system
+/// gives non-finite values, which the solvers report as a failed step.
+/// x = a^{-1} y, for T double or SIMD lanes of doubles (RotationSolveBatch):
+/// one operation order for both.
 template <class T>
 [[gnu::always_inline]] inline void solve_3x3_entries(const T (&a)[3][3], const T (&y)[3], T (&x)[3]) {
   const T c00 = a[1][1] * a[2][2] - a[1][2] * a[2][1];
