@@ -8,10 +8,12 @@
 
 namespace lgvi::app {
 
-inline const InteractionDescriptor gravity_interaction{
+inline constexpr std::string_view gravity_keys[] = {"G", "model"};
+
+inline constinit const InteractionDescriptor gravity_interaction{
     .kind = "gravity",
     .title = "mutual gravity",
-    .keys = {"G", "model"},
+    .keys = gravity_keys,
     .read =
         [](const InteractionReader& r, InteractionSpec& spec) {
           spec.words["model"] = r.has("model") ? r.choice("model", {"balls", "inertia"}) : "balls";

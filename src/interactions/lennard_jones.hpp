@@ -8,10 +8,12 @@
 
 namespace lgvi::app {
 
-inline const InteractionDescriptor lennard_jones_interaction{
+inline constexpr std::string_view lennard_jones_keys[] = {"epsilon", "sigma", "cutoff", "skin"};
+
+inline constinit const InteractionDescriptor lennard_jones_interaction{
     .kind = "lennard-jones",
     .title = "Lennard-Jones",
-    .keys = {"epsilon", "sigma", "cutoff", "skin"},
+    .keys = lennard_jones_keys,
     .read =
         [](const InteractionReader& r, InteractionSpec& spec) {
           const double epsilon = r.positive("epsilon", "the depth of the potential well");

@@ -53,8 +53,11 @@ class InteractionReader {
 struct InteractionDescriptor {
   std::string_view kind;   ///< [interaction] kind = "..."
   std::string_view title;  ///< its name in words, e.g. "Lennard-Jones" (the summary's notes)
-  /// The keys it takes besides kind, in the order the reader lists them.
-  std::vector<std::string_view> keys;
+  /// The keys it takes besides kind, in the order the reader lists them
+  /// (a static array of the descriptor's file: every descriptor is
+  /// constinit, built before any code runs, so no static-initialisation
+  /// order can find it empty).
+  std::span<const std::string_view> keys;
   /// Reads and checks the keys into spec.numbers / spec.words (defaults
   /// filled in: the summary writes what the run used).
   void (*read)(const InteractionReader& r, InteractionSpec& spec);

@@ -9,10 +9,12 @@
 
 namespace lgvi::app {
 
-inline const InteractionDescriptor wca_interaction{
+inline constexpr std::string_view wca_keys[] = {"epsilon", "sigma", "skin"};
+
+inline constinit const InteractionDescriptor wca_interaction{
     .kind = "wca",
     .title = "Weeks-Chandler-Andersen",
-    .keys = {"epsilon", "sigma", "skin"},
+    .keys = wca_keys,
     .read =
         [](const InteractionReader& r, InteractionSpec& spec) {
           const double epsilon = r.positive("epsilon", "the depth of the potential well");
