@@ -182,6 +182,25 @@ struct Recorder {
   RunStatistics& stats;
   ContactWatch& contact;
 
+  /// The state is finite (the stepper checks it), but what is derived from
+  /// it can still overflow: |p|^2 / 2m or x x p beyond the largest double.
+  /// A row or summary with inf or NaN in it would read as a result; the run
+  /// fails at this step instead, naming what overflowed.
+  void require_finite_diagnostics(const SystemStepInfo& i, double energy, double de, const Vector3<double>& L,
+                                  const Vector3<double>& P, double rot_energy) const {
+    if (std::isfinite(energy + de + L.sum() + P.sum() + rot_energy + i.work)) return;
+    const char* what = !std::isfinite(energy) || !std::isfinite(rot_energy) ? "the energy"
+                       : !std::isfinite(de)                                  ? "the energy error"
+                       : !L.allFinite()                                      ? "the angular momentum"
+                       : !P.allFinite()                                      ? "the linear momentum"
+                                                                             : "the forcing's work";
+    const StepFailure cause(std::string(what) + " is not finite although the state is: it overflows double precision",
+                            "rescale the scenario's units (lengths, masses, times) so that positions, momenta and "
+                            "energies stay well below 1e150");
+    const std::int64_t step = std::max<std::int64_t>(0, i.k - 1);
+    throw IntegrationFailure(step, static_cast<double>(step) * scenario.integrator.step, cause);
+  }
+
   void operator()(const SystemStepInfo& i) {
     const SystemState& s = i.state;
     const bool contact_stop = i.k > 0 && contact.observe(i.k, i.t, s);
@@ -236,6 +255,7 @@ struct Recorder {
     const double de = forced ? energy - stats.energy0 - i.work : energy - stats.energy0;
     const double dl = (L - stats.momentum0).norm();
     stats.work = i.work;
+    require_finite_diagnostics(i, energy, de, L, P, rot_energy);
     // |P - P0| relative to sum |p_a0|; absolute when every body starts at rest.
     const double dp_abs = (P - stats.linear_momentum0).norm();
     const double dp = stats.linear_momentum_scale > 0.0 ? dp_abs / stats.linear_momentum_scale : dp_abs;
