@@ -523,9 +523,9 @@ void read_bodies(const Reader& r, const toml::table& root, std::vector<RigidBody
 /// deepest overlap of the first pair, by body index.
 void require_no_overlap(const Reader& r, const System& system, const SystemState& s) {
   const ContactDetector detector(system);
-  const std::vector<Contact>& found = detector.find(s);
-  if (found.empty()) return;
-  const Contact& c = found.front();
+  const std::optional<Contact> first = detector.first(s);
+  if (!first) return;
+  const Contact& c = *first;
   auto what = [&](std::size_t a, std::ptrdiff_t ball) {
     return "bodies[" + std::to_string(a) + "]" + (ball >= 0 ? ".ball[" + std::to_string(ball) + "]" : "");
   };

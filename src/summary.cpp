@@ -44,9 +44,9 @@ std::string contact_check(const Scenario& s) {
                                     std::string(s.interaction.descriptor ? s.interaction.descriptor->title : "?") +
                                     " system, whose balls' radii only shape the inertia (give [run] on_contact to "
                                     "check); overlaps at the start are errors";
-  return "after every step: bounding spheres swept along x, then exactly: balls and spheres by their radii, "
-         "ellipsoids by the Perram-Wertheim contact function; a body given by mass + inertia without radius is its "
-         "centre of mass";
+  return "after every step: bounding spheres binned in cells of their largest diameter, then exactly: balls and "
+         "spheres by their radii, ellipsoids by the Perram-Wertheim contact function; a body given by mass + inertia "
+         "without radius is its centre of mass";
 }
 
 Json setup_json(const Scenario& s) {

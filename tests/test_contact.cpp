@@ -25,6 +25,7 @@
 #include <filesystem>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -217,6 +218,66 @@ TEST(ContactDetector, FindsExactlyThePairsOfOverlappingBallsOfAllPairs) {
     // Rotations by matrix (detector) and by quaternion (here): a few eps of the positions (~6).
     EXPECT_NEAR(found[i].depth(), expected[i].reach, 1e-13) << i;
   }
+}
+
+/// The overlapping pairs by a test of every ball of every pair: (a, b) and
+/// the deepest overlap of each (in `reach`), in the order of (a, b).
+std::vector<Contact> all_pairs_of_balls(const System& sys, const SystemState& s) {
+  std::vector<Contact> expected;
+  for (std::size_t a = 0; a < sys.size(); ++a)
+    for (std::size_t b = a + 1; b < sys.size(); ++b) {
+      double deepest = -1.0;
+      for (const lgvi::Ball& u : sys.body(a).balls())
+        for (const lgvi::Ball& v : sys.body(b).balls()) {
+          const double d = ((s.x[b] + s.q[b].act(v.position)) - (s.x[a] + s.q[a].act(u.position))).norm();
+          if (d < u.radius + v.radius) deepest = std::max(deepest, u.radius + v.radius - d);
+        }
+      if (deepest >= 0.0) expected.push_back({a, b, 0, 0, 0.0, deepest});
+    }
+  return expected;
+}
+
+TEST(ContactDetector, CellsOfMixedSizesAndFarBodiesFindWhatAllPairsFind) {
+  // The cells are sized by the largest body: 250 bodies whose bounding radii
+  // range over two decades, most in a box where many overlap, a few 1e12
+  // away (which coarsens the cells so their indices stay exact) and two on
+  // top of each other out there. The pairs and depths are those of every
+  // ball of every pair; first() is what find() lists first, and nothing
+  // when no pair overlaps.
+  std::vector<RigidBody> bodies;
+  SystemState s(250);
+  for (std::size_t a = 0; a < 250; ++a) {
+    const double size = a % 25 == 0 ? 1.5 : t::uniform(0.015, 0.15);
+    bodies.push_back(RigidBody::from_balls({{V3(-size, 0.0, 0.0), 1.0, t::uniform(0.3, 1.0) * size},
+                                            {V3(size, 0.0, 0.0), 1.0, t::uniform(0.3, 1.0) * size}}));
+    s.x[a] = a >= 245 ? V3(1e12, -1e12, 3e11) + V3(0.0, 0.0, a >= 248 ? 0.0 : 10.0 * static_cast<double>(a))
+                      : t::random_vector(3.0);
+    // Far out unturned, so that both tests place the balls exactly (1e12 has an ulp of 1e-4).
+    s.q[a] = a >= 245 ? S3d() : t::random_unit_quaternion();
+  }
+  const System sys(bodies);
+  const std::vector<Contact> expected = all_pairs_of_balls(sys, s);
+  const ContactDetector detector(sys);
+  const std::vector<Contact>& found = detector.find(s);
+  ASSERT_GT(expected.size(), 10u);  // the test would not test much otherwise
+  EXPECT_EQ(expected.back().a, 248u);  // the two on top of each other, far out
+  ASSERT_EQ(found.size(), expected.size());
+  for (std::size_t i = 0; i < found.size(); ++i) {
+    EXPECT_EQ(found[i].a, expected[i].a);
+    EXPECT_EQ(found[i].b, expected[i].b);
+    // Rotations by matrix (detector) and by quaternion (here): a few eps of the positions.
+    EXPECT_NEAR(found[i].depth(), expected[i].reach, 1e-13) << i;
+  }
+  const Contact front = found.front();  // found is overwritten by the next call
+  const std::optional<Contact> first = detector.first(s);
+  ASSERT_TRUE(first.has_value());
+  EXPECT_EQ(first->a, front.a);
+  EXPECT_EQ(first->b, front.b);
+  EXPECT_EQ(first->depth(), front.depth());
+  SystemState apart = s;
+  for (std::size_t a = 0; a < 250; ++a) apart.x[a] = V3(4.0 * static_cast<double>(a), 0.0, 0.0);
+  EXPECT_TRUE(detector.find(apart).empty());
+  EXPECT_FALSE(detector.first(apart).has_value());
 }
 
 TEST(ContactDetector, TwoRubblePilesThroughEachOtherGiveTheDeepestPairOfAllBalls) {

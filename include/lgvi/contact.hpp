@@ -9,11 +9,14 @@
 // ellipsoid, or nothing, in which case it is its centre of mass (a point: it
 // overlaps a body only by lying inside it, another point only by coinciding
 // with it). Every body is first bounded by a sphere about its centre of mass
-// (RigidBody::bounding_radius); the bounding spheres are sorted along x and
-// swept (O(N log N + K) per call, K the pairs whose x-extents overlap), and
-// only pairs whose bounding spheres meet are tested exactly, piece by piece
-// (ball by ball for bodies of balls, the balls of one swept along x against
-// those of the other):
+// (RigidBody::bounding_radius); the centres are binned in cubic cells of side
+// 2 r_max (r_max the largest bounding radius), so that two bodies whose
+// bounding spheres meet lie in the same or adjacent cells: O(N log N + K) per
+// call, K the pairs in adjacent cells (linear in N at a bounded density;
+// bodies of very different sizes share the largest one's cells). Only pairs
+// whose bounding spheres meet are tested exactly, piece by piece (ball by
+// ball for bodies of balls, the balls of one swept along x against those of
+// the other):
 //
 //  * two spheres (balls, spheres, points as spheres of radius 0) overlap when
 //    the distance d of their centres is below r_a + r_b (or is 0);
@@ -43,8 +46,13 @@
 #include <Eigen/Cholesky>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <utility>
 #include <vector>
 
 namespace lgvi {
@@ -109,28 +117,72 @@ class ContactDetector {
   /// Every overlapping pair at `s`, in the order of (a, b). The reference
   /// stays valid until the next call.
   const std::vector<Contact>& find(const SystemState& s) const {
-    const std::size_t n = radius_.size();
-    found_.clear();
-    order_.resize(n);
-    for (std::size_t a = 0; a < n; ++a) order_[a] = a;
-    auto low = [&](std::size_t a) { return s.x[a].x() - radius_[a]; };
-    std::sort(order_.begin(), order_.end(), [&](std::size_t u, std::size_t v) { return low(u) < low(v); });
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::size_t a = order_[i];
-      const double high = s.x[a].x() + radius_[a];
-      for (std::size_t j = i + 1; j < n && low(order_[j]) <= high; ++j) {
-        const std::size_t b = order_[j];
-        if ((s.x[b] - s.x[a]).norm() > radius_[a] + radius_[b]) continue;
-        Contact c;
-        if (a < b ? pair(s, a, b, c) : pair(s, b, a, c)) found_.push_back(c);
-      }
-    }
-    std::sort(found_.begin(), found_.end(),
-              [](const Contact& u, const Contact& v) { return u.a != v.a ? u.a < v.a : u.b < v.b; });
+    scan(s, false);
     return found_;
   }
 
+  /// The first overlapping pair in the order of (a, b), if any: what find()
+  /// would list first, found without looking further (one overlap is enough
+  /// to refuse a start).
+  std::optional<Contact> first(const SystemState& s) const {
+    scan(s, true);
+    return found_.empty() ? std::nullopt : std::optional<Contact>(found_.front());
+  }
+
  private:
+  using Cell = std::array<std::int64_t, 3>;
+
+  /// Bins the centres (cells_, sorted by cell, then body), then tests body a
+  /// = 0, 1, ... against the bodies b > a of its cell and the 26 around it,
+  /// in the order of b: contacts come out in the order of (a, b). With
+  /// `first_only`, stops after the first body a that has one.
+  void scan(const SystemState& s, bool first_only) const {
+    const std::size_t n = radius_.size();
+    found_.clear();
+    if (n < 2) return;
+    // Cells of side 2 r_max: |x_a - x_b| <= r_a + r_b <= 2 r_max for bodies
+    // whose bounding spheres meet. Coarser where the bodies spread over more
+    // than 2^40 cells, so that every cell index is an exact integer.
+    double r_max = 0.0, spread = 0.0;
+    for (std::size_t a = 0; a < n; ++a) {
+      r_max = std::max(r_max, radius_[a]);
+      spread = std::max(spread, s.x[a].cwiseAbs().maxCoeff());
+    }
+    const double side = std::max({2.0 * r_max, 0x1p-40 * spread, std::numeric_limits<double>::min()});
+    auto cell_of = [&](const Vector3<double>& x) {
+      Cell c{};
+      for (int i = 0; i < 3; ++i) {
+        const double k = std::floor(x[i] / side);
+        c[static_cast<std::size_t>(i)] = std::isfinite(k) ? static_cast<std::int64_t>(k) : 0;  // not finite: one cell
+      }
+      return c;
+    };
+    cells_.resize(n);
+    for (std::size_t a = 0; a < n; ++a) cells_[a] = {cell_of(s.x[a]), a};
+    std::sort(cells_.begin(), cells_.end());
+    auto by_cell = [](const std::pair<Cell, std::size_t>& e, const Cell& c) { return e.first < c; };
+    for (std::size_t a = 0; a < n; ++a) {
+      const Cell home = cell_of(s.x[a]);
+      candidates_.clear();
+      for (std::int64_t dx = -1; dx <= 1; ++dx)
+        for (std::int64_t dy = -1; dy <= 1; ++dy)
+          for (std::int64_t dz = -1; dz <= 1; ++dz) {
+            const Cell c{home[0] + dx, home[1] + dy, home[2] + dz};
+            for (auto e = std::lower_bound(cells_.begin(), cells_.end(), c, by_cell);
+                 e != cells_.end() && e->first == c; ++e) {
+              const std::size_t b = e->second;
+              if (b > a && (s.x[b] - s.x[a]).norm() <= radius_[a] + radius_[b]) candidates_.push_back(b);
+            }
+          }
+      std::sort(candidates_.begin(), candidates_.end());
+      for (const std::size_t b : candidates_) {
+        Contact c;
+        if (pair(s, a, b, c)) found_.push_back(c);
+      }
+      if (first_only && !found_.empty()) return;
+    }
+  }
+
   /// One piece of a body in inertial axes: a sphere (radius 0: a point) or
   /// an ellipsoid (m = R diag(s^2) R^T).
   struct Piece {
@@ -215,7 +267,8 @@ class ContactDetector {
 
   const System* sys_ = nullptr;
   std::vector<double> radius_;
-  mutable std::vector<std::size_t> order_;
+  mutable std::vector<std::pair<Cell, std::size_t>> cells_;
+  mutable std::vector<std::size_t> candidates_;
   mutable std::vector<Contact> found_;
   mutable std::vector<Piece> pieces_a_, pieces_b_;
 };
