@@ -69,32 +69,28 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
   const fs::path trajectory_path = fs::path(dir) / trajectory_file_name(sc.output_format);
   const fs::path summary_path = fs::path(dir) / "summary.json";
   const fs::path checkpoint_path = fs::path(dir) / "checkpoint.bin";
+  // The folder is written when simulate() opens the sink: for a resume only
+  // once the checkpoint has loaded, since reopening the trajectory truncates
+  // it back to the checkpoint: a refused resume leaves the folder as it was.
   std::unique_ptr<TrajectorySink> sink;
-  // A resume is refused (a checkpoint field this lgvi cannot read) before the
-  // trajectory is reopened, which truncates it back to the checkpoint: a
-  // refused resume leaves the run folder as it was.
-  if (resume) {
+  std::string folder_error;
+  auto open_sink = [&]() -> TrajectorySink& {
     try {
-      check_resume(sc, *resume);
-    } catch (const CheckpointError& e) {
-      std::cerr << "lgvi: error: " << e.what() << "\n";
-      return kBadInput;
+      fs::create_directories(dir);
+      // A summary left by an earlier run must not describe this one.
+      fs::remove(summary_path);
+      if (!resume) {
+        fs::remove(checkpoint_path);
+        write_file_atomically((fs::path(dir) / "scenario.toml").string(), sc.source_text);
+      }
+      sink = open_trajectory(sc.output_format, trajectory_path.string(), scenario_layout(sc),
+                             resume ? &resume->sink : nullptr);
+    } catch (const std::exception& e) {
+      folder_error = e.what();
+      throw;
     }
-  }
-  try {
-    fs::create_directories(dir);
-    // A summary left by an earlier run must not describe this one.
-    fs::remove(summary_path);
-    if (!resume) {
-      fs::remove(checkpoint_path);
-      write_file_atomically((fs::path(dir) / "scenario.toml").string(), sc.source_text);
-    }
-    sink = open_trajectory(sc.output_format, trajectory_path.string(), scenario_layout(sc), resume ? &resume->sink : nullptr);
-  } catch (const std::exception& e) {
-    std::cerr << "lgvi: error: output folder '" << dir << "' cannot be written: " << e.what()
-              << "; choose another with --out\n";
-    return kBadInput;
-  }
+    return *sink;
+  };
 
   Progress progress(!opt.quiet, sc.integrator.steps);
   SimulationOptions so;
@@ -111,12 +107,18 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
   {
     StopSignals signals;
     try {
-      result = simulate(sc, *sink, so);
-    } catch (const CheckpointError& e) {  // the stepper's fields: nothing was run
+      result = simulate(sc, open_sink, so);
+    } catch (const CheckpointError& e) {  // the checkpoint's fields: nothing was run or written
       std::cerr << "lgvi: error: " << e.what() << "\n";
       return kBadInput;
-    } catch (const std::exception& e) {  // I/O while checkpointing
-      result.error = e.what();
+    } catch (const std::exception& e) {
+      if (!sink) {  // the folder could not be written: nothing was run
+        if (folder_error.empty()) throw;
+        std::cerr << "lgvi: error: output folder '" << dir << "' cannot be written: " << folder_error
+                  << "; choose another with --out\n";
+        return kBadInput;
+      }
+      result.error = e.what();  // I/O while checkpointing
     }
     if (result.interrupted)
       result.error = std::string("interrupted by ") + stop_signal_name() +

@@ -307,20 +307,32 @@ void load_checkpoint(Stepper& stepper, const Scenario& sc, const Checkpoint& c, 
 }
 
 template <class Stepper>
-SimulationResult run_with(Stepper& stepper, const Scenario& sc, TrajectorySink& sink, const SimulationOptions& opt) {
+SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener& open_sink,
+                          const SimulationOptions& opt) {
   SimulationResult result;
   RunStatistics& stats = result.stats;
   SystemState state = sc.initial_state;
   std::int64_t k0 = 0;
+  const auto start = std::chrono::steady_clock::now();
+  // A resume loads the checkpoint before the sink is opened: a checkpoint
+  // this lgvi cannot read (CheckpointError, thrown from here) leaves the run
+  // folder as it was. A step that fails at the loaded state is the run's
+  // failure at that step, reported with the sink open as for any other.
+  std::optional<StepFailure> load_failure;
   if (opt.resume) {
     stats = opt.resume->stats;
-    k0 = opt.resume->k;  // the state: load_checkpoint below
+    k0 = opt.resume->k;
+    try {
+      load_checkpoint(stepper, sc, *opt.resume, state);
+    } catch (const StepFailure& f) {
+      load_failure = f;
+    }
   }
+  TrajectorySink& sink = open_sink();
   ContactWatch contact(sc, stats);
   if (opt.resume) contact.resume_at(k0);
   Recorder recorder{sc, sink, stats, contact};
   const double h = sc.integrator.step;
-  const auto start = std::chrono::steady_clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   auto checkpoint = [&](std::int64_t k) {
     Checkpoint c;
@@ -336,13 +348,9 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, TrajectorySink& 
   };
   std::int64_t reached = k0;
   try {
-    if (opt.resume) {
-      try {
-        load_checkpoint(stepper, sc, *opt.resume, state);
-      } catch (const StepFailure& f) {
-        throw IntegrationFailure(k0, static_cast<double>(k0) * h, f);
-      }
-    } else {
+    if (load_failure) {
+      throw IntegrationFailure(k0, static_cast<double>(k0) * h, *load_failure);
+    } else if (!opt.resume) {
       try {
         stepper.initialize(state, 0.0);
       } catch (const StepFailure& f) {
@@ -390,39 +398,30 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, TrajectorySink& 
 
 namespace {
 
-SimulationResult simulate_with(const Scenario& sc, const CallablePotential* field, TrajectorySink& sink,
+SimulationResult simulate_with(const Scenario& sc, const CallablePotential* field, const SinkOpener& open_sink,
                                const SimulationOptions& opt) {
   if (opt.checkpoint_every > 0 && opt.checkpoint_path.empty())
     throw InvalidInput("checkpoint_every is set but no checkpoint path is given");
   std::int64_t count = 0;
   const ScenarioSystemPotential potential = scenario_system_potential(sc, field, &count);
   SimulationResult r = with_stepper(sc, potential, scenario_parallelism(sc),
-                                    [&](auto& stepper) { return run_with(stepper, sc, sink, opt); });
+                                    [&](auto& stepper) { return run_with(stepper, sc, open_sink, opt); });
   r.stats.potential_evaluations += count;
   return r;
 }
 }  // namespace
 
 SimulationResult simulate(const Scenario& sc, TrajectorySink& sink, const SimulationOptions& opt) {
-  return simulate_with(sc, nullptr, sink, opt);
+  return simulate_with(sc, nullptr, [&]() -> TrajectorySink& { return sink; }, opt);
+}
+
+SimulationResult simulate(const Scenario& sc, const SinkOpener& open_sink, const SimulationOptions& opt) {
+  return simulate_with(sc, nullptr, open_sink, opt);
 }
 
 SimulationResult simulate(const Scenario& sc, const CallablePotential& potential, TrajectorySink& sink,
                           const SimulationOptions& opt) {
-  return simulate_with(sc, &potential, sink, opt);
-}
-
-void check_resume(const Scenario& sc, const Checkpoint& c) {
-  std::int64_t evaluations = 0;  // counted by the potential; not reported
-  const ScenarioSystemPotential potential = scenario_system_potential(sc, nullptr, &evaluations);
-  with_stepper(sc, potential, scenario_parallelism(sc), [&](auto& stepper) {
-    SystemState state;
-    try {
-      load_checkpoint(stepper, sc, c, state);
-    } catch (const StepFailure&) {
-      // Not a defect of the checkpoint: the resumed run reports it at its step.
-    }
-  });
+  return simulate_with(sc, &potential, [&]() -> TrajectorySink& { return sink; }, opt);
 }
 
 }  // namespace lgvi::app

@@ -123,18 +123,22 @@ TrajectoryLayout scenario_layout(const Scenario& s);
 /// thrown; the sink then holds the trajectory up to the last good step.
 SimulationResult simulate(const Scenario& scenario, TrajectorySink& sink, const SimulationOptions& options = {});
 
+/// Opens the run's trajectory sink; simulate() calls it once, before the
+/// first row (for a resume, after the checkpoint has loaded).
+using SinkOpener = std::function<TrajectorySink&()>;
+
+/// The same, with the sink opened by `open_sink` only once the run can start:
+/// on resume, after the checkpoint's state and stepper fields have loaded.
+/// A checkpoint this lgvi cannot read (CheckpointError, naming the file and
+/// the field: a body count that differs, a field it does not know or misses)
+/// is thrown before open_sink is called, so a refused resume writes nothing.
+SimulationResult simulate(const Scenario& scenario, const SinkOpener& open_sink, const SimulationOptions& options);
+
 /// The same with a user's potential (e.g. written in Python) in place of the
 /// scenario's [potential].
 SimulationResult simulate(const Scenario& scenario, const CallablePotential& potential, TrajectorySink& sink,
                           const SimulationOptions& options = {});
 
-/// Whether `checkpoint` can resume `scenario`: builds the scenario's stepper
-/// and loads the checkpoint's state and stepper fields into it, as simulate()
-/// does on resume, with nothing written. Throws CheckpointError naming the
-/// file and the field (a body count that differs, a field this lgvi does not
-/// know or misses). lgvi run --resume calls it before it reopens the
-/// trajectory, so that a refused resume leaves the run folder as it was.
-void check_resume(const Scenario& scenario, const Checkpoint& checkpoint);
 
 
 }  // namespace lgvi::app
