@@ -27,11 +27,13 @@ myst_heading_anchors = 3
 myst_enable_extensions = ["colon_fence"]
 # Figures' folders hold the `lgvi compare` tables of the benchmarks (comparison.md files), which are
 # data copied from runs, not pages.
-exclude_patterns = ["compare/**", "leo/**", "ensemble/**", "view/**", "figures/**", "_build"]
+exclude_patterns = ["compare/**", "leo/**", "ensemble/**", "view/**", "figures/**", "_static/**", "_build"]
 
 html_theme = "sphinx_rtd_theme"
 html_title = f"lgvi {release}"
 html_show_sourcelink = False
+html_static_path = ["_static"]
+html_css_files = ["lgvi.css"]
 # Search results without the summaries Sphinx fetches from each page: a fetch of a file:// page is refused
 # by browsers, and the site is meant to be read from disk too.
 html_show_search_summary = False
