@@ -8,9 +8,9 @@
                         src/interactions/registry.cpp), the names of methods, solvers and formats from
                         lgvi._core (METHODS, SOLVERS, FORMATS, FORMAT_FILES);
   OUT/commands.md       `lgvi --help` and `lgvi COMMAND --help` of the built binary;
-  OUT/outputs.md        the trajectory columns (lgvi._core's headers) and the keys of summary.json, of a
-                        run's checkpoint-free folder and of an ensemble, read from real runs of the
-                        built binary.
+  OUT/outputs.md        the trajectory columns (lgvi._core's headers), the keys of summary.json, and the
+                        files and columns of a run folder, a comparison and an ensemble, read from real
+                        (short) runs of the built binary.
 
 Each key found in the reader needs a line in DESCRIPTIONS below, and each line there a key in the reader:
 a key added to the reader without a description, or a description left for a removed key, stops the
@@ -397,6 +397,8 @@ def outputs(core, binary):
             summary = json.loads((folder / "summary.json").read_text())
             keys = _json_keys(summary)
             out += [f"### {what}", "", ", ".join(f"`{k}`" for k in keys), ""]
+            if i == 0:
+                run_files = sorted(p.name for p in folder.iterdir())
         # An ensemble of two members of the shortened paper orbit, random attitudes.
         sweep = tmp / "sweep.toml"
         sweep.write_text('[ensemble]\nscenario = "s0_paper-orbit.toml"\nmembers = 2\nseed = 1\n\n'
@@ -405,6 +407,23 @@ def outputs(core, binary):
         _lgvi(binary, "ensemble", str(sweep), "--out", str(folder), "-q", "--no-figures")
         header = (folder / "members.csv").read_text(encoding="utf-8").splitlines()[0].split(",")
         files = sorted(p.name for p in folder.iterdir())
+        # A comparison of one method on the free body, as short as the options allow.
+        folder = tmp / "compare"
+        _lgvi(binary, "compare", str(ROOT / "scenarios" / "free-body-manchester-peck.toml"), "--methods", "lgvi",
+              "--ladder", "2", "--long-steps", "1000", "--timing-budget", "0.01", "--error-time", "1",
+              "--no-figures", "-q", "--out", str(folder))
+        compare_files = sorted(p.name for p in folder.iterdir())
+        compare_columns = {f: (folder / f).read_text(encoding="utf-8").splitlines()[0].split(",")
+                           for f in compare_files if f.endswith(".csv")}
+    out += ["## Run folders (`lgvi run`)", "",
+            "The files of a run folder (`--no-figures`; with figures also `trajectory.png`, `body_motion.png`, "
+            "`energy_error.png`, `quaternion_error.png`, `momentum_error.png`; with `--checkpoint-every`, "
+            "`checkpoint.bin`): " + ", ".join(f"`{f}`" for f in run_files) + ".", ""]
+    out += ["## Comparisons (`lgvi compare`)", "",
+            "The files of a comparison of a single body (`--no-figures`; a system adds `reference.json`): "
+            + ", ".join(f"`{f}`" for f in compare_files) + ".", ""]
+    for f, columns in compare_columns.items():
+        out += [f"`{f}`: " + ", ".join(f"`{c}`" for c in columns) + ".", ""]
     out += ["## Ensembles (`lgvi ensemble`)", "",
             "`members.csv` of an ensemble of the paper orbit varying `initial.quaternion` (the varied keys' "
             "columns follow `index`; a `[[bodies]]` base scenario has `NAME.x ...` per body for the final state): "
