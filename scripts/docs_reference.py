@@ -8,6 +8,8 @@
                         src/interactions/registry.cpp), the names of methods, solvers and formats from
                         lgvi._core (METHODS, SOLVERS, FORMATS, FORMAT_FILES);
   OUT/commands.md       `lgvi --help` and `lgvi COMMAND --help` of the built binary;
+  OUT/cpp.md            the C++ API page: what each public header declares (doxygen's XML, which docs.sh
+                        writes first), then the namespace through breathe;
   OUT/outputs.md        the trajectory columns (lgvi._core's headers), the keys of summary.json, and the
                         files and columns of a run folder, a comparison and an ensemble, read from real
                         (short) runs of the built binary.
@@ -432,6 +434,57 @@ def outputs(core, binary):
     return "\n".join(out) + "\n"
 
 
+HEADER_ORDER = ["s3.hpp", "rigid_body.hpp", "potential.hpp", "state.hpp", "rotation_solver.hpp", "system.hpp",
+                "stepper.hpp", "interaction.hpp", "lgvi.hpp", "integrate.hpp", "composition.hpp", "forcing.hpp"]
+
+
+def cpp_api(xml_dir):
+    """The C++ API page: a table of what each public header declares (from doxygen's XML, linked into the
+    namespace's entries below it), then the namespace lgvi through breathe."""
+    import xml.etree.ElementTree as ET
+    headers = {}
+    for f in sorted(xml_dir.glob("*_8hpp.xml")):
+        compound = ET.parse(f).getroot().find("compounddef")
+        path = compound.find("location").get("file")
+        brief = " ".join("".join(compound.find("briefdescription").itertext()).split())
+        classes = [c.text for c in compound.findall("innerclass") if c.text.count("::") == 1]
+        headers[path] = {"brief": brief, "names": list(classes)}
+    concepts = []
+    for f in sorted(xml_dir.glob("concept*.xml")):
+        compound = ET.parse(f).getroot().find("compounddef")
+        concepts.append(compound.find("compoundname").text)
+        headers.setdefault(compound.find("location").get("file"), {"brief": "", "names": []})["names"].append(
+            compound.find("compoundname").text)
+    for f in sorted(xml_dir.glob("namespacelgvi*.xml")):
+        compound = ET.parse(f).getroot().find("compounddef")
+        ns = compound.find("compoundname").text
+        for m in compound.iter("memberdef"):
+            name = f"{ns}::{m.find('name').text}"
+            entry = headers.setdefault(m.find("location").get("file"), {"brief": "", "names": []})
+            if name not in entry["names"]:
+                entry["names"].append(name)
+    if not headers:
+        raise SystemExit(f"docs_reference.py: no doxygen XML of headers in {xml_dir}")
+
+    def order(path):
+        base = path.split("lgvi/", 1)[-1]
+        return (HEADER_ORDER.index(base) if base in HEADER_ORDER else len(HEADER_ORDER), base)
+
+    out = ["# C++ API", "",
+           "The public headers in `include/lgvi/`, documented from their comments by doxygen (XML) and breathe. "
+           "How to use the library: [The C++ library](../guide/library.md). The table lists what each header "
+           "declares (generated from doxygen's XML), linked to its entry in the namespace `lgvi` below.", "",
+           "| header | declares |", "|---|---|"]
+    for path in sorted(headers, key=order):
+        names = list(dict.fromkeys(re.sub(r"<.*>$", "", n).strip() for n in headers[path]["names"]))
+        shown = "lgvi/" + path.split("lgvi/", 1)[-1]
+        out.append(f"| `{shown}` | " + (", ".join("{cpp:any}`" + n + "`" for n in names) or "—") + " |")
+    out += ["", "## Concepts", "", "```{eval-rst}"] + [f".. doxygenconcept:: {c}" for c in concepts] + ["```", ""]
+    out += ["## namespace lgvi", "", "```{eval-rst}", ".. doxygennamespace:: lgvi", "   :members:",
+            "   :undoc-members:", "```", ""]
+    return "\n".join(out) + "\n"
+
+
 def main():
     build, dest = pathlib.Path(sys.argv[1]).resolve(), pathlib.Path(sys.argv[2])
     sys.path.insert(0, str(build / "python"))
@@ -441,6 +494,7 @@ def main():
     (dest / "scenario-keys.md").write_text(scenario_keys(core), encoding="utf-8")
     (dest / "commands.md").write_text(commands(binary), encoding="utf-8")
     (dest / "outputs.md").write_text(outputs(core, binary), encoding="utf-8")
+    (dest / "cpp.md").write_text(cpp_api(build / "docs" / "doxygen" / "xml"), encoding="utf-8")
 
 
 if __name__ == "__main__":
