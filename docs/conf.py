@@ -25,6 +25,8 @@ source_suffix = {".md": "markdown"}
 root_doc = "index"
 myst_heading_anchors = 3
 myst_enable_extensions = ["colon_fence"]
+# Code blocks without a language (the method's equations, command synopses) are plain text, not Python.
+highlight_language = "none"
 # Figures' folders hold the `lgvi compare` tables of the benchmarks (comparison.md files), which are
 # data copied from runs, not pages.
 exclude_patterns = ["compare/**", "leo/**", "ensemble/**", "view/**", "figures/**", "_static/**", "_build"]
