@@ -159,8 +159,8 @@ INTERACTION_DESCRIPTIONS = {
     "model": "\"balls\" (default) | \"inertia\": point masses of the balls, or masses and inertia tensors to second order",
     "epsilon": "energy scale epsilon (> 0)",
     "sigma": "length scale sigma (> 0)",
-    "cutoff": "cutoff r_c, in lengths (>= sigma)",
-    "skin": "Verlet-list skin",
+    "cutoff": "lennard-jones: cutoff radius r_c, > sigma (default 2.5 sigma); the energy is shifted to 0 there",
+    "skin": "Verlet-list skin, >= 0 (default 0.3 sigma): lists hold pairs within r_c + skin, rebuilt after a displacement of skin/2",
 }
 
 ARRAYS_OF_TABLES = {"body.ball", "bodies", "forcing", "vary"}
