@@ -6,7 +6,7 @@ of side 1, in central gravity V = -mu sum m_i / |x + R rho_i| with mu = 1;
 x0 = (8, 0, 0), q0 = (1, 0, 0, 0) (scalar-first (w, x, y, z)), w0 = (1, 2, 3),
 h = 0.01, t in [0, 1000]. Two initial momenta: the orbit the paper's
 captions describe, p0 = (0, 1, 0), and the paper's stated p0 = (1, 0, 0)
-(radial; see the README). The same numbers as `lgvi run
+(radial; see docs/getting-started.md). The same numbers as `lgvi run
 scenarios/paper-orbit.toml` and `scenarios/paper.toml`, to the last bit.
 
     /usr/bin/python3 examples/paper_experiment.py [--duration T] [--out DIR]

@@ -3,7 +3,7 @@
 ORBITS orbits at h = T/2000 ... T/25 (T = 5676.978 s), rows every T/5, and prints the largest
 difference of the LVLH pitch and roll (Result.lvlh_angles) from the h = T/2000 run, the total
 energy's relative error and that error over the rotational kinetic energy (summary
-'rotation'). The table in README 'Orbit and attitude'.
+'rotation'). The table in docs/guide/orbit-attitude.md ('Choosing the step for an orbit').
 
     PYTHONPATH=build/python /usr/bin/python3 scripts/leo_step.py [--lgvi build/lgvi] [--orbits 100]
 """

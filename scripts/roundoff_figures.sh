@@ -1,5 +1,5 @@
 #!/bin/bash
-# The round-off figures the README gives for lgvi (paper table, composition orders,
+# The round-off figures the documentation (docs/) gives for lgvi (paper table, composition orders,
 # radial free flight (also in lgvi-lagrangian), 10^7-step orbit, random attitudes, the Lennard-Jones cluster):
 #   scripts/roundoff_figures.sh build/lgvi [build/tests/lgvi_tests]
 # Prints the summary maxima (q: max abs(abs(q) - 1), L: max relative momentum error, E:

@@ -11,7 +11,8 @@ packages=(g++ make cmake libeigen3-dev libcli11-dev libtomlplusplus-dev libfmt-d
           python3 python3-numpy python3-matplotlib python3-pytest pybind11-dev python3-dev
           libhdf5-dev python3-h5py clang clang-tidy libclang-rt-14-dev time libboost-dev git zlib1g-dev nlohmann-json3-dev libomp-dev
           openmpi-bin libopenmpi-dev python3-mpi4py python3-distributed python3-vtk9 python3-ipykernel python3-jupyter-client
-          chromium ffmpeg nodejs)
+          chromium ffmpeg nodejs
+          python3-sphinx python3-myst-parser python3-breathe doxygen python3-sphinx-rtd-theme)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

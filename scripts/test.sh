@@ -6,7 +6,8 @@
 #   4. the C++ and command-line tests again under AddressSanitizer +
 #      UndefinedBehaviorSanitizer (build-asan/), with zero reports allowed;
 #   5. every test through ctest (GoogleTest, command-line, pytest with
-#      /usr/bin/python3, downstream find_package).
+#      /usr/bin/python3, downstream find_package, the view and the documentation site
+#      (scripts/docs.sh, -W) in headless chromium).
 # LGVI_QUICK=1 skips 2-4.
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -26,7 +26,7 @@ int run_cli(int argc, char** argv) {
   lgvi::app::RunOptions options;
   bool no_figures = false;
   std::string resume_dir;
-  auto* scenario_opt = run->add_option("SCENARIO", scenario_path, "Scenario file (TOML), see README 'Scenario files'");
+  auto* scenario_opt = run->add_option("SCENARIO", scenario_path, "Scenario file (TOML), see docs/guide/scenario-files.md");
   auto* resume_opt =
       run->add_option("--resume", resume_dir, "Continue the interrupted run in this folder from its checkpoint");
   scenario_opt->excludes(resume_opt);
@@ -63,7 +63,7 @@ int run_cli(int argc, char** argv) {
   bool compare_no_figures = false;
   compare->add_option("SCENARIO", compare_scenario, "Scenario file (TOML)")->required();
   compare->add_option("--methods", compare_methods_list,
-                      "Comma-separated methods (see README 'Methods'); NAME:ORDER composes a symmetric one-step "
+                      "Comma-separated methods (see docs/guide/compare.md); NAME:ORDER composes a symmetric one-step "
                       "method to order 4, 6 or 8 (e.g. lgvi:4). Default: lgvi,lgvi-lagrangian");
   compare->add_option("--out", compare_options.out_dir,
                       "Output folder (default: NAME-compare, NAME the scenario's name); it must not exist or be "
@@ -93,7 +93,7 @@ int run_cli(int argc, char** argv) {
   std::string ensemble_sweep;
   lgvi::app::EnsembleOptions ensemble_options;
   std::string ensemble_resume;
-  auto* sweep_opt = ensemble->add_option("SWEEP", ensemble_sweep, "Sweep file (TOML), see README 'Ensembles'");
+  auto* sweep_opt = ensemble->add_option("SWEEP", ensemble_sweep, "Sweep file (TOML), see docs/guide/ensembles.md");
   auto* ensemble_resume_opt =
       ensemble->add_option("--resume", ensemble_resume, "Run the members of this ensemble folder that have no row yet");
   sweep_opt->excludes(ensemble_resume_opt);

@@ -353,8 +353,8 @@ class StepperBase {
                               "); lgvi evaluates a forcing more than once at the same time and state (at the "
                               "start, in each step's momentum iteration) and needs it to be a function of them",
                           "draw noise once per control sample (a generator seeded by the sample number, e.g. "
-                          "numpy.random.default_rng([seed, int(numpy.floor(t / period + 1e-9))])), see the "
-                          "README's \"Forcing and control\" and examples/gyro_noise.py");
+                          "numpy.random.default_rng([seed, int(numpy.floor(t / period + 1e-9))])), see "
+                          "docs/guide/forcing.md and examples/gyro_noise.py");
   }
 
   /// The forcing at (t, s) into ext_*, and the totals potential + forcing.

@@ -101,7 +101,7 @@ class EnsembleResult:
 def ensemble(scenario, vary, members=None, seed=None, executor=None, trajectories="none"):
     """Run an ensemble of a scenario with some of its numbers varied; returns an lgvi.EnsembleResult.
 
-    The semantics of ``lgvi ensemble`` (README 'Ensembles'): ``vary`` is a list of dicts, each
+    The semantics of ``lgvi ensemble`` (docs/guide/ensembles.md): ``vary`` is a list of dicts, each
     with ``key`` (a dotted scenario key: "initial.omega", "integrator.step",
     "bodies.NAME.omega") and one of ``normal={"mean": .., "std": ..}``, ``uniform={"low": ..,
     "high": ..}``, ``rotation="uniform"`` (random attitudes; with ``members`` and ``seed``), or

@@ -3,7 +3,7 @@ thrust), for ``lgvi.simulate`` and ``lgvi.Stepper``.
 
 The built-in kinds (constant or tabulated torque and force, damping, a PD attitude controller,
 sampled or continuous) are ``[[forcing]]`` tables of the scenario file and run at C++ speed; a
-PythonForcing adds to them. Both are discretized the same way (README, "Forcing and control"):
+PythonForcing adds to them. Both are discretized the same way (docs/guide/forcing.md):
 half of the impulse at each end of a step, the end-of-step half at the new state, the momenta
 iterated to a fixed point when the forcing reads them.
 """

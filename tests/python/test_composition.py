@@ -45,7 +45,7 @@ def test_order_and_composition_properties():
 
 def test_higher_order_is_more_accurate_and_keeps_the_invariants():
     # Paper orbit to t = 10 at h = 0.01: order 4 brings the energy error from
-    # ~6e-7 to ~1e-11 (README, 1e5 steps); |q| - 1 and the momentum stay at
+    # ~6e-7 to ~1e-11 (docs/method.md, 1e5 steps); |q| - 1 and the momentum stay at
     # round-off (1e3 steps x 5 sub-steps: well under 1e-13, allowed 1e-12).
     r2 = lgvi.simulate(short_orbit())
     r4 = lgvi.simulate(short_orbit(order=4))

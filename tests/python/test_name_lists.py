@@ -1,12 +1,13 @@
 """The lists of methods, interactions and output formats agree everywhere a user reads them
-(issue 27): the command line's messages, the Python API and its stubs, and README.md all name
+(issue 27): the command line's messages, the Python API and its stubs, and the documentation (the
+scenario-file reference and the methods table, docs/guide/*.md, once README.md) all name
 exactly the entries of the C++ registries (src/method_registry.hpp registered_method_traits,
 src/formats/registry.cpp registered_formats, src/interactions/registry.cpp interaction_kinds), in their
 order.
 
 The truth is lgvi._core.METHODS, FORMATS and INTERACTIONS, which the compiled module reads from
 those tables (src/python/module.cpp), not retyped. A method, format or interaction added to a
-table and not to the stubs or the README (or the reverse) fails here, naming the list.
+table and not to the stubs or the docs (or the reverse) fails here, naming the list.
 """
 
 import ast
@@ -22,7 +23,14 @@ import lgvi._core as core
 
 SOURCE = pathlib.Path(os.environ.get("LGVI_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
 PACKAGE = SOURCE / "python" / "lgvi"
-README = SOURCE / "README.md"
+# The documentation pages users copy names from: the scenario file's reference block ([integrator],
+# [output]: docs/guide/scenario-files.md), the [interaction] block (docs/guide/many-bodies.md) and the
+# table of methods (docs/guide/compare.md); read as one text, in that order.
+DOCS = [SOURCE / "docs" / "guide" / page for page in ("scenario-files.md", "many-bodies.md", "compare.md")]
+
+
+def _docs_lines():
+    return [line for page in DOCS for line in page.read_text(encoding="utf-8").splitlines()]
 BINARY = os.environ.get("LGVI_BINARY")
 
 TABLES = {"method": core.METHODS, "format": core.FORMATS, "interaction": core.INTERACTIONS}
@@ -35,7 +43,7 @@ def _quoted(text):
 
 def test_tables_are_whole():
     # Guards the truth itself: an empty or duplicated table would make every comparison below
-    # vacuous or ambiguous. The defaults the README and the reader name must be in them.
+    # vacuous or ambiguous. The defaults the docs and the reader name must be in them.
     for kind, names in TABLES.items():
         assert len(names) == len(set(names)) > 0, f"{kind}: {names}"
     assert core.METHODS[0] == "lgvi" and core.FORMATS[0] == "csv" and core.INTERACTIONS[0] == "none"
@@ -99,9 +107,9 @@ def test_docstrings_list_the_tables():
 
 
 def _readme_setting(key, table_line):
-    """The names of the README's scenario-file comment `key = "..."  # "a" | "b" ...` (with its
+    """The names of the docs' scenario-file comment `key = "..."  # "a" | "b" ...` (with its
     continuation comment lines), the one in the block after `table_line`."""
-    lines = README.read_text(encoding="utf-8").splitlines()
+    lines = _docs_lines()
     start = lines.index(table_line)
     for i in range(start + 1, len(lines)):
         m = re.match(rf'{key} = "[^"]*"\s+#(.*)', lines[i])
@@ -113,12 +121,12 @@ def _readme_setting(key, table_line):
                     break
                 text += c.group(1)
             return tuple(_quoted(text))
-    raise AssertionError(f"README.md: no {key} = ... after {table_line}")
+    raise AssertionError(f"docs/guide: no {key} = ... after {table_line}")
 
 
 def _readme_method_table():
-    """The first column of the README's table | method | header | what it is |."""
-    lines = README.read_text(encoding="utf-8").splitlines()
+    """The first column of the docs' table | method | header | what it is | (docs/guide/compare.md)."""
+    lines = _docs_lines()
     start = lines.index("| method | header | what it is |")
     names = []
     for line in lines[start + 2:]:
@@ -134,13 +142,13 @@ def _readme_method_table():
     ("[interaction] kind", lambda: _readme_setting("kind", "[interaction]"), core.INTERACTIONS),
     ("the table | method | header | what it is |", _readme_method_table, core.METHODS)])
 def test_readme_lists_are_the_tables(where, read, names):
-    # The README's scenario-file reference (the comment after each key) and its table of methods
+    # The docs' scenario-file reference (the comment after each key) and its table of methods
     # are the lists users copy names from.
-    assert read() == names, f"README.md's {where} disagrees with the C++ table"
+    assert read() == names, f"docs/guide's {where} disagrees with the C++ table"
 
 
 def test_readme_parsers_see_the_lists():
-    # The README parsers on a text where one name is missing must notice (a parser returning
+    # The docs parsers on a text where one name is missing must notice (a parser returning
     # the first quoted word only would pass the test above on a one-entry table, not here).
     assert len(_readme_setting("method", "[integrator]")) == len(core.METHODS) > 2
     assert len(_readme_method_table()) > 2

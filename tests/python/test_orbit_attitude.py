@@ -72,7 +72,7 @@ def test_leo_initial_lvlh_angles_and_rotational_summary(tmp_path):
     # The scenario's attitude = { pitch = 5.0 }: 5 deg back to round-off
     # (the quaternion holds the angle to ~1e-16 rad, 1e-14 deg; 1e-12 deg of slack).
     np.testing.assert_allclose(a[0], [0.0, 5.0, 0.0], atol=1e-12)
-    # The pitch librates with an amplitude of 5 deg (5.17 over 1000 orbits, README);
+    # The pitch librates with an amplitude of 5 deg (5.17 over 1000 orbits, docs/guide/j2-leo.md);
     # roll and yaw stay small (0.22 and 0.17 deg over 1000 orbits).
     assert 4.5 < np.abs(a[:, 1]).max() < 5.3
     assert np.abs(a[:, [0, 2]]).max() < 0.3

@@ -37,7 +37,7 @@
 // r_c + delta at the pruning (each site has moved at most delta/2 since), so
 // no pair within r_c is missed. Results do not depend on it (pairs beyond r_c
 // add exact zeros, below). The measured fractions of pairs and costs are in
-// the README's section on the Lennard-Jones gas and in docs/tuning.md.
+// docs/benchmarks.md ("Against LAMMPS": how lgvi computes the pairs) and in docs/tuning.md.
 //
 // Half lists (as LAMMPS with newton on): each pair is in the list of its
 // lower site only (the sites of higher bodies within r_c + skin). One pass
