@@ -8,7 +8,6 @@
 #include <condition_variable>
 #include <cstdio>
 #include <cstring>
-#include <filesystem>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
@@ -27,16 +26,8 @@ class CsvTrajectory final : public TrajectorySink {
  public:
   CsvTrajectory(const std::string& path, const TrajectoryLayout& layout, const SinkPosition* resume)
       : path_(path), columns_(static_cast<std::size_t>(layout.columns)) {
-    if (resume) {
-      std::error_code ec;
-      std::filesystem::resize_file(path, static_cast<std::uintmax_t>(resume->bytes), ec);
-      if (ec) throw std::runtime_error("cannot truncate " + path + " to resume: " + ec.message());
-      file_ = std::fopen(path.c_str(), "ab");
-      rows_ = resume->rows;
-    } else {
-      file_ = std::fopen(path.c_str(), "wb");
-    }
-    if (!file_) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
+    file_ = open_appendable_file(path, resume);
+    if (resume) rows_ = resume->rows;
     if (!resume && std::fputs((std::string(layout.header) + "\n").c_str(), file_) < 0)
       throw std::runtime_error("cannot write " + path);
     filling_.reserve(rows_per_block * columns_);

@@ -7,6 +7,11 @@
 #include <lgvi/error.hpp>
 
 #include <array>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <stdexcept>
 
 namespace lgvi::app {
 
@@ -32,6 +37,20 @@ TrajectoryFormat TrajectoryFormat::named(std::string_view name, const std::strin
 std::unique_ptr<TrajectorySink> open_trajectory(TrajectoryFormat format, const std::string& path,
                                                 const TrajectoryLayout& layout, const SinkPosition* resume) {
   return format.descriptor().open(path, layout, resume);
+}
+
+std::FILE* open_appendable_file(const std::string& path, const SinkPosition* resume) {
+  std::FILE* file = nullptr;
+  if (resume) {
+    std::error_code ec;
+    std::filesystem::resize_file(path, static_cast<std::uintmax_t>(resume->bytes), ec);
+    if (ec) throw std::runtime_error("cannot truncate " + path + " to resume: " + ec.message());
+    file = std::fopen(path.c_str(), "ab");
+  } else {
+    file = std::fopen(path.c_str(), "wb");
+  }
+  if (!file) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
+  return file;
 }
 
 }  // namespace lgvi::app

@@ -10,6 +10,7 @@
 #include "trajectory_sink.hpp"
 
 #include <cstdint>
+#include <cstdio>
 #include <memory>
 #include <span>
 #include <string>
@@ -91,5 +92,11 @@ inline std::unique_ptr<TrajectorySink> open_trajectory(TrajectoryFormat format, 
                                                        const SinkPosition* resume) {
   return open_trajectory(format, path, TrajectoryLayout::single_body(), resume);
 }
+
+/// The file of a format that appends to one file (csv, xyz, lammps-dump):
+/// new and empty, or on resume truncated back to the checkpoint's
+/// `resume->bytes` and opened for appending. Throws std::runtime_error
+/// naming the file when it cannot be truncated or opened.
+std::FILE* open_appendable_file(const std::string& path, const SinkPosition* resume);
 
 }  // namespace lgvi::app
