@@ -27,7 +27,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <map>
 #include <string>
 #include <vector>
 
@@ -38,14 +37,7 @@ namespace {
 class LammpsDump final : public ParticleTextFile {
  public:
   LammpsDump(const std::string& path, const TrajectoryLayout& layout, const SinkPosition* resume)
-      : ParticleTextFile("lammps-dump", path, layout, resume), step_(layout.step) {
-    std::map<double, std::int64_t> type_of_radius;  // O(sites log types)
-    for (const BodyShape& shape : frames().shapes())
-      for (const Site& site : shape.sites) {
-        const std::int64_t next = static_cast<std::int64_t>(type_of_radius.size()) + 1;
-        types_.push_back(type_of_radius.emplace(site.radius, next).first->second);  // a radius seen keeps its type
-      }
-  }
+      : ParticleTextFile("lammps-dump", path, layout, resume), step_(layout.step) {}
 
  private:
   void format_frame(const ParticleFrame& f, std::string& text) override {
@@ -71,7 +63,7 @@ class LammpsDump final : public ParticleTextFile {
     text += "ITEM: ATOMS id mol type x y z ix iy iz\n";
     for (const Particle& p : f.particles) {
       text += std::to_string(p.site + 1) + ' ' + std::to_string(p.body + 1) + ' ' +
-              std::to_string(types_[static_cast<std::size_t>(p.site)]);
+              std::to_string(site_types()[static_cast<std::size_t>(p.site)]);
       for (const double c : p.position) {
         text.push_back(' ');
         append_number(text, c);
@@ -81,7 +73,6 @@ class LammpsDump final : public ParticleTextFile {
   }
 
   double step_;
-  std::vector<std::int64_t> types_;  ///< per site of a frame: its radius's type, from 1
 };
 
 std::unique_ptr<TrajectorySink> open_lammps_dump(const std::string& path, const TrajectoryLayout& layout,

@@ -1,4 +1,5 @@
 #include "formats/particles.hpp"
+#include "formats/registry.hpp"
 
 #include <lgvi/s3.hpp>
 #include <lgvi/system.hpp>
@@ -8,7 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <filesystem>
+#include <map>
 #include <stdexcept>
 
 namespace lgvi::app {
@@ -149,16 +150,14 @@ SinkPosition particle_file_position(const char* format, const ParticleFrames& fr
 ParticleTextFile::ParticleTextFile(const char* format, const std::string& path, const TrajectoryLayout& layout,
                                    const SinkPosition* resume)
     : format_(format), path_(path), frames_(layout) {
-  if (resume) {
-    frames_.resume_at(resume->rows);
-    std::error_code ec;
-    std::filesystem::resize_file(path, static_cast<std::uintmax_t>(resume->bytes), ec);
-    if (ec) throw std::runtime_error("cannot truncate " + path + " to resume: " + ec.message());
-    file_ = std::fopen(path.c_str(), "ab");
-  } else {
-    file_ = std::fopen(path.c_str(), "wb");
-  }
-  if (!file_) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
+  std::map<double, std::int64_t> type_of_radius;  // O(sites log types)
+  for (const BodyShape& shape : frames_.shapes())
+    for (const Site& site : shape.sites) {
+      const std::int64_t next = static_cast<std::int64_t>(type_of_radius.size()) + 1;
+      site_types_.push_back(type_of_radius.emplace(site.radius, next).first->second);
+    }
+  if (resume) frames_.resume_at(resume->rows);
+  file_ = open_appendable_file(path, resume);
 }
 
 ParticleTextFile::~ParticleTextFile() {

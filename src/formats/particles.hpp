@@ -114,6 +114,11 @@ class ParticleTextFile : public TrajectorySink {
 
  protected:
   const ParticleFrames& frames() const { return frames_; }
+  /// Each site's type, in the frame's site order: the site radii numbered
+  /// from 1 in order of first appearance (a radius seen keeps its type), so
+  /// that a gas of identical molecules has as many types as its molecule has
+  /// radii. The particle exports' species (xyz) and types (lammps-dump).
+  const std::vector<std::int64_t>& site_types() const { return site_types_; }
   /// Appends the frame's text to `text` (empty on entry).
   virtual void format_frame(const ParticleFrame& frame, std::string& text) = 0;
 
@@ -121,6 +126,7 @@ class ParticleTextFile : public TrajectorySink {
   const char* format_;
   std::string path_;
   ParticleFrames frames_;
+  std::vector<std::int64_t> site_types_;
   std::FILE* file_ = nullptr;
   std::string text_;
   std::string error_;

@@ -6,7 +6,9 @@
 // used here to its standard particle properties: species -> Particle Type,
 // pos -> Position, orientation -> Orientation, radius -> Radius, id ->
 // Particle Identifier, velo -> Velocity, omega -> Angular Velocity; `body`
-// becomes a property of that name. OVITO's Orientation is the quaternion
+// becomes a property of that name. The species is the site's type, "type1",
+// "type2", ... (ParticleTextFile::site_types: by radius, as the LAMMPS dump's
+// types), so that OVITO colours the sites of a gas by kind, not by molecule. OVITO's Orientation is the quaternion
 // (X, Y, Z, W), scalar last, in Shoemake's convention (the rotation of the
 // body frame into the inertial frame, as lgvi's q): see
 // https://www.ovito.org/manual/advanced_topics/aspherical_particles.html.
@@ -34,23 +36,10 @@ namespace {
 constexpr const char* xyz_properties =
     "Properties=species:S:1:pos:R:3:orientation:R:4:radius:R:1:body:I:1:id:I:1:velo:R:3:omega:R:3";
 
-/// Species names: the body's name with anything but letters, digits, '_'
-/// and '-' replaced by '_' (a species is one whitespace-free token).
-std::string species_of(const std::string& name) {
-  std::string s = name.empty() ? std::string("body") : name;
-  for (char& c : s) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
-    if (!ok) c = '_';
-  }
-  return s;
-}
-
 class XyzTrajectory final : public ParticleTextFile {
  public:
   XyzTrajectory(const std::string& path, const TrajectoryLayout& layout, const SinkPosition* resume)
-      : ParticleTextFile("xyz", path, layout, resume) {
-    for (const BodyShape& s : frames().shapes()) species_.push_back(species_of(s.name));
-  }
+      : ParticleTextFile("xyz", path, layout, resume) {}
 
  private:
   void format_frame(const ParticleFrame& f, std::string& text) override {
@@ -69,7 +58,8 @@ class XyzTrajectory final : public ParticleTextFile {
     text += std::to_string(f.index);
     text.push_back('\n');
     for (const Particle& p : f.particles) {
-      text += species_[static_cast<std::size_t>(p.body)];
+      text += "type";
+      text += std::to_string(site_types()[static_cast<std::size_t>(p.site)]);
       auto numbers = [&](std::initializer_list<double> values) {
         for (double v : values) {
           text.push_back(' ');
@@ -85,8 +75,6 @@ class XyzTrajectory final : public ParticleTextFile {
       text.push_back('\n');
     }
   }
-
-  std::vector<std::string> species_;
 };
 
 std::unique_ptr<TrajectorySink> open_xyz(const std::string& path, const TrajectoryLayout& layout,

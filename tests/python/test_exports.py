@@ -213,7 +213,9 @@ def test_xyz_header_columns_and_sites_equal_the_csv_run(runs):
         assert float(info["Time"]) == csv["t"][k, 0]
         assert float(info["energy_error"]) == csv["energy_error"][k, 0]
         assert int(info["frame"]) == k
-        assert list(cols["species"]) == ["pile"] * 3 + ["top_hat"]  # whitespace replaced
+        # One species per site radius, the LAMMPS dump's types: four radii here.
+        assert list(cols["species"]) == [f"type{n}" for n in types_by_radius(list(w["radius"]))]
+        assert list(cols["species"]) == ["type1", "type2", "type3", "type4"]
         assert list(cols["id"]) == [0, 1, 2, 3]
         assert np.array_equal(cols["body"], w["body"])
         # Exact: %.17g round-trips, and the expected positions are formed in the writer's order.
@@ -383,7 +385,7 @@ TWINS = (molecule("a", [0.0, 0.0, 0.0], PAIR) + molecule("b", [3.0, 0.0, 0.0], P
          + '[potential]\nkind = "none"\n\n[integrator]\nstep = 0.01\nduration = 0.1\n\n[output]\n')
 
 
-def test_lammps_dump_types_are_shared_by_equal_radii(tmp_path):
+def test_lammps_dump_types_and_xyz_species_are_shared_by_equal_radii(tmp_path):
     # Two identical molecules and a ball of the second radius: three molecules, two types.
     path = tmp_path / "twins.toml"
     path.write_text(with_format(TWINS, "lammps-dump"))
@@ -395,6 +397,12 @@ def test_lammps_dump_types_are_shared_by_equal_radii(tmp_path):
     assert list(cols["type"]) == [1, 2, 1, 2, 2]
     # All sites at z = 0, radii 0.3 and 0.2: the box is the spheres' extent, never flat.
     assert list(box[2]) == [-0.3, 0.3]
+    # The xyz export's species are the same types (OVITO colours by kind of site, not by molecule).
+    path.write_text(with_format(TWINS, "xyz"))
+    proc = run(path, "--out", tmp_path / "xyz")
+    assert proc.returncode == 0, proc.stderr
+    _, cols = read_xyz(tmp_path / "xyz" / "trajectory.xyz")[0]
+    assert list(cols["species"]) == ["type1", "type2", "type1", "type2", "type2"]
 
 
 def test_lammps_dump_box_is_never_flat(tmp_path):
