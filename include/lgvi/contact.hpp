@@ -149,13 +149,34 @@ class ContactDetector {
       spread = std::max(spread, s.x[a].cwiseAbs().maxCoeff());
     }
     const double side = std::max({2.0 * r_max, 0x1p-40 * spread, std::numeric_limits<double>::min()});
+    // Along a periodic axis, a whole number of cells over the box (each at
+    // least `side` wide), numbered by the wrapped fractional coordinate; the
+    // neighbours of the last cell are the first (below).
+    const Box& box = sys_->box();
+    std::array<std::int64_t, 3> periodic_cells{};
+    for (int i = 0; i < 3; ++i)
+      if (box.periodic(i))
+        periodic_cells[static_cast<std::size_t>(i)] =
+            std::max<std::int64_t>(1, static_cast<std::int64_t>(std::min(box.periodic_length()(i) / side, 0x1p40)));
     auto cell_of = [&](const Vector3<double>& x) {
       Cell c{};
       for (int i = 0; i < 3; ++i) {
+        const std::int64_t dims = periodic_cells[static_cast<std::size_t>(i)];
+        if (dims > 0) {
+          double f = (x[i] - box.lower()(i)) * box.inverse_periodic_length()(i);
+          f -= std::floor(f);
+          const double k = std::floor(f * static_cast<double>(dims));
+          c[static_cast<std::size_t>(i)] = std::isfinite(k) ? std::clamp<std::int64_t>(static_cast<std::int64_t>(k), 0, dims - 1) : 0;
+          continue;
+        }
         const double k = std::floor(x[i] / side);
         c[static_cast<std::size_t>(i)] = std::isfinite(k) ? static_cast<std::int64_t>(k) : 0;  // not finite: one cell
       }
       return c;
+    };
+    auto neighbour = [&](std::int64_t c, std::int64_t d, int i) {
+      const std::int64_t dims = periodic_cells[static_cast<std::size_t>(i)];
+      return dims > 0 ? ((c + d) % dims + dims) % dims : c + d;
     };
     cells_.resize(n);
     for (std::size_t a = 0; a < n; ++a) cells_[a] = {cell_of(s.x[a]), a};
@@ -167,14 +188,18 @@ class ContactDetector {
       for (std::int64_t dx = -1; dx <= 1; ++dx)
         for (std::int64_t dy = -1; dy <= 1; ++dy)
           for (std::int64_t dz = -1; dz <= 1; ++dz) {
-            const Cell c{home[0] + dx, home[1] + dy, home[2] + dz};
+            const Cell c{neighbour(home[0], dx, 0), neighbour(home[1], dy, 1), neighbour(home[2], dz, 2)};
             for (auto e = std::lower_bound(cells_.begin(), cells_.end(), c, by_cell);
                  e != cells_.end() && e->first == c; ++e) {
               const std::size_t b = e->second;
-              if (b > a && (s.x[b] - s.x[a]).norm() <= radius_[a] + radius_[b]) candidates_.push_back(b);
+              if (b > a && box.minimum_image(s.x[b] - s.x[a]).norm() <= radius_[a] + radius_[b])
+                candidates_.push_back(b);
             }
           }
+      // (With fewer than 3 cells along a periodic axis, a cell is its own
+      // neighbour twice.)
       std::sort(candidates_.begin(), candidates_.end());
+      candidates_.erase(std::unique(candidates_.begin(), candidates_.end()), candidates_.end());
       for (const std::size_t b : candidates_) {
         Contact c;
         if (pair(s, a, b, c)) found_.push_back(c);
@@ -194,30 +219,31 @@ class ContactDetector {
     double bound = 0.0;  ///< a radius about the centre that holds the piece (the largest semi-axis)
   };
 
-  /// The pieces of body a at `s` within `range` of `near` (every piece of a
-  /// body that is not made of balls; its balls that may reach that far).
-  void pieces(const SystemState& s, std::size_t a, const Vector3<double>& near, double range,
+  /// The pieces of body a at `s`, its centre of mass placed at `x`, within
+  /// `range` of `near` (every piece of a body that is not made of balls; its
+  /// balls that may reach that far).
+  void pieces(const SystemState& s, std::size_t a, const Vector3<double>& x, const Vector3<double>& near, double range,
               std::vector<Piece>& out) const {
     out.clear();
     const RigidBody& body = sys_->body(a);
     switch (body.extent()) {
-      case Extent::Point: out.push_back({s.x[a], 0.0, false, Matrix3<double>::Zero(), -1, 0.0}); break;
+      case Extent::Point: out.push_back({x, 0.0, false, Matrix3<double>::Zero(), -1, 0.0}); break;
       case Extent::Sphere: {
         const double r = body.semi_axes().x();
-        out.push_back({s.x[a], r, false, Matrix3<double>::Zero(), -1, r});
+        out.push_back({x, r, false, Matrix3<double>::Zero(), -1, r});
         break;
       }
       case Extent::Ellipsoid: {
         const Matrix3<double> r = s.q[a].matrix();
         const Vector3<double> s2 = body.semi_axes().cwiseProduct(body.semi_axes());
-        out.push_back({s.x[a], 0.0, true, r * s2.asDiagonal() * r.transpose(), -1, body.semi_axes().maxCoeff()});
+        out.push_back({x, 0.0, true, r * s2.asDiagonal() * r.transpose(), -1, body.semi_axes().maxCoeff()});
         break;
       }
       case Extent::Balls: {
         const Matrix3<double> r = s.q[a].matrix();
         const std::vector<Ball>& balls = body.balls();
         for (std::size_t i = 0; i < balls.size(); ++i) {
-          const Vector3<double> c = s.x[a] + r * balls[i].position;
+          const Vector3<double> c = x + r * balls[i].position;
           if ((c - near).norm() <= balls[i].radius + range)
             out.push_back({c, balls[i].radius, false, Matrix3<double>::Zero(), static_cast<std::ptrdiff_t>(i),
                            balls[i].radius});
@@ -228,9 +254,12 @@ class ContactDetector {
   }
 
   /// Whether bodies a < b overlap at `s`; if so, their deepest overlap in `c`.
+  /// In a periodic box, b is taken at its minimum image about a.
   bool pair(const SystemState& s, std::size_t a, std::size_t b, Contact& c) const {
-    pieces(s, a, s.x[b], radius_[b], pieces_a_);
-    pieces(s, b, s.x[a], radius_[a], pieces_b_);
+    const Box& box = sys_->box();
+    const Vector3<double> xb = box.any_periodic() ? Vector3<double>(s.x[a] + box.minimum_image(s.x[b] - s.x[a])) : s.x[b];
+    pieces(s, a, s.x[a], xb, radius_[b], pieces_a_);
+    pieces(s, b, xb, s.x[a], radius_[a], pieces_b_);
     // b's pieces sorted along x (ties by ball): each piece of a is tested
     // only against those within reach along x, so that two bodies of many
     // balls cost O(S log S), not O(S_a S_b).

@@ -34,12 +34,24 @@
 
 namespace lgvi {
 
+namespace detail {
+/// Gravity is long-range: in a periodic box its sum over images does not
+/// converge absolutely (it needs Ewald summation, which lgvi does not have).
+inline void require_open_space(const System& sys) {
+  if (sys.box().any_periodic())
+    throw InvalidInput("box.periodic: mutual gravity is long-range and has no minimum image (a periodic box would "
+                       "need Ewald summation); use an open box (periodic = [false, false, false]) or a short-range "
+                       "pair interaction (lennard-jones, wca)");
+}
+}  // namespace detail
+
 /// Mutual gravity between the balls (sites) of different bodies.
 class MutualGravityBalls {
  public:
   MutualGravityBalls(const System& sys, double G, Parallelism par = {})
       : sys_(sys), sites_(sys), G_(G), par_(par) {
     if (!(std::isfinite(G) && G > 0.0)) throw InvalidInput("interaction.G: must be a finite number > 0");
+    detail::require_open_space(sys);
   }
 
   void add(const SystemState& s, SystemEvaluation& e) const {
@@ -88,6 +100,7 @@ class MutualGravityInertia {
  public:
   MutualGravityInertia(const System& sys, double G, Parallelism par = {}) : sys_(sys), G_(G), par_(par) {
     if (!(std::isfinite(G) && G > 0.0)) throw InvalidInput("interaction.G: must be a finite number > 0");
+    detail::require_open_space(sys);
   }
 
   void add(const SystemState& s, SystemEvaluation& e) const {

@@ -15,6 +15,7 @@
 // "4 versus 9" (benchmarks/bench_system.cpp measures it).
 #pragma once
 
+#include <lgvi/box.hpp>
 #include <lgvi/error.hpp>
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/s3.hpp>
@@ -31,14 +32,15 @@
 namespace lgvi {
 
 /// The bodies of a system: mass, inertia and interaction sites of each, and
-/// a unique name. Immutable after construction.
+/// a unique name; and the box they move in (box.hpp: free space unless
+/// given). Immutable after construction.
 class System {
  public:
   System() = default;
-  /// Bodies with names (default body0, body1, ...). Throws InvalidInput on
-  /// an empty system, a size mismatch or a repeated name.
-  explicit System(std::vector<RigidBody> bodies, std::vector<std::string> names = {})
-      : bodies_(std::move(bodies)), names_(std::move(names)) {
+  /// Bodies with names (default body0, body1, ...) in `box`. Throws
+  /// InvalidInput on an empty system, a size mismatch or a repeated name.
+  explicit System(std::vector<RigidBody> bodies, std::vector<std::string> names = {}, Box box = {})
+      : bodies_(std::move(bodies)), names_(std::move(names)), box_(box) {
     if (bodies_.empty()) throw InvalidInput("bodies: a system needs at least one body");
     if (names_.empty())
       for (std::size_t a = 0; a < bodies_.size(); ++a) names_.push_back("body" + std::to_string(a));
@@ -64,6 +66,7 @@ class System {
   const std::vector<RigidBody>& bodies() const { return bodies_; }
   const std::string& name(std::size_t a) const { return names_[a]; }
   const std::vector<std::string>& names() const { return names_; }
+  const Box& box() const { return box_; }
   double total_mass() const {
     double m = 0.0;
     for (const RigidBody& b : bodies_) m += b.mass();
@@ -73,6 +76,7 @@ class System {
  private:
   std::vector<RigidBody> bodies_;
   std::vector<std::string> names_;
+  Box box_;
 };
 
 /// The state of N bodies, (x_a, q_a, p_a, w_a) for a = 0..N-1, one array per

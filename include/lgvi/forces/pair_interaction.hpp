@@ -147,7 +147,13 @@ class PairInteraction {
   /// default is 0.3 sigma for Lennard-Jones).
   PairInteraction(const System& sys, const Kernel& kernel, Parallelism par, double skin)
       : sys_(sys), sites_(sys), kernel_(kernel), cutoff_(kernel.cutoff()), skin_(skin),
-        prune_margin_(prune_fraction * skin_), par_(par) {}
+        prune_margin_(prune_fraction * skin_), par_(par), box_(sys.box()) {
+    if (box_.any_periodic() && !(2.0 * (cutoff_ + skin_) < box_.shortest_periodic_length()))
+      throw InvalidInput("interaction.cutoff: the cutoff + skin = " + std::to_string(cutoff_ + skin_) +
+                         " must be less than half the shortest periodic length of the box (" +
+                         std::to_string(box_.shortest_periodic_length()) +
+                         "), so that a pair has one image within reach; enlarge the box or shorten the cutoff or skin");
+  }
 
   void add(const SystemState& s, SystemEvaluation& e) const {
     const std::size_t n = s.size();
@@ -208,7 +214,12 @@ class PairInteraction {
 
   /// The separations d = X_j - X_i of the list entries of bodies [a, b) into
   /// the scratch (entry k - first, first the bodies' first entry); their count.
+  /// In a periodic box, each separation's minimum image (box.hpp).
   template <class Buffers>
+  std::size_t gather(std::size_t a, std::size_t b, Buffers& scratch) const {
+    return box_.any_periodic() ? gather<true>(a, b, scratch) : gather<false>(a, b, scratch);
+  }
+  template <bool Periodic, class Buffers>
   std::size_t gather(std::size_t a, std::size_t b, Buffers& scratch) const {
     const std::size_t first = list_start_[sites_.begin(a)], count = list_start_[sites_.end(b - 1)] - first;
     scratch.resize(count);
@@ -216,12 +227,20 @@ class PairInteraction {
       const Vector3<double> xi = position_[i];
       for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
         const Vector3<double>& xj = position_[neighbours_[k]];
-        scratch.dx[k - first] = xj(0) - xi(0);
-        scratch.dy[k - first] = xj(1) - xi(1);
-        scratch.dz[k - first] = xj(2) - xi(2);
+        scratch.dx[k - first] = separation<Periodic>(xj(0) - xi(0), 0);
+        scratch.dy[k - first] = separation<Periodic>(xj(1) - xi(1), 1);
+        scratch.dz[k - first] = separation<Periodic>(xj(2) - xi(2), 2);
       }
     }
     return count;
+  }
+
+  /// A separation's component along axis k: its minimum image in a periodic
+  /// box (the identity along an open axis), as it is.
+  template <bool Periodic>
+  double separation(double d, int k) const {
+    if constexpr (Periodic) return box_.reduce(d, k);
+    else return d;
   }
 
   /// The pair terms of bodies [a, b): the separations gathered into the
@@ -262,7 +281,7 @@ class PairInteraction {
         if (!(std::isfinite(scratch.fx[k - first]) && std::isfinite(scratch.fy[k - first]) &&
               std::isfinite(scratch.fz[k - first]))) {
           const std::size_t j = neighbours_[k];
-          detail::close_approach(sys_, sites_, i, j, (position_[j] - position_[i]).norm());
+          detail::close_approach(sys_, sites_, i, j, box_.minimum_image(position_[j] - position_[i]).norm());
         }
   }
 
@@ -404,18 +423,74 @@ class PairInteraction {
       if (finite_[a] == 0) report_collision(a);
   }
 
+  /// The cell of a site at x: along an open axis from the sites' bounding
+  /// box (clamped to it); along a periodic one from x's fractional
+  /// coordinate in the box, wrapped into [0, 1).
   std::array<std::int64_t, 3> cell_of(const Vector3<double>& x) const {
     std::array<std::int64_t, 3> c{};
     for (int k = 0; k < 3; ++k) {
-      const auto v = static_cast<std::int64_t>((x(k) - origin_(k)) * inv_cell_(k));
-      c[static_cast<std::size_t>(k)] = std::clamp<std::int64_t>(v, 0, dims_[static_cast<std::size_t>(k)] - 1);
+      const std::int64_t dims = dims_[static_cast<std::size_t>(k)];
+      std::int64_t v = 0;
+      if (box_.periodic(k)) {
+        double f = (x(k) - origin_(k)) * box_.inverse_periodic_length()(k);
+        f -= std::floor(f);
+        v = static_cast<std::int64_t>(f * static_cast<double>(dims));
+      } else {
+        v = static_cast<std::int64_t>((x(k) - origin_(k)) * inv_cell_(k));
+      }
+      c[static_cast<std::size_t>(k)] = std::clamp<std::int64_t>(v, 0, dims - 1);
     }
     return c;
+  }
+
+  /// The cells along axis k that meet [from, to]: one run of consecutive
+  /// cells, or two where a periodic axis wraps around (every cell once if the
+  /// interval is as long as the box).
+  struct CellRuns {
+    int count = 1;
+    std::array<std::array<std::int64_t, 2>, 2> run{};
+  };
+  CellRuns cells_between(int k, double from, double to) const {
+    CellRuns r;
+    const std::int64_t dims = dims_[static_cast<std::size_t>(k)];
+    if (!box_.periodic(k)) {
+      Vector3<double> a = Vector3<double>::Constant(origin_(k)), b = a;
+      a(k) = from;
+      b(k) = to;
+      r.run[0] = {cell_of(a)[static_cast<std::size_t>(k)], cell_of(b)[static_cast<std::size_t>(k)]};
+      return r;
+    }
+    // Unwrapped cell numbers, widened by the rounding of the fractional
+    // coordinates (cell_of wraps them before scaling, this does not).
+    const double scale = box_.inverse_periodic_length()(k) * static_cast<double>(dims);
+    const double slack = 1e-12 * (std::abs(from - origin_(k)) + std::abs(to - origin_(k)) + box_.periodic_length()(k));
+    const double u0 = std::floor((from - slack - origin_(k)) * scale), u1 = std::floor((to + slack - origin_(k)) * scale);
+    const auto d = static_cast<double>(dims);
+    if (!(u1 - u0 + 1.0 < d)) {  // (also where far sites have lost their place in the box to rounding)
+      r.run[0] = {0, dims - 1};
+      return r;
+    }
+    // The cells modulo dims, in double (u0 may be beyond any integer type).
+    auto wrapped = [&](double u) {
+      return std::clamp<std::int64_t>(static_cast<std::int64_t>(std::clamp(u - d * std::floor(u / d), 0.0, d - 1.0)), 0,
+                                      dims - 1);
+    };
+    const std::int64_t a = wrapped(u0), b = wrapped(u1);
+    if (a <= b) {
+      r.run[0] = {a, b};
+    } else {
+      r.count = 2;
+      r.run[0] = {a, dims - 1};
+      r.run[1] = {0, b};
+    }
+    return r;
   }
 
   /// Sorts the sites into cells of side >= (r_c + skin) / 2, then lists for
   /// every site the sites of higher bodies within r_c + skin, by increasing
   /// index (the outer lists); then prunes them (prune_lists).
+  void build_lists() const { box_.any_periodic() ? build_lists<true>() : build_lists<false>(); }
+  template <bool Periodic>
   void build_lists() const {
     ++builds_;
     const std::size_t m = position_.size();
@@ -430,7 +505,11 @@ class PairInteraction {
     const double budget = std::max(1.0, std::floor(std::cbrt(2.0 * static_cast<double>(m) + 1.0)));
     std::size_t cells = 1;
     for (int k = 0; k < 3; ++k) {
-      const double extent = hi(k) - lo(k);
+      // A periodic axis: cells over the box, a whole number of them (each
+      // at least reach / cells_per_reach wide), whatever the sites' spread.
+      const bool periodic = box_.periodic(k);
+      if (periodic) origin_(k) = box_.lower()(k);
+      const double extent = periodic ? box_.periodic_length()(k) : hi(k) - lo(k);
       const double count = std::clamp(std::floor(extent * cells_per_reach / reach), 1.0, budget);
       dims_[static_cast<std::size_t>(k)] = static_cast<std::int64_t>(count);
       inv_cell_(k) = count / std::max(extent, reach / cells_per_reach);
@@ -505,25 +584,31 @@ class PairInteraction {
           for (std::size_t i = g0; i < g1; ++i) radius2 = std::max(radius2, (position_[i] - centre).squaredNorm());
           // Generous by a relative 1e-9: only a filter, the test below is exact.
           const double around = (reach + std::sqrt(radius2)) * (1.0 + 1e-9), around2 = around * around;
-          const Vector3<double> margin = Vector3<double>::Constant(reach);
-          const std::array<std::int64_t, 3> c0 = cell_of(lo - margin), c1 = cell_of(hi + margin);
+          const CellRuns xs = cells_between(0, lo(0) - reach, hi(0) + reach),
+                         ys = cells_between(1, lo(1) - reach, hi(1) + reach),
+                         zs = cells_between(2, lo(2) - reach, hi(2) + reach);
           const double cx = centre(0), cy = centre(1), cz = centre(2);
           std::size_t kept = 0;
-          for (std::int64_t z = c0[2]; z <= c1[2]; ++z)
-            for (std::int64_t y = c0[1]; y <= c1[1]; ++y) {
-              const auto row = static_cast<std::size_t>((z * dims_[1] + y) * dims_[0]);
-              const std::size_t run_first = cell_start_[row + static_cast<std::size_t>(c0[0])],
-                                run_end = cell_start_[row + static_cast<std::size_t>(c1[0]) + 1];
-              if (near.size() < kept + (run_end - run_first)) near.resize(2 * (kept + (run_end - run_first)));
-              std::size_t* const list = near.data();
-              // Every candidate written, the count advanced only for those kept:
-              // no branch to mispredict on the distance test.
-              for (std::size_t k = run_first; k < run_end; ++k) {
-                const double dx = cell_x_[k] - cx, dy = cell_y_[k] - cy, dz = cell_z_[k] - cz;
-                list[kept] = sorted_[k];
-                kept += static_cast<std::size_t>((dx * dx + dy * dy + dz * dz < around2) & (cell_body_[k] > a));
-              }
-            }
+          for (int zr = 0; zr < zs.count; ++zr)
+            for (std::int64_t z = zs.run[zr][0]; z <= zs.run[zr][1]; ++z)
+              for (int yr = 0; yr < ys.count; ++yr)
+                for (std::int64_t y = ys.run[yr][0]; y <= ys.run[yr][1]; ++y)
+                  for (int xr = 0; xr < xs.count; ++xr) {
+                    const auto row = static_cast<std::size_t>((z * dims_[1] + y) * dims_[0]);
+                    const std::size_t run_first = cell_start_[row + static_cast<std::size_t>(xs.run[xr][0])],
+                                      run_end = cell_start_[row + static_cast<std::size_t>(xs.run[xr][1]) + 1];
+                    if (near.size() < kept + (run_end - run_first)) near.resize(2 * (kept + (run_end - run_first)));
+                    std::size_t* const list = near.data();
+                    // Every candidate written, the count advanced only for those kept:
+                    // no branch to mispredict on the distance test.
+                    for (std::size_t k = run_first; k < run_end; ++k) {
+                      const double dx = separation<Periodic>(cell_x_[k] - cx, 0),
+                                   dy = separation<Periodic>(cell_y_[k] - cy, 1),
+                                   dz = separation<Periodic>(cell_z_[k] - cz, 2);
+                      list[kept] = sorted_[k];
+                      kept += static_cast<std::size_t>((dx * dx + dy * dy + dz * dz < around2) & (cell_body_[k] > a));
+                    }
+                  }
           // By index; insertion sort for tens of sites, where it is fastest
           // (and the candidates, in cell order, come nearly sorted in a gas
           // numbered along its lattice).
@@ -545,7 +630,9 @@ class PairInteraction {
             std::size_t count = 0;
             for (std::size_t k = 0; k < kept; ++k) {
               const std::size_t j = near[k];
-              const double dx = position_[j](0) - xi, dy = position_[j](1) - yi, dz = position_[j](2) - zi;
+              const double dx = separation<Periodic>(position_[j](0) - xi, 0),
+                           dy = separation<Periodic>(position_[j](1) - yi, 1),
+                           dz = separation<Periodic>(position_[j](2) - zi, 2);
               list[count] = j;
               count += static_cast<std::size_t>(dx * dx + dy * dy + dz * dz < reach2);
             }
@@ -556,14 +643,16 @@ class PairInteraction {
       }
     });
     join_chunk_lists(outer_start_, outer_neighbours_);
-    prune_lists(true);
+    prune_lists<Periodic>(true);
   }
 
   /// The outer lists' entries within r_c + prune_margin_ now, per site in
   /// the same order: the lists the evaluation passes (neighbours_,
   /// list_start_). Then the threads' ranges (`new_ranges`: split anew, at a
   /// build; else kept) and the pairs that cross between them (ranged_pass).
-  void prune_lists(bool new_ranges = false) const {
+  void prune_lists() const { box_.any_periodic() ? prune_lists<true>(false) : prune_lists<false>(false); }
+  template <bool Periodic>
+  void prune_lists(bool new_ranges) const {
     ++prunes_;
     const std::size_t n = sys_.size(), m = position_.size();
     // Generous by a relative 1e-9, as the build's filter: no pair within the
@@ -589,7 +678,9 @@ class PairInteraction {
         const std::size_t first = count, k1 = outer_start_[i + 1];
         for (std::size_t k = outer_start_[i]; k < k1; ++k) {
           const std::size_t j = outer[k];
-          const double dx = position[j](0) - xi, dy = position[j](1) - yi, dz = position[j](2) - zi;
+          const double dx = separation<Periodic>(position[j](0) - xi, 0),
+                       dy = separation<Periodic>(position[j](1) - yi, 1),
+                       dz = separation<Periodic>(position[j](2) - zi, 2);
           list[count] = j;
           count += static_cast<std::size_t>(dx * dx + dy * dy + dz * dz < reach2);
         }
@@ -716,6 +807,7 @@ class PairInteraction {
   Kernel kernel_;
   double cutoff_, skin_, prune_margin_;
   Parallelism par_;
+  Box box_;  ///< the system's: separations are minimum images along its periodic axes
   mutable std::vector<Vector3<double>> position_, arm_;
   mutable std::vector<double> energy_;
   mutable std::vector<char> finite_;  ///< per body: its pairs' forces are finite

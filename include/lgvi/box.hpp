@@ -1,0 +1,143 @@
+// The simulation box: free space, or an orthogonal box [lower, upper) that is
+// periodic along any combination of the three axes.
+//
+// Along a periodic axis k of length L_k = upper_k - lower_k, space is a circle:
+// a body at x and at x + n L_k e_k (n an integer) is the same body. lgvi keeps
+// each centre of mass unwrapped in the state (the continuous path the
+// integrator moves, so that the dynamics never jumps) and wraps it only to
+// write it: x = wrapped + image * L, wrapped in [lower, upper). Pairs of sites
+// interact through their minimum image: the separation d reduced along each
+// periodic axis to d_k - L_k round(d_k / L_k), in [-L_k/2, L_k/2]. With the
+// interaction's reach (cutoff + skin) below half the shortest periodic
+// length, a pair has at most one image within reach, so that the lists and
+// the sums see each pair once (checked where the box meets an interaction).
+//
+// Along a non-periodic axis space is open: bodies move freely beyond lower and
+// upper, and no separation is reduced (lower and upper only bound the box that
+// the exports draw).
+//
+// The reduction is antisymmetric to the bit: round-to-nearest (ties to even)
+// is odd, so the image of -d is exactly minus the image of d, and a pair's
+// two forces cancel exactly as in free space (Newton's third law to the bit:
+// the total linear momentum is conserved to round-off).
+//
+// A triclinic box would add the tilt factors (xy, xz, yz) here, with the
+// minimum image taken in the box's fractional coordinates; the neighbour
+// lists (forces/pair_interaction.hpp) bin sites in fractional coordinates
+// already along periodic axes, so only this class and the exports would change.
+#pragma once
+
+#include <lgvi/error.hpp>
+#include <lgvi/s3.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <string>
+
+namespace lgvi {
+
+/// An orthogonal box, periodic along any of its axes (the comment above).
+/// Invariant: along a periodic axis, lower and upper are finite and lower <
+/// upper; a default Box is free space (no periodic axis).
+class Box {
+ public:
+  /// Free space.
+  Box() = default;
+  /// [lower, upper), periodic along the axes where `periodic` is true. Throws
+  /// InvalidInput ("box.upper[k]: ...") unless lower and upper are finite and
+  /// lower < upper along every axis.
+  Box(const Vector3<double>& lower, const Vector3<double>& upper, const std::array<bool, 3>& periodic)
+      : lower_(lower), upper_(upper), periodic_(periodic) {
+    for (int k = 0; k < 3; ++k) {
+      auto fail = [k](const char* key, const char* what) {
+        std::string message = key;
+        message += '[';
+        message += static_cast<char>('0' + k);
+        message += "]: ";
+        message += what;
+        throw InvalidInput(message);
+      };
+      if (!std::isfinite(lower(k))) fail("box.lower", "must be a finite number");
+      if (!(std::isfinite(upper(k)) && upper(k) > lower(k))) fail("box.upper", "must be a finite number > box.lower");
+      const double length = upper(k) - lower(k);
+      if (!std::isfinite(length)) fail("box.upper", "the box is wider than a double can hold");
+      if (periodic[static_cast<std::size_t>(k)]) {
+        length_(k) = length;
+        inverse_length_(k) = 1.0 / length;
+      }
+    }
+    any_periodic_ = periodic[0] || periodic[1] || periodic[2];
+  }
+
+  /// Whether this is the default box (free space, no bounds given).
+  bool free_space() const { return !(upper_(0) > lower_(0)); }
+  bool any_periodic() const { return any_periodic_; }
+  bool periodic(int k) const { return periodic_[static_cast<std::size_t>(k)]; }
+  const std::array<bool, 3>& periodic() const { return periodic_; }
+  const Vector3<double>& lower() const { return lower_; }
+  const Vector3<double>& upper() const { return upper_; }
+  /// L_k along a periodic axis, 0 along an open one.
+  const Vector3<double>& periodic_length() const { return length_; }
+  /// 1 / L_k along a periodic axis, 0 along an open one.
+  const Vector3<double>& inverse_periodic_length() const { return inverse_length_; }
+  /// The shortest periodic length (infinity without a periodic axis).
+  double shortest_periodic_length() const {
+    double l = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 3; ++k)
+      if (periodic(k)) l = std::min(l, length_(k));
+    return l;
+  }
+
+  /// The separation d reduced to its minimum image: d_k - L_k round(d_k / L_k)
+  /// along each periodic axis, unchanged along open ones (there L_k = 0 and
+  /// 1/L_k is stored as 0, so the same operations leave d_k exactly as it
+  /// is). Odd: minimum_image(-d) = -minimum_image(d) exactly.
+  Vector3<double> minimum_image(const Vector3<double>& d) const {
+    Vector3<double> r = d;
+    for (int k = 0; k < 3; ++k) r(k) = reduce(d(k), k);
+    return r;
+  }
+  /// One component of minimum_image.
+  double reduce(double d, int k) const { return d - length_(k) * std::nearbyint(d * inverse_length_(k)); }
+
+  /// The image count of position x along each periodic axis, n_k =
+  /// floor((x_k - lower_k) / L_k) (0 along open axes), and x wrapped into
+  /// the box, x - n L, in [lower, upper) along periodic axes. A coordinate
+  /// 2^52 or more box lengths away (where rounding has lost its place in the
+  /// box) or not finite is left as it is, with image 0.
+  struct Wrapped {
+    Vector3<double> x;
+    std::array<std::int64_t, 3> image{};
+  };
+  Wrapped wrap(const Vector3<double>& x) const {
+    Wrapped w{x, {}};
+    for (int k = 0; k < 3; ++k) {
+      if (!periodic(k) || !std::isfinite(x(k))) continue;
+      double n = std::floor((x(k) - lower_(k)) * inverse_length_(k));
+      if (!(std::abs(n) < 0x1p52)) continue;
+      double v = x(k) - n * length_(k);
+      // Rounding can leave v just outside [lower, upper): one more turn.
+      if (v >= upper_(k)) {
+        n += 1.0;
+        v = x(k) - n * length_(k);
+      } else if (v < lower_(k)) {
+        n -= 1.0;
+        v = x(k) - n * length_(k);
+      }
+      w.x(k) = std::clamp(v, lower_(k), std::nextafter(upper_(k), lower_(k)));
+      w.image[static_cast<std::size_t>(k)] = static_cast<std::int64_t>(n);
+    }
+    return w;
+  }
+
+ private:
+  Vector3<double> lower_ = Vector3<double>::Zero(), upper_ = Vector3<double>::Zero();
+  std::array<bool, 3> periodic_{false, false, false};
+  bool any_periodic_ = false;
+  Vector3<double> length_ = Vector3<double>::Zero(), inverse_length_ = Vector3<double>::Zero();
+};
+
+}  // namespace lgvi
