@@ -42,6 +42,7 @@ DESCRIPTIONS = {
     ".output": "table: what is written",
     ".run": "table: threads and contact checks",
     ".forcing": "array of tables [[forcing]]: forces and torques no potential gives",
+    ".box": "table: a periodic (or bounded) box for [[bodies]] (default: free space)",
     # [body]
     "body.mass": "number > 0: total mass (with inertia, or with shape)",
     "body.inertia": "3x3 array: the inertia J about the centre of mass, body axes (symmetric positive definite)",
@@ -122,6 +123,10 @@ DESCRIPTIONS = {
     # [run]
     "run.threads": "integer: threads of a many-body run (default all cores; --threads overrides)",
     "run.on_contact": "\"stop\" (default) | \"warn\" | \"ignore\": when two bodies overlap",
+    # [box]
+    "box.lower": "[x, y, z]: the box's lower corner",
+    "box.upper": "[x, y, z]: its upper corner (each > lower)",
+    "box.periodic": "[bool, bool, bool] per axis (default all true); an open axis is free space",
     # [[forcing]]
     "forcing.kind": "\"torque\" | \"force\" | \"damping\" | \"attitude-control\"",
     "forcing.body": "string: the body it acts on (default every body)",

@@ -570,6 +570,70 @@ InteractionSpec read_interaction(const Reader& r, const toml::table& root) {
   return spec;
 }
 
+/// [box]: lower, upper and periodic (default [true, true, true]); free space
+/// without the table.
+Box read_box(const Reader& r, const toml::table& root, bool bodies_format) {
+  const toml::table* t = r.optional_table(root, "", "box");
+  if (!t) return {};
+  if (!bodies_format)
+    r.fail("box", "a box holds [[bodies]]; a single-body scenario ([body] + [initial]) has no pairs to wrap");
+  r.only_keys(*t, "box", {"lower", "upper", "periodic"});
+  const Vector3<double> lower = r.vector<3>(*t, "box", "lower"), upper = r.vector<3>(*t, "box", "upper");
+  std::array<bool, 3> periodic{true, true, true};
+  if (const toml::node* n = t->get("periodic")) {
+    const toml::array* a = n->as_array();
+    if (!a || a->size() != 3)
+      r.fail("box.periodic", "must be an array of 3 booleans, one per axis, e.g. [true, true, false]");
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (!a->get(k)->is_boolean())
+        r.fail("box.periodic[" + std::to_string(k) + "]", "must be true (periodic) or false (open)");
+      periodic[k] = a->get(k)->value<bool>().value();
+    }
+  }
+  for (int k = 0; k < 3; ++k) {
+    const std::string at = "[" + std::to_string(k) + "]";
+    if (!(upper(k) > lower(k)))
+      r.fail("box.upper" + at, fmt::format("must be greater than box.lower{} = {} (the box's extent)", at, lower(k)));
+    if (!std::isfinite(upper(k) - lower(k)))
+      r.fail("box.upper" + at, "the box's width upper - lower overflows a double; use smaller units");
+  }
+  return Box(lower, upper, periodic);
+}
+
+/// What a periodic box needs of the rest of the scenario: a field and an
+/// interaction that are periodic too (no central field or pivot, no
+/// long-range interaction), a reach below half the shortest periodic length
+/// (so that a pair has one image within reach) and bodies small enough that
+/// no body meets two images of another, or its own (twice the largest
+/// bounding radius below half that length).
+void require_fits_box(const Reader& r, const Box& box, const std::vector<RigidBody>& bodies,
+                      const PotentialSpec& potential, const InteractionSpec& interaction) {
+  if (!box.any_periodic()) return;
+  const double half = 0.5 * box.shortest_periodic_length();
+  if (potential.kind == PotentialKind::Central || potential.kind == PotentialKind::HeavyTop)
+    r.fail("box.periodic", std::string("a ") + to_string(potential.kind) +
+                               " field is not periodic; a periodic box takes [potential] kind = \"none\" or "
+                               "\"uniform\" (or make the box open: periodic = [false, false, false])");
+  if (!interaction.none() && !interaction.descriptor->reach)
+    r.fail("box.periodic", "mutual gravity is long-range and has no minimum image (a periodic box would need Ewald "
+                           "summation); use an open box (periodic = [false, false, false]) or a short-range pair "
+                           "interaction (lennard-jones, wca)");
+  if (!interaction.none()) {
+    const double reach = interaction.descriptor->reach(interaction);
+    if (!(reach < half))
+      r.fail("box", fmt::format("the interaction's reach, cutoff + skin = {}, must be less than half the shortest "
+                                "periodic length ({}), so that a pair has one image within reach; enlarge the box or "
+                                "shorten interaction.cutoff or interaction.skin",
+                                reach, half));
+  }
+  for (std::size_t a = 0; a < bodies.size(); ++a)
+    if (!(2.0 * bodies[a].bounding_radius() < half))
+      r.fail("bodies[" + std::to_string(a) + "]",
+             fmt::format("its bounding radius {} is too large for the box: twice it must be less than half the "
+                         "shortest periodic length ({}), so that no body meets two images of another; enlarge the box",
+                         bodies[a].bounding_radius(), half));
+}
+
 /// A forcing table's rows (t, a, b, c) from a CSV file: numbers separated
 /// by commas, an optional header line, '#' comments.
 void read_profile_csv(const Reader& r, const std::string& key, const std::filesystem::path& file,
@@ -861,7 +925,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
     throw InvalidInput(os.str());
   }
   r.only_keys(root, "", {"body", "bodies", "potential", "initial", "interaction", "integrator", "output", "run",
-                         "forcing"});
+                         "forcing", "box"});
   const bool bodies_format = root.contains("bodies");
   if (bodies_format && (root.contains("body") || root.contains("initial")))
     r.fail("bodies", "give either [body] + [initial] (one body) or [[bodies]] tables, not both");
@@ -877,6 +941,16 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   const std::string converted = bodies_format ? std::string() : convert_orbit_attitude(r, root, bodies[0], potential);
   if (!bodies_format) initial = SystemState(read_initial(r, root, bodies[0]));
   const InteractionSpec interaction = read_interaction(r, root);
+  const Box box = read_box(r, root, bodies_format);
+  require_fits_box(r, box, bodies, potential, interaction);
+  // The state is unwrapped, but a body placed millions of box lengths away
+  // would have lost its place in the box to rounding.
+  for (std::size_t a = 0; a < initial.size() && box.any_periodic(); ++a)
+    for (int k = 0; k < 3; ++k)
+      if (box.periodic(k) && !(std::abs(initial.x[a](k) - box.lower()(k)) < 0x1p20 * box.periodic_length()(k)))
+        r.fail("bodies[" + std::to_string(a) + "].position",
+               "lies 2^20 or more periodic lengths from the box along axis " + std::to_string(k) +
+                   "; place the bodies in or near the box");
   IntegratorSpec integrator = read_integrator(r, root);
   if (bodies.size() > 1 && potential.kind == PotentialKind::HeavyTop)
     r.fail("potential.kind", "\"heavy-top\" is a single body on a pivot; this scenario has " +
@@ -943,7 +1017,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   Scenario sc;
   sc.name = stem;
   try {
-    sc.system = System(std::move(bodies), std::move(names));
+    sc.system = System(std::move(bodies), std::move(names), box);
   } catch (const InvalidInput& e) {
     r.fail("", e.what());
   }
@@ -999,7 +1073,10 @@ ConservationLaws conservation_laws(const Scenario& sc) {
   ConservationLaws laws;
   laws.forced = !sc.forcing.empty();
   const PotentialKind k = sc.potential.kind;
-  if (!laws.forced && (k == PotentialKind::None || (k == PotentialKind::Central && sc.potential.j2 == 0.0)))
+  // A periodic box is not invariant under rotations: no angular momentum.
+  if (sc.system.box().any_periodic())
+    laws.angular_momentum = ConservationLaws::Angular::NotConserved;
+  else if (!laws.forced && (k == PotentialKind::None || (k == PotentialKind::Central && sc.potential.j2 == 0.0)))
     laws.angular_momentum = ConservationLaws::Angular::Conserved;
   else if (!laws.forced && k == PotentialKind::Central)
     laws.angular_momentum = ConservationLaws::Angular::AlongPole;

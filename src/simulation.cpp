@@ -78,6 +78,7 @@ TrajectoryLayout scenario_layout(const Scenario& s) {
                                 : TrajectoryLayout::single_body(forced);
   if (!holds_columns(s.output_format)) layout.shapes = body_shapes(s.system);
   layout.step = s.integrator.step;
+  layout.box = s.system.box();
   return layout;
 }
 

@@ -103,6 +103,10 @@ Json setup_json(const Scenario& s) {
     inter["kind"] = interaction_kind(s.interaction);
     if (s.interaction.descriptor) s.interaction.descriptor->describe(s.interaction, inter);
     o["interaction"] = std::move(inter);
+    if (const Box& box = s.system.box(); !box.free_space())
+      o["box"] = {{"lower", to_vector(box.lower())},
+                  {"upper", to_vector(box.upper())},
+                  {"periodic", {box.periodic(0), box.periodic(1), box.periodic(2)}}};
     o["on_contact"] = to_string(s.on_contact);
     o["contact_check"] = contact_check(s);
   }

@@ -4,6 +4,8 @@
 // the run loop, checkpoints and resume do not depend on the format.
 #pragma once
 
+#include <lgvi/box.hpp>
+
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -71,6 +73,10 @@ struct TrajectoryLayout {
   /// The time step h, by which the LAMMPS dump numbers its frames' steps
   /// (round(t / h)); 0 if unknown, then they are numbered by output index.
   double step = 0.0;
+  /// The system's box: the particle exports wrap each site into it along
+  /// its periodic axes (with image counts) and draw it; the other formats
+  /// write the centres of mass unwrapped.
+  Box box = {};
 
   static TrajectoryLayout single_body(bool forced = false) {
     if (forced) return {forced_trajectory_header, trajectory_columns + 1, 0};

@@ -6,20 +6,23 @@
 //   <k>
 //   ITEM: NUMBER OF ATOMS
 //   <sites>
-//   ITEM: BOX BOUNDS ss ss ss    shrink-wrapped, non-periodic: the extent of the
-//   <xlo> <xhi>                  sites' spheres (c -+ radius), widened by 0.5 each
-//                                way where it is flat (LAMMPS refuses lo = hi)
-//   <ylo> <yhi>
-//   <zlo> <zhi>
+//   ITEM: BOX BOUNDS ss ss ss    per axis: "pp" along a periodic axis of the
+//   <xlo> <xhi>                  [box], its lower and upper bounds; "ss"
+//   <ylo> <yhi>                  (shrink-wrapped) along an open one: the extent
+//   <zlo> <zhi>                  of the sites' spheres (c -+ radius), widened by
+//                                0.5 each way where it is flat (LAMMPS refuses
+//                                lo = hi)
 //   ITEM: ATOMS id mol type x y z ix iy iz
-//   <id> <mol> <type> <x> <y> <z> 0 0 0    one line per site
+//   <id> <mol> <type> <x> <y> <z> <ix> <iy> <iz>    one line per site
 //
 // id numbers the sites of a frame from 1, mol the bodies from 1 (the bodies'
 // order in the scenario), and type the site radii from 1 in order of first
 // appearance, so that a viewer's per-type radius draws every site at its size
-// (LAMMPS's "types"; one type for a gas of identical molecules). The image
-// counts are 0: lgvi's space is not periodic. Coordinates are x + R(q) rho
-// with 17 significant digits, exactly the extended XYZ export's positions.
+// (LAMMPS's "types"; one type for a gas of identical molecules). Coordinates
+// are x + R(q) rho with 17 significant digits, exactly the extended XYZ
+// export's positions: each site wrapped into the box along its periodic axes
+// with its image counts (LAMMPS's convention: unwrapped = x + ix (xhi - xlo)),
+// as it is with image 0 along open axes.
 // Resumes by truncation, as the XYZ export.
 #include "formats/particles.hpp"
 #include "formats/registry.hpp"
@@ -43,8 +46,18 @@ class LammpsDump final : public ParticleTextFile {
   void format_frame(const ParticleFrame& f, std::string& text) override {
     const long long k = step_ > 0.0 ? std::llround(f.t / step_) : static_cast<long long>(f.index);
     text += "ITEM: TIMESTEP\n" + std::to_string(k) + "\nITEM: NUMBER OF ATOMS\n" +
-            std::to_string(f.particles.size()) + "\nITEM: BOX BOUNDS ss ss ss\n";
+            std::to_string(f.particles.size()) + "\nITEM: BOX BOUNDS";
+    const Box& box = frames().box();
+    for (int axis = 0; axis < 3; ++axis) text += box.periodic(axis) ? " pp" : " ss";
+    text.push_back('\n');
     for (std::size_t axis = 0; axis < 3; ++axis) {
+      if (box.periodic(static_cast<int>(axis))) {
+        append_number(text, box.lower()(static_cast<int>(axis)));
+        text.push_back(' ');
+        append_number(text, box.upper()(static_cast<int>(axis)));
+        text.push_back('\n');
+        continue;
+      }
       double lo = 0.0, hi = 0.0;
       for (std::size_t i = 0; i < f.particles.size(); ++i) {
         const Particle& p = f.particles[i];
@@ -68,7 +81,11 @@ class LammpsDump final : public ParticleTextFile {
         text.push_back(' ');
         append_number(text, c);
       }
-      text += " 0 0 0\n";
+      for (const std::int64_t n : p.image) {
+        text.push_back(' ');
+        text += std::to_string(n);
+      }
+      text.push_back('\n');
     }
   }
 

@@ -56,7 +56,7 @@ int column_of(const char* header, const char* name) {
 }  // namespace
 
 ParticleFrames::ParticleFrames(const TrajectoryLayout& layout)
-    : shapes_(layout.shapes), columns_(static_cast<std::size_t>(layout.columns)) {
+    : shapes_(layout.shapes), box_(layout.box), columns_(static_cast<std::size_t>(layout.columns)) {
   if (static_cast<std::int64_t>(shapes_.size()) != layout.rows_per_step())
     throw std::runtime_error("the particle exports (xyz, vtk, lammps-dump) need the shape of each of the " +
                              std::to_string(layout.rows_per_step()) + " bodies, got " +
@@ -119,6 +119,11 @@ const ParticleFrame* ParticleFrames::row(const double* values) {
       out.body = static_cast<std::int64_t>(a);
       out.site = static_cast<std::int64_t>(k);
       out.position = site_position(x, q, site.rho);
+      if (box_.any_periodic()) {
+        const Box::Wrapped w = box_.wrap({out.position[0], out.position[1], out.position[2]});
+        out.position = {w.x(0), w.x(1), w.x(2)};
+        out.image = w.image;
+      }
       out.q = {q[0], q[1], q[2], q[3]};
       out.velocity = {p[0] / shape.mass, p[1] / shape.mass, p[2] / shape.mass};
       out.omega = omega;

@@ -28,7 +28,10 @@ std::vector<BodyShape> body_shapes(const System& system);
 struct Particle {
   std::int64_t body = 0;
   std::int64_t site = 0;  ///< the site's number in the frame, 0-based
-  std::array<double, 3> position{};  ///< x + R(q) rho (site_position)
+  /// x + R(q) rho (site_position), wrapped into the box along its periodic
+  /// axes: the unwrapped position is position + image * L (box.hpp).
+  std::array<double, 3> position{};
+  std::array<std::int64_t, 3> image{};
   std::array<double, 4> q{};  ///< the body's quaternion, scalar first (w, x, y, z) as in lgvi's files
   std::array<double, 3> velocity{};  ///< of the centre of mass, p / m
   std::array<double, 3> omega{};  ///< angular velocity in the inertial frame, R(q) J^-1 w / 2
@@ -61,6 +64,7 @@ class ParticleFrames {
   /// Particles in every frame.
   std::int64_t particles_per_frame() const { return static_cast<std::int64_t>(frame_.particles.size()); }
   const std::vector<BodyShape>& shapes() const { return shapes_; }
+  const Box& box() const { return box_; }
 
   /// Continues after `rows` rows (a whole number of steps, as in a
   /// checkpoint); throws std::runtime_error otherwise.
@@ -71,6 +75,7 @@ class ParticleFrames {
     int t, x, qw, px, wx, energy, energy_error, momentum_error;
   };
   std::vector<BodyShape> shapes_;
+  Box box_;
   Columns col_{};
   std::int64_t rows_ = 0, frames_ = 0;
   std::size_t pending_ = 0;  ///< rows of the current step taken so far

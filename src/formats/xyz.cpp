@@ -15,11 +15,13 @@
 // So the `orientation` columns are (qx, qy, qz, qw), unlike lgvi's CSV
 // (qw first).
 //
-// No `Lattice=`: the runs are not periodic. OVITO then takes the particles'
-// bounding box as a non-periodic cell, and keeps the comment line's other
-// key=value pairs (Time, energy, ...) as the frame's Comment attribute (it
-// splits them into attributes only when a Lattice is given); ASE's extxyz
-// reader reads them as the frame's info.
+// In free space, no `Lattice=`: OVITO then takes the particles' bounding box
+// as a non-periodic cell, and keeps the comment line's other key=value pairs
+// (Time, energy, ...) as the frame's Comment attribute (it splits them into
+// attributes only when a Lattice is given); ASE's extxyz reader reads them as
+// the frame's info. In a periodic box, `Lattice="Lx 0 0 0 Ly 0 0 0 Lz"`,
+// `Origin="xlo ylo zlo"` and `pbc="T T F"` (per axis) give the cell, and the
+// sites are wrapped into it along its periodic axes (ParticleFrames).
 #include "formats/registry.hpp"
 #include "formats/particles.hpp"
 
@@ -46,6 +48,23 @@ class XyzTrajectory final : public ParticleTextFile {
     text += std::to_string(f.particles.size());
     text.push_back('\n');
     text += xyz_properties;
+    if (const Box& box = frames().box(); box.any_periodic()) {
+      const Vector3<double> length = box.upper() - box.lower();
+      text += " Lattice=\"";
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+          if (i + j > 0) text.push_back(' ');
+          append_number(text, i == j ? length(i) : 0.0);
+        }
+      text += "\" Origin=\"";
+      for (int i = 0; i < 3; ++i) {
+        if (i > 0) text.push_back(' ');
+        append_number(text, box.lower()(i));
+      }
+      text += "\" pbc=\"";
+      for (int i = 0; i < 3; ++i) text += i > 0 ? (box.periodic(i) ? " T" : " F") : (box.periodic(i) ? "T" : "F");
+      text.push_back('"');
+    }
     text += " Time=";
     append_number(text, f.t);
     text += " energy=";

@@ -33,6 +33,7 @@ inline constinit const InteractionDescriptor lennard_jones_interaction{
           for (const char* key : {"epsilon", "sigma", "cutoff", "skin"}) out[key] = spec.number(key);
         },
     .keeps_bodies_apart = true,
+    .reach = [](const InteractionSpec& spec) { return spec.number("cutoff") + spec.number("skin"); },
 };
 
 }  // namespace lgvi::app

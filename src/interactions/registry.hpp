@@ -68,6 +68,10 @@ struct InteractionDescriptor {
   /// The potential keeps bodies apart (a repulsive core): contact is not
   /// checked during a run unless [run] on_contact says so.
   bool keeps_bodies_apart = false;
+  /// A short-range pair interaction's reach, cutoff + Verlet skin (spec as
+  /// read): a periodic box must be more than twice as long. Null for a
+  /// long-range one, which a periodic box refuses.
+  double (*reach)(const InteractionSpec& spec) = nullptr;
 };
 
 /// Every interaction kind, in registration order (registry.cpp).

@@ -33,6 +33,10 @@ inline constinit const InteractionDescriptor wca_interaction{
           out["skin"] = spec.number("skin");
         },
     .keeps_bodies_apart = true,
+    .reach =
+        [](const InteractionSpec& spec) {
+          return WcaKernel(spec.number("epsilon"), spec.number("sigma")).cutoff() + spec.number("skin");
+        },
 };
 
 }  // namespace lgvi::app
