@@ -5,6 +5,15 @@ et al.), from the same initial state, with the same step, cutoff and
 neighbour settings, timed in one invocation:
 
     /usr/bin/python3 benchmarks/lammps/compare_lammps.py LGVI_BINARY LMP_BINARY [--steps 2000] [--repeat 5]
+    /usr/bin/python3 benchmarks/lammps/compare_lammps.py LGVI_BINARY LMP_BINARY --periodic
+
+With --periodic the same gas fills a periodic cube of side 22 (the lattice of
+spacing 2.2 continued across the faces: [box] in lgvi, boundary p p p in
+LAMMPS), and the script compares the start only: LAMMPS's step-0 potential
+energy `pe` and kinetic energy of the atoms (translational + rotational of the
+rigid molecules, thermo_modify norm no) against lgvi's V and T, where lgvi's
+T is computed here from its state (p^2 / 2m + w . J^-1 w / 8 per molecule) and
+V = E0 - T. It exits with status 1 unless both agree to 1e-10 relative.
 
 (LMP_BINARY: Debian's `lmp`, package lammps.) It writes a scratch folder with
 the LAMMPS data file and input (in.lj-triangles, next to this script, is the
@@ -37,8 +46,16 @@ HERE = pathlib.Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
 
 
-def scenario_text(steps, step, every):
+# --periodic: the cube [-1.1, 20.9)^3, so that the lattice of 10 x 10 x 10
+# molecules at spacing 2.2 from the origin continues across its faces.
+BOX = (-1.1, 20.9)
+
+
+def scenario_text(steps, step, every, periodic=False):
     text = (ROOT / "scenarios" / "lj-gas.toml").read_text()
+    if periodic:
+        lo, hi = BOX
+        text += f"\n[box]\nlower = [{lo!r}, {lo!r}, {lo!r}]\nupper = [{hi!r}, {hi!r}, {hi!r}]\n"
     text = text.replace("radius = 0.5", "radius = 0.0")  # point masses, as LAMMPS atoms
     text = re.sub(r"duration = [0-9.]+", f"duration = {steps * step!r}", text)
     text = re.sub(r"step = [0-9.]+", f"step = {step!r}", text)
@@ -46,10 +63,10 @@ def scenario_text(steps, step, every):
     return text
 
 
-def lammps_data(lgvi, work):
+def lammps_data(lgvi, work, periodic=False):
     """Writes the LAMMPS data file of lgvi's initial state; returns its path."""
     scen = work / "initial.toml"
-    scen.write_text(scenario_text(0, 0.002, 1))
+    scen.write_text(scenario_text(0, 0.002, 1, periodic))
     subprocess.run([lgvi, "run", scen, "--out", work / "initial", "--force", "--no-figures", "-q"], check=True)
     rows = np.loadtxt(work / "initial" / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
     summary = json.loads((work / "initial" / "summary.json").read_text())
@@ -68,6 +85,8 @@ def lammps_data(lgvi, work):
             velocities.append(p / mass + np.cross(omega, arm))
     pos = np.array([a[1] for a in atoms])
     lo, hi = pos.min(axis=0) - 50.0, pos.max(axis=0) + 50.0
+    if periodic:  # atoms outside a periodic box are wrapped in by read_data, with their image flags
+        lo, hi = np.full(3, BOX[0]), np.full(3, BOX[1])
     lines = ["LAMMPS data: lgvi's lj-gas initial state (benchmarks/lammps/compare_lammps.py)", "",
              f"{len(atoms)} atoms", "1 atom types", ""]
     lines += [f"{lo[i]!r} {hi[i]!r} {c}lo {c}hi" for i, c in enumerate("xyz")]
@@ -80,8 +99,9 @@ def lammps_data(lgvi, work):
     return path
 
 
-def run_lammps(lmp, work, steps, step, thermo):
-    out = subprocess.run([lmp, "-in", str(HERE / "in.lj-triangles"), "-log", "none", "-screen", "none",
+def run_lammps(lmp, work, steps, step, thermo, periodic=False):
+    boundary = ["-var", "boundary", "p" if periodic else "s"]
+    out = subprocess.run([lmp, "-in", str(HERE / "in.lj-triangles"), "-log", "none", "-screen", "none", *boundary,
                           "-var", "data", str(work / "lj-triangles.data"), "-var", "steps", str(steps),
                           "-var", "dt", repr(step), "-var", "thermo", str(thermo),
                           "-var", "log", str(work / "lammps.log")],
@@ -90,8 +110,33 @@ def run_lammps(lmp, work, steps, step, thermo):
         sys.exit(f"LAMMPS failed: {out.stderr or out.stdout}")
     log = (work / "lammps.log").read_text()
     loop = float(re.search(r"Loop time of ([0-9.eE+-]+)", log).group(1))
-    energies = [float(m.group(1)) for m in re.finditer(r"^\s*\d+\s+([-0-9.eE+]+)\s", log, re.M)]
+    rows = [[float(v) for v in m.group(1, 2, 3)]
+            for m in re.finditer(r"^\s*\d+\s+([-0-9.eE+]+)\s+([-0-9.eE+]+)\s+([-0-9.eE+]+)\s*$", log, re.M)]
+    energies = [r[0] for r in rows]
+    if periodic:
+        return rows[0]  # E, pe, ke at step 0
     return loop / steps, max(abs(e - energies[0]) for e in energies), energies[0]
+
+
+def periodic_start(lgvi, lmp, work):
+    """The periodic gas's step-0 energies in both programs; exits 1 unless they agree to 1e-10."""
+    lammps_data(lgvi, work, periodic=True)
+    _, pe, ke = run_lammps(lmp, work, 0, 0.002, 1, periodic=True)
+    summary = json.loads((work / "initial" / "summary.json").read_text())
+    rows = np.loadtxt(work / "initial" / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
+    body = summary["setup"]["bodies"][0]
+    inertia, mass = np.array(body["inertia"]), body["mass"]
+    t = sum(row[9:12] @ row[9:12] / (2 * mass) + row[12:15] @ np.linalg.solve(inertia, row[12:15]) / 8 for row in rows)
+    v = summary["initial_energy"] - t
+    print("Periodic Lennard-Jones gas of 1000 rigid triangle molecules in a cube of side 22, step 0:\n")
+    print("| quantity | lgvi | LAMMPS | relative difference |")
+    print("|---|---:|---:|---:|")
+    worst = 0.0
+    for name, a, b in (("potential energy", v, pe), ("kinetic energy", t, ke)):
+        rel = abs(a - b) / abs(b)
+        worst = max(worst, rel)
+        print(f"| {name} | {a:.15g} | {b:.15g} | {rel:.2e} |")
+    sys.exit(0 if worst <= 1e-10 else 1)
 
 
 def run_lgvi(lgvi, work, steps, step, every):
@@ -109,9 +154,12 @@ def main():
     ap.add_argument("--steps", type=int, default=2000)
     ap.add_argument("--step", type=float, default=0.002)
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--periodic", action="store_true", help="compare the start of the periodic gas")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         work = pathlib.Path(tmp)
+        if args.periodic:
+            periodic_start(args.lgvi, args.lmp, work)
         lammps_data(args.lgvi, work)
         # Energy errors: every 10th step written (LAMMPS thermo output costs time, so timed runs write rarely).
         _, lmp_de, lmp_e0 = run_lammps(args.lmp, work, args.steps, args.step, 10)
