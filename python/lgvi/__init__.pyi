@@ -109,7 +109,8 @@ class Scenario:
                     omegas: Optional[npt.ArrayLike] = ..., names: Optional[Sequence[str]] = ...,
                     potential: PotentialSpec = ..., interaction: Optional[Dict[str, Any]] = ...,
                     method: Method = ..., order: Optional[int] = ..., every: int = ..., threads: Optional[int] = ...,
-                    on_contact: Optional[Literal["stop", "warn", "ignore"]] = ..., name: str = ...) -> Scenario:
+                    on_contact: Optional[Literal["stop", "warn", "ignore"]] = ...,
+                    box: Optional[Dict[str, Any]] = ..., name: str = ...) -> Scenario:
         """A scenario of N bodies from (N, 3) / (N, 4) arrays, validated by the reader of `lgvi run`."""
         ...
     def replace(self, *, body: Body = ..., potential: PotentialSpec = ..., position: Vector3 = ...,

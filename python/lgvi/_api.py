@@ -411,7 +411,7 @@ class Scenario:
     @classmethod
     def from_arrays(cls, *, bodies, positions, quaternions, step, duration, momenta=None, velocities=None,
                     w=None, omegas=None, names=None, potential=None, interaction=None, method="lgvi", order=None,
-                    every=1, threads=None, on_contact=None, name="scenario"):
+                    every=1, threads=None, on_contact=None, box=None, name="scenario"):
         """A scenario of N bodies from numpy arrays (a ``[[bodies]]`` scenario file, written and read).
 
         ``bodies``: one lgvi.Body for every row, or a list of N of them;
@@ -429,7 +429,10 @@ class Scenario:
         then raises lgvi.IntegrationError at the first step where two bodies
         overlap, its ``result`` the run up to that step), "warn" (contact
         episodes in ``summary["contacts"]``) or "ignore" (the default of
-        Lennard-Jones systems).
+        Lennard-Jones systems); ``box`` ([box]) None (free space) or a dict
+        ``{"lower": (3,), "upper": (3,), "periodic": (3,) of bool}`` (periodic
+        default all true): pairs interact through their minimum image, and the
+        positions stay unwrapped in the results.
 
         Validated by the reader of ``lgvi run`` (overlapping bodies, duplicate
         names, ...): ValueError naming the argument or the scenario key
@@ -438,7 +441,7 @@ class Scenario:
         return _from_arrays(cls, bodies=bodies, positions=positions, quaternions=quaternions, step=step,
                             duration=duration, momenta=momenta, velocities=velocities, w=w, omegas=omegas,
                             names=names, potential=potential, interaction=interaction, method=method, order=order,
-                            every=every, threads=threads, on_contact=on_contact, name=name)
+                            every=every, threads=threads, on_contact=on_contact, box=box, name=name)
 
     def replace(self, **changes):
         """A copy with some arguments changed, e.g. ``scenario.replace(step=0.005, duration=10)``.
@@ -647,7 +650,7 @@ def _rows(value, name, n, width):
     return a
 
 
-def _system_toml(bodies, rows, names, potential, interaction, integrator, every, run):
+def _system_toml(bodies, rows, names, potential, interaction, integrator, every, run, box=None):
     """TOML text of a [[bodies]] scenario."""
     lines = []
     for a, body in enumerate(bodies):
@@ -664,8 +667,8 @@ def _system_toml(bodies, rows, names, potential, interaction, integrator, every,
         else:  # mass + inertia (+ radius), or a shape
             lines.extend(f"{k} = {_toml_value(v)}" for k, v in spec.items())
         lines.append("")
-    for table, t in (("potential", potential), ("interaction", interaction), ("integrator", integrator),
-                     ("output", {"every": every}), ("run", run or None)):
+    for table, t in (("potential", potential), ("interaction", interaction), ("box", box),
+                     ("integrator", integrator), ("output", {"every": every}), ("run", run or None)):
         if t is None:
             continue
         lines.append(f"[{table}]")
@@ -676,7 +679,7 @@ def _system_toml(bodies, rows, names, potential, interaction, integrator, every,
 
 def _from_arrays(cls, *, bodies, positions, quaternions, step, duration, momenta=None, velocities=None, w=None,
                  omegas=None, names=None, potential=None, interaction=None, method="lgvi", order=None,
-                 every=1, threads=None, on_contact=None, name="scenario"):
+                 every=1, threads=None, on_contact=None, box=None, name="scenario"):
     if isinstance(bodies, dict):
         bodies = Body(**bodies)
     if isinstance(bodies, Body):
@@ -721,8 +724,31 @@ def _from_arrays(cls, *, bodies, positions, quaternions, step, duration, momenta
     if on_contact is not None:
         run["on_contact"] = _check.choice(on_contact, "on_contact", ("stop", "warn", "ignore"))
     text = _system_toml(bodies, rows, names, _potential.spec(potential), _interaction(interaction), integ,
-                        _check.integer(every, "every", 1), run)
+                        _check.integer(every, "every", 1), run, _box(box))
     return cls._wrap(_parse(text, _check_name(name)))
+
+
+def _box(box):
+    """The [box] table of from_arrays' ``box``: lower, upper (3 numbers), periodic (3 bools, default all true)."""
+    if box is None:
+        return None
+    if not isinstance(box, dict):
+        raise ValueError(f"box: must be None or a dict with lower, upper and periodic, got {box!r}")
+    unknown = sorted(set(box) - {"lower", "upper", "periodic"})
+    if unknown:
+        raise ValueError(f"box: unknown key {unknown[0]!r}; allowed: lower, upper, periodic")
+    table = {}
+    for key in ("lower", "upper"):
+        if key not in box:
+            raise ValueError(f"box.{key}: missing (3 numbers)")
+        table[key] = [float(x) for x in _check.vector3(box[key], f"box.{key}")]
+    if "periodic" in box:
+        periodic = box["periodic"]
+        if (isinstance(periodic, (str, bytes)) or not hasattr(periodic, "__len__") or len(periodic) != 3
+                or not all(isinstance(p, (bool, np.bool_)) for p in periodic)):
+            raise ValueError(f"box.periodic: must be 3 booleans, one per axis, got {periodic!r}")
+        table["periodic"] = [bool(p) for p in periodic]
+    return table
 
 
 def _check_name(name):

@@ -219,3 +219,60 @@ def test_replace_refuses_a_scenario_of_many_bodies():
     sc = lgvi.Scenario.from_toml(SOURCE / "scenarios" / "binary-asteroid.toml")
     with pytest.raises(ValueError, match="from_arrays"):
         sc.replace(step=0.1)
+
+
+def periodic_gas_arrays():
+    """tests/cli/good/periodic-gas.toml's bodies and states as arrays (its own run of zero steps)."""
+    import lgvi
+    text = (SOURCE / "tests" / "cli" / "good" / "periodic-gas.toml").read_text()
+    start = lgvi.simulate(lgvi.Scenario.from_string(text.replace("duration = 2.0", "duration = 0.0"), "periodic-gas"))
+    final = start.summary["final_bodies"]
+    tri = lgvi.Body(balls=[((0.0, 0.0, 0.0), 1.0, 0.5), ((1.0, 0.0, 0.0), 1.0, 0.5),
+                           ((0.5, 0.8660254037844386, 0.0), 1.0, 0.5)])
+    arrays = dict(bodies=tri, positions=[b["position"] for b in final], quaternions=[b["quaternion"] for b in final],
+                  momenta=[b["momentum"] for b in final], w=[b["w"] for b in final],
+                  names=[b["name"] for b in final],
+                  interaction={"kind": "lennard-jones", "epsilon": 1.0, "sigma": 1.0, "cutoff": 2.5},
+                  box={"lower": [-1.1] * 3, "upper": [7.7] * 3, "periodic": [True, True, True]}, step=0.002)
+    return text, arrays
+
+
+def test_from_arrays_with_a_periodic_box_gives_the_file_scenario():
+    # The periodic gas's bodies and states as arrays, with box=: the file's
+    # run over 200 steps, to round-off. Not bit for bit: from_arrays
+    # normalizes each quaternion, which moves the last bit of some (the
+    # block's are unit to round-off, not exactly); the gas then amplifies a
+    # 1e-16 difference to 1.2e-13 of its largest value (the energy, ~110) by
+    # t = 0.4: 1e-11 allows a factor 100 more. The summary records the box.
+    import lgvi
+    text, arrays = periodic_gas_arrays()
+    from_file = lgvi.Scenario.from_string(text.replace("duration = 2.0", "duration = 0.4"), "periodic-gas")
+    from_arrays = lgvi.Scenario.from_arrays(duration=0.4, every=100, name="periodic-gas", **arrays)
+    a, b = lgvi.simulate(from_file), lgvi.simulate(from_arrays)
+    assert a.data.shape == b.data.shape == (3, 64, 26)
+    assert np.max(np.abs(a.data - b.data)) <= 1e-11
+    assert b.summary["setup"]["box"] == {"lower": [-1.1] * 3, "upper": [7.7] * 3, "periodic": [True] * 3}
+    # A periodic box conserves linear momentum (to round-off: each pair's
+    # forces cancel exactly, their sums are rounded), not angular momentum.
+    assert b.summary["max_linear_momentum_error"] < 1e-13
+    assert "max_momentum_error" in b.summary["conserved"]["changes_not_errors"]
+    assert b.summary["setup"]["box"] == {"lower": [-1.1] * 3, "upper": [7.7] * 3, "periodic": [True] * 3}
+    # A periodic box conserves linear momentum (to round-off: each pair's
+    # forces cancel exactly, the sums are rounded), not angular momentum.
+    assert b.summary["max_linear_momentum_error"] < 1e-13
+    assert "max_momentum_error" in b.summary["conserved"]["changes_not_errors"]
+
+
+@pytest.mark.parametrize("box, message", [
+    ({"lower": [0, 0, 0]}, r"box\.upper: missing"),
+    ({"lower": [0, 0, 0], "upper": [9, 9, 9], "periodic": [True, 1, True]}, "box.periodic: must be 3 booleans"),
+    ({"lower": [0, 0, 0], "upper": [9, 9, 9], "wrap": True}, "box: unknown key 'wrap'"),
+    ({"lower": [0, 0, 0], "upper": [9, 0, 9]}, r"key 'box\.upper\[1\]': must be greater than box\.lower\[1\] = 0"),
+    ({"lower": [0, 0, 0], "upper": [5, 5, 5]}, r"key 'box': the interaction's reach, cutoff \+ skin = 2\.8, must be less"),
+])
+def test_from_arrays_box_errors_name_the_key(box, message):
+    import lgvi
+    _, arrays = periodic_gas_arrays()
+    arrays["box"] = box
+    with pytest.raises(ValueError, match=message):
+        lgvi.Scenario.from_arrays(duration=0.1, **arrays)
