@@ -50,7 +50,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                                                "[integrator]\nstep = 0.1\nduration = 0.0\n",
                                                "fallback.toml"));
   std::int64_t sites = 0;
-  for (const lgvi::RigidBody& b : scenario.system.bodies())
+  for (const lgvi::RigidBody& b : lgvi::system_bodies(scenario.system))
     sites += std::max<std::int64_t>(1, static_cast<std::int64_t>(b.balls().size()));
   scenario.integrator.steps =
       std::min<std::int64_t>({scenario.integrator.steps, 200, std::max<std::int64_t>(1, 20000 / sites)});

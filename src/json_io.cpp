@@ -60,7 +60,19 @@ void append(std::string& out, const Json& j, int depth, const JsonLayout& layout
     if (it != j.begin()) out += ",\n";
     out += member_pad + key_text(it.key()) + ": ";
     const Json& value = it.value();
-    if (value.is_object() && !named(layout.one_line, it.key())) {
+    const auto generated = std::find_if(layout.generated.begin(), layout.generated.end(),
+                                        [&](const JsonLayout::Generated& g) { return g.placeholder == &value; });
+    if (generated != layout.generated.end() && generated->count > 0) {
+      out += '[';
+      for (std::size_t i = 0; i < generated->count; ++i) {
+        out += i > 0 ? ",\n" : "\n";
+        out += member_pad + "  ";
+        append_one_line(out, generated->element(i));
+      }
+      out += "\n" + member_pad + ']';
+    } else if (generated != layout.generated.end()) {
+      out += "[]";
+    } else if (value.is_object() && !named(layout.one_line, it.key())) {
       append(out, value, depth + 1, layout);
     } else if (value.is_array() && !value.empty() && named(layout.one_element_a_line, it.key())) {
       out += '[';

@@ -3,6 +3,7 @@
 // read back with one-line errors.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -23,6 +24,16 @@ struct JsonLayout {
   std::vector<std::string_view> one_line;
   /// Arrays written one element a line (the lists of bodies).
   std::vector<std::string_view> one_element_a_line;
+  /// Arrays written one element a line whose elements are made as they are
+  /// written, one at a time (the lists of bodies: one body's JSON object in
+  /// memory, not N of them): where the document holds the array (an empty
+  /// placeholder, found by address), its length and its element i.
+  struct Generated {
+    const Json* placeholder = nullptr;
+    std::size_t count = 0;
+    std::function<Json(std::size_t)> element;
+  };
+  std::vector<Generated> generated = {};
 };
 
 /// `doc` as JSON text laid out by `layout`. Floating-point numbers are

@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -469,8 +470,17 @@ void read_block(const Reader& r, const toml::table& t, const std::string& prefix
 
 /// The [[bodies]] tables: each a body and its initial state (or a block of
 /// identical bodies, with `count`), with unique names.
-void read_bodies(const Reader& r, const toml::table& root, std::vector<RigidBody>& bodies,
-                 std::vector<std::string>& names, SystemState& state) {
+/// The bodies as read: their kinds, one per [[bodies]] table (the bodies of
+/// a block share theirs, as LAMMPS's types), and each body's kind.
+struct BodyList {
+  std::vector<RigidBody> kinds;
+  std::vector<std::uint32_t> kind;
+  std::size_t size() const { return kind.size(); }
+  const RigidBody& operator[](std::size_t a) const { return kinds[kind[a]]; }
+};
+
+void read_bodies(const Reader& r, const toml::table& root, BodyList& bodies, std::vector<std::string>& names,
+                 SystemState& state) {
   const toml::array* arr = root.get("bodies")->as_array();
   if (!arr || arr->empty() || !arr->is_array_of_tables())
     r.fail("bodies", "must be one or more [[bodies]] tables");
@@ -499,8 +509,9 @@ void read_bodies(const Reader& r, const toml::table& root, std::vector<RigidBody
     }
     if (states.size() > 1000000) r.fail("bodies", "more than 10^6 bodies");
     const bool block = t.contains("count");
+    bodies.kinds.push_back(body);
     for (std::size_t a = before; a < states.size(); ++a) {
-      bodies.push_back(body);
+      bodies.kind.push_back(static_cast<std::uint32_t>(bodies.kinds.size() - 1));
       names.push_back(name.empty() ? "body" + std::to_string(a) : block ? name + std::to_string(a - before) : name);
     }
   }
@@ -606,7 +617,7 @@ Box read_box(const Reader& r, const toml::table& root, bool bodies_format) {
 /// (so that a pair has one image within reach) and bodies small enough that
 /// no body meets two images of another, or its own (twice the largest
 /// bounding radius below half that length).
-void require_fits_box(const Reader& r, const Box& box, const std::vector<RigidBody>& bodies,
+void require_fits_box(const Reader& r, const Box& box, const BodyList& bodies,
                       const PotentialSpec& potential, const InteractionSpec& interaction) {
   if (!box.any_periodic()) return;
   const double half = 0.5 * box.shortest_periodic_length();
@@ -929,13 +940,14 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   const bool bodies_format = root.contains("bodies");
   if (bodies_format && (root.contains("body") || root.contains("initial")))
     r.fail("bodies", "give either [body] + [initial] (one body) or [[bodies]] tables, not both");
-  std::vector<RigidBody> bodies;
+  BodyList bodies;
   std::vector<std::string> names;
   SystemState initial;
   if (bodies_format) {
     read_bodies(r, root, bodies, names, initial);
   } else {
-    bodies.push_back(read_body(r, root));
+    bodies.kinds.push_back(read_body(r, root));
+    bodies.kind.push_back(0);
   }
   PotentialSpec potential = read_potential(r, root);
   const std::string converted = bodies_format ? std::string() : convert_orbit_attitude(r, root, bodies[0], potential);
@@ -1017,7 +1029,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   Scenario sc;
   sc.name = stem;
   try {
-    sc.system = System(std::move(bodies), std::move(names), box);
+    sc.system = System(std::move(bodies.kinds), std::move(bodies.kind), std::move(names), box);
   } catch (const InvalidInput& e) {
     r.fail("", e.what());
   }
@@ -1086,7 +1098,7 @@ ConservationLaws conservation_laws(const Scenario& sc) {
 
 bool has_gravity_gradient_body(const Scenario& sc) {
   if (sc.potential.kind != PotentialKind::Central || sc.potential.point_masses) return false;
-  for (const RigidBody& b : sc.system.bodies())
+  for (const RigidBody& b : system_bodies(sc.system))
     if (b.balls().empty()) return true;
   return false;
 }

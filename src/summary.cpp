@@ -89,13 +89,7 @@ Json setup_json(const Scenario& s) {
   if (!s.bodies_format) {
     o["body"] = body_json(s.body());
   } else {
-    Json bodies = Json::array();
-    for (std::size_t a = 0; a < s.bodies(); ++a) {
-      Json b = {{"name", s.system.name(a)}};
-      b.update(body_json(s.system.body(a)));
-      bodies.push_back(std::move(b));
-    }
-    o["bodies"] = std::move(bodies);
+    o["bodies"] = Json::array();  // setup_body_json's, one body at a time as it is written (summary_json)
   }
   o["potential"] = std::move(pot);
   if (s.bodies_format) {
@@ -114,6 +108,13 @@ Json setup_json(const Scenario& s) {
   o["output_every"] = s.output_every;
   if (!s.forcing.empty()) o["forcing_terms"] = s.forcing.size();
   return o;
+}
+
+/// setup.bodies[a] of a [[bodies]] scenario: the body's name, mass, inertia, balls, ...
+Json setup_body_json(const Scenario& s, std::size_t a) {
+  Json b = {{"name", s.system.name(a)}};
+  b.update(body_json(s.system.body(a)));
+  return b;
 }
 
 /// A body's state: position, quaternion (scalar first), momentum, w.
@@ -166,12 +167,6 @@ Json rotation_json(const RunStatistics& st) {
 
 std::string summary_json(const Scenario& sc, const SimulationResult& r) {
   const RunStatistics& st = r.stats;
-  Json final_bodies = Json::array();
-  for (std::size_t a = 0; a < r.final_state.size(); ++a) {
-    Json body = {{"name", sc.system.name(a)}};
-    body.update(state_json(r.final_state.body(a)));
-    final_bodies.push_back(std::move(body));
-  }
   const double l0 = st.momentum0.norm();
   Json s;
   s["scenario"] = sc.name;
@@ -201,7 +196,7 @@ std::string summary_json(const Scenario& sc, const SimulationResult& r) {
   s["solver_iterations_max"] = st.iterations_max;
   s["potential_evaluations"] = st.potential_evaluations;
   s["final"] = state_json(r.final_state.body(0));
-  s["final_bodies"] = std::move(final_bodies);
+  s["final_bodies"] = Json::array();  // one body at a time as it is written (below)
   if (sc.bodies_format && sc.on_contact != OnContact::Ignore) {
     // The episodes of overlap (the one that stopped the run under "stop").
     Json contacts = Json::array();
@@ -226,7 +221,19 @@ std::string summary_json(const Scenario& sc, const SimulationResult& r) {
     s["momentum_error_is"] = "the change of L and P, which the forcing does not conserve";
   }
   // The two short diagnostics on one line each, the lists of bodies one body a line.
-  return json_text(s, {{"rotation", "conserved"}, {"bodies", "final_bodies", "contacts"}}) + "\n";
+  // The lists of bodies are made one body at a time as they are written, so
+  // that a large system's summary holds its text, not also a JSON object per
+  // body (several times the text's size).
+  JsonLayout layout{{"rotation", "conserved"}, {"contacts"}, {}};
+  layout.generated.push_back({&s["final_bodies"], r.final_state.size(), [&](std::size_t a) {
+                                Json body = {{"name", sc.system.name(a)}};
+                                body.update(state_json(r.final_state.body(a)));
+                                return body;
+                              }});
+  if (sc.bodies_format)
+    layout.generated.push_back(
+        {&s["setup"]["bodies"], sc.bodies(), [&](std::size_t a) { return setup_body_json(sc, a); }});
+  return json_text(s, layout) + "\n";
 }
 
 }  // namespace lgvi::app

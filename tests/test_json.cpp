@@ -28,6 +28,7 @@ namespace fs = std::filesystem;
 using lgvi::InvalidInput;
 using lgvi::app::Json;
 using lgvi::app::json_text;
+using lgvi::app::JsonLayout;
 using lgvi::app::parse_json_file_text;
 using lgvi::app::parse_scenario;
 
@@ -199,6 +200,32 @@ TEST(Json, LayoutByMemberName) {
             "  ],\n"
             "  \"empty_list\": []\n"
             "}");
+}
+
+TEST(Json, GeneratedArraysAreWrittenAsTheArraysTheyStandFor) {
+  // An array made element by element as it is written (the summary's lists
+  // of bodies) must be the text of the same array held whole, one element a
+  // line; nested (inside "setup") and empty too. The placeholders are found
+  // by address, so a member of another name stays as it is.
+  auto element = [](std::size_t i) { return Json{{"name", "b" + std::to_string(i)}, {"x", 0.1 * static_cast<double>(i)}}; };
+  Json whole, lazy;
+  for (Json* doc : {&whole, &lazy}) {
+    (*doc)["n"] = 3;
+    (*doc)["setup"] = {{"bodies", Json::array()}, {"kind", "gas"}};
+    (*doc)["final_bodies"] = Json::array();
+    (*doc)["none"] = Json::array();
+  }
+  for (std::size_t i = 0; i < 3; ++i) {
+    whole["final_bodies"].push_back(element(i));
+    whole["setup"]["bodies"].push_back(element(i + 10));
+  }
+  JsonLayout layout{{}, {"bodies", "final_bodies", "none"}};
+  const std::string expected = json_text(whole, layout);
+  layout.generated.push_back({&lazy["final_bodies"], 3, element});
+  layout.generated.push_back({&lazy["setup"]["bodies"], 3, [&](std::size_t i) { return element(i + 10); }});
+  layout.generated.push_back({&lazy["none"], 0, element});
+  EXPECT_EQ(json_text(lazy, layout), expected);
+  EXPECT_NE(expected.find("\"final_bodies\": [\n    {\"name\": \"b0\", \"x\": 0},"), std::string::npos);
 }
 
 TEST(Json, UnicodeEscapesReadAsUtf8) {

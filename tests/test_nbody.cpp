@@ -162,7 +162,7 @@ TEST(MutualInteractions, ForcesAndTorquesMatchFiniteDifferences) {
 
   // An external field plus a mutual interaction.
   std::vector<lgvi::CentralGravity> fields;
-  for (const RigidBody& b : sys.bodies()) fields.emplace_back(b, 2.0);
+  for (const RigidBody& b : lgvi::system_bodies(sys)) fields.emplace_back(b, 2.0);
   SystemState far = s;
   for (V3& x : far.x) x += V3(6.0, -3.0, 1.0);
   const auto coupled = lgvi::check_system_derivatives(

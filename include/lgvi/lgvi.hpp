@@ -66,7 +66,7 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
 
   LieGroupVariationalIntegrator(System system, I potential, SolverOptions solver = {}, Parallelism par = {})
       : Base(std::move(system), std::move(potential), solver, par), w_half_(this->system_.size()), f_(this->system_.size()) {
-    for (const RigidBody& b : this->system_.bodies()) solvers_.emplace_back(b.inertia(), solver);
+    for (const RigidBody& b : system_bodies(this->system_)) solvers_.emplace_back(b.inertia(), solver);
     // In batches from two full ones on; fewer bodies keep the scalar solves
     // (a batch pays for four lanes whatever it holds). At the first step a
     // batch seeds all its bodies' predictors before solving: a body after
@@ -219,7 +219,7 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
                                           Parallelism par = {})
       : Base(std::move(system), std::move(potential), solver, par) {
     const std::size_t n = this->system_.size();
-    for (const RigidBody& b : this->system_.bodies()) solvers_.emplace_back(b.inertia(), solver);
+    for (const RigidBody& b : system_bodies(this->system_)) solvers_.emplace_back(b.inertia(), solver);
     x_next_.resize(n);
     d_.resize(n);
     f_.resize(n);

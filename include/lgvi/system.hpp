@@ -23,6 +23,8 @@
 
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <unordered_map>
@@ -33,51 +35,103 @@ namespace lgvi {
 
 /// The bodies of a system: mass, inertia and interaction sites of each, and
 /// a unique name; and the box they move in (box.hpp: free space unless
-/// given). Immutable after construction.
+/// given). Bodies alike may share one RigidBody, their kind (LAMMPS's
+/// "types": a gas of 10^6 identical molecules stores one). Immutable after
+/// construction, so that its copies share one storage: a copy (each
+/// interaction, stepper and run keeps one) costs a pointer, not the N bodies
+/// again.
 class System {
  public:
   System() = default;
   /// Bodies with names (default body0, body1, ...) in `box`. Throws
   /// InvalidInput on an empty system, a size mismatch or a repeated name.
-  explicit System(std::vector<RigidBody> bodies, std::vector<std::string> names = {}, Box box = {})
-      : bodies_(std::move(bodies)), names_(std::move(names)), box_(box) {
-    if (bodies_.empty()) throw InvalidInput("bodies: a system needs at least one body");
-    if (names_.empty())
-      for (std::size_t a = 0; a < bodies_.size(); ++a) names_.push_back("body" + std::to_string(a));
-    if (names_.size() != bodies_.size()) throw InvalidInput("bodies: one name per body is needed");
+  explicit System(std::vector<RigidBody> bodies, std::vector<std::string> names = {}, const Box& box = {})
+      : System(std::move(bodies), {}, std::move(names), box) {}
+  /// Bodies of given kinds: body a is kinds[kind[a]] (kind empty: body a is
+  /// kinds[a]). Throws InvalidInput as above, or on a kind out of range.
+  System(std::vector<RigidBody> kinds, std::vector<std::uint32_t> kind, std::vector<std::string> names,
+         const Box& box = {}) {
+    auto data = std::make_shared<Data>(Data{std::move(kinds), std::move(kind), std::move(names), box});
+    const std::size_t size = data->kind.empty() ? data->kinds.size() : data->kind.size();
+    std::vector<std::string>& n = data->names;
+    if (size == 0) throw InvalidInput("bodies: a system needs at least one body");
+    for (const std::uint32_t k : data->kind)
+      if (k >= data->kinds.size()) throw InvalidInput("bodies: a body's kind is out of range");
+    if (n.empty())
+      for (std::size_t a = 0; a < size; ++a) n.push_back("body" + std::to_string(a));
+    if (n.size() != size) throw InvalidInput("bodies: one name per body is needed");
     // The first body whose name an earlier body has, named with that earlier
     // body's index: one hash look-up per body (O(N), not the O(N^2) of
     // comparing every pair, which took minutes at 10^5 bodies).
     std::unordered_map<std::string_view, std::size_t> first;
-    first.reserve(names_.size());
-    for (std::size_t a = 0; a < names_.size(); ++a) {
-      const auto [at, inserted] = first.try_emplace(names_[a], a);
+    first.reserve(n.size());
+    for (std::size_t a = 0; a < n.size(); ++a) {
+      const auto [at, inserted] = first.try_emplace(n[a], a);
       if (!inserted)
-        throw InvalidInput("bodies[" + std::to_string(a) + "].name: \"" + names_[a] +
-                           "\" is already the name of bodies[" + std::to_string(at->second) +
-                           "]; names must be unique");
+        throw InvalidInput("bodies[" + std::to_string(a) + "].name: \"" + n[a] + "\" is already the name of bodies[" +
+                           std::to_string(at->second) + "]; names must be unique");
     }
+    data_ = std::move(data);
   }
   /// The system of one body.
   explicit System(const RigidBody& body) : System(std::vector<RigidBody>{body}) {}
 
-  std::size_t size() const { return bodies_.size(); }
-  const RigidBody& body(std::size_t a) const { return bodies_[a]; }
-  const std::vector<RigidBody>& bodies() const { return bodies_; }
-  const std::string& name(std::size_t a) const { return names_[a]; }
-  const std::vector<std::string>& names() const { return names_; }
-  const Box& box() const { return box_; }
+  std::size_t size() const { return data().names.size(); }
+  const RigidBody& body(std::size_t a) const {
+    const Data& d = data();
+    return d.kinds[d.kind.empty() ? a : d.kind[a]];
+  }
+  const std::string& name(std::size_t a) const { return data().names[a]; }
+  const std::vector<std::string>& names() const { return data().names; }
+  const Box& box() const { return data().box; }
   double total_mass() const {
     double m = 0.0;
-    for (const RigidBody& b : bodies_) m += b.mass();
+    for (std::size_t a = 0; a < size(); ++a) m += body(a).mass();
     return m;
   }
 
  private:
-  std::vector<RigidBody> bodies_;
-  std::vector<std::string> names_;
-  Box box_;
+  struct Data {
+    std::vector<RigidBody> kinds;
+    std::vector<std::uint32_t> kind;  ///< per body (empty: one kind per body)
+    std::vector<std::string> names;
+    Box box;
+  };
+  /// A default System (no bodies) reads as this.
+  static const Data& empty() {
+    static const Data none{};
+    return none;
+  }
+  const Data& data() const { return data_ ? *data_ : empty(); }
+  std::shared_ptr<const Data> data_;
 };
+
+/// The bodies of `sys` in order, as a range: for (const RigidBody& b :
+/// system_bodies(sys)) (sys must outlive the loop).
+class SystemBodies {
+ public:
+  class Iterator {
+   public:
+    Iterator(const System* sys, std::size_t a) : sys_(sys), a_(a) {}
+    const RigidBody& operator*() const { return sys_->body(a_); }
+    Iterator& operator++() {
+      ++a_;
+      return *this;
+    }
+    bool operator==(const Iterator& other) const { return a_ == other.a_; }
+
+   private:
+    const System* sys_;
+    std::size_t a_;
+  };
+  explicit SystemBodies(const System& sys) : sys_(&sys) {}
+  Iterator begin() const { return {sys_, 0}; }
+  Iterator end() const { return {sys_, sys_->size()}; }
+
+ private:
+  const System* sys_;
+};
+inline SystemBodies system_bodies(const System& sys) { return SystemBodies(sys); }
 
 /// The state of N bodies, (x_a, q_a, p_a, w_a) for a = 0..N-1, one array per
 /// quantity (paper symbols: x centre of mass, q attitude, p = m xdot, and

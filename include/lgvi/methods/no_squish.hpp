@@ -65,7 +65,7 @@ class NoSquishIntegrator<I> : public detail::ExplicitStepperBase<I> {
 
   NoSquishIntegrator(System system, I potential, SolverOptions = {}, Parallelism par = {})
       : detail::ExplicitStepperBase<I>(std::move(system), std::move(potential), par, "the no-squish integrator") {
-    for (const RigidBody& b : this->system_.bodies()) moments_.push_back(detail::require_principal_axes(b, "no-squish"));
+    for (const RigidBody& b : system_bodies(this->system_)) moments_.push_back(detail::require_principal_axes(b, "no-squish"));
     mom_.resize(this->system_.size());
   }
 

@@ -140,7 +140,7 @@ class RattleQuaternionIntegrator<I> : public detail::ImplicitStepperBase<I, Rota
   RattleQuaternionIntegrator(System system, I potential, SolverOptions solver = {}, Parallelism par = {})
       : Base(std::move(system), std::move(potential), solver, par) {
     const std::size_t n = this->system_.size();
-    for (const RigidBody& b : this->system_.bodies()) J_norm_.push_back(b.inertia().norm());
+    for (const RigidBody& b : system_bodies(this->system_)) J_norm_.push_back(b.inertia().norm());
     q0_.resize(n);
     lambda_.assign(n, 0.0);
   }

@@ -145,7 +145,7 @@ class So3LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I
   So3LieGroupVariationalIntegrator(System system, I potential, SolverOptions solver = {}, Parallelism par = {})
       : Base(std::move(system), std::move(potential), solver, par) {
     const std::size_t n = this->system_.size();
-    for (const RigidBody& b : this->system_.bodies()) {
+    for (const RigidBody& b : system_bodies(this->system_)) {
       equations_.emplace_back(b.inertia());
       jd_.emplace_back((0.5 * b.inertia().trace()) * Matrix3<double>::Identity() - b.inertia());
     }

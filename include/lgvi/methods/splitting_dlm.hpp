@@ -59,7 +59,7 @@ class SplittingDlmIntegrator<I> : public detail::ExplicitStepperBase<I> {
 
   SplittingDlmIntegrator(System system, I potential, SolverOptions = {}, Parallelism par = {})
       : detail::ExplicitStepperBase<I>(std::move(system), std::move(potential), par, "the splitting-dlm integrator") {
-    for (const RigidBody& b : this->system_.bodies()) moments_.push_back(detail::require_principal_axes(b, "splitting-dlm"));
+    for (const RigidBody& b : system_bodies(this->system_)) moments_.push_back(detail::require_principal_axes(b, "splitting-dlm"));
     pi_.resize(this->system_.size());
   }
 

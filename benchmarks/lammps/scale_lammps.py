@@ -1,0 +1,114 @@
+#!/usr/bin/python3
+"""The periodic Lennard-Jones gas of rigid triangle molecules at growing N, in
+lgvi and in LAMMPS (fix rigid/nve/small) from the same initial state: set-up
+time, time per step and peak memory of each, one thread, one process each:
+
+    /usr/bin/python3 benchmarks/lammps/scale_lammps.py LGVI_BINARY LMP_BINARY [--sizes 22 46 100] [--steps 100]
+
+A size n is n^3 molecules on a cubic lattice of spacing 2.2 filling a periodic
+cube of side 2.2 n (scenarios/lj-gas.toml's molecules, kT = 0.5, point masses
+as in compare_lammps.py, whose conversion to a LAMMPS data file this uses).
+Each program runs `--steps` steps of h = 0.002 writing the first and last
+only, under /usr/bin/time -v: its wall time and maximum resident set size. The
+time per step is the run loop's (lgvi's summary wall_seconds; LAMMPS's "Loop
+time"), the set-up time the rest of the wall time (reading, building the
+bodies, the first neighbour lists, writing the outputs). Prints a Markdown table.
+"""
+import argparse
+import json
+import pathlib
+import re
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from compare_lammps import HERE, ROOT, rotation  # noqa: E402
+
+
+def scenario(n, steps, step):
+    text = (ROOT / "scenarios" / "lj-gas.toml").read_text().replace("radius = 0.5", "radius = 0.0")
+    text = re.sub(r"count = \d+", f"count = {n ** 3}", text)
+    text = re.sub(r"duration = [0-9.]+", f"duration = {steps * step!r}", text)
+    text = re.sub(r"step = [0-9.]+", f"step = {step!r}", text)
+    text = re.sub(r"every = \d+", f"every = {max(steps, 1)}", text)
+    lo, hi = -1.1, -1.1 + 2.2 * n
+    return text + f"\n[box]\nlower = [{lo!r}, {lo!r}, {lo!r}]\nupper = [{hi!r}, {hi!r}, {hi!r}]\n", (lo, hi)
+
+
+def timed(command):
+    """Runs command under /usr/bin/time -v: (wall seconds, peak RSS in MB)."""
+    out = subprocess.run(["/usr/bin/time", "-v", *map(str, command)], capture_output=True, text=True)
+    if out.returncode != 0:
+        sys.exit(f"{command[0]} failed: {out.stderr[-2000:]}")
+    wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (\S+)", out.stderr).group(1)
+    seconds = sum(float(x) * 60 ** i for i, x in enumerate(reversed(wall.split(":"))))
+    rss = int(re.search(r"Maximum resident set size \(kbytes\): (\d+)", out.stderr).group(1)) / 1024
+    return seconds, rss
+
+
+def data_file(lgvi, work, n, box):
+    """The LAMMPS data file of lgvi's initial state (a run of zero steps), vectorized."""
+    text, _ = scenario(n, 0, 0.002)
+    (work / "initial.toml").write_text(text)
+    subprocess.run([lgvi, "run", work / "initial.toml", "--out", work / "initial", "--force", "--no-figures", "-q"],
+                   check=True)
+    rows = np.loadtxt(work / "initial" / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
+    with open(work / "initial" / "summary.json") as f:
+        body = json.load(f)["setup"]["bodies"][0]
+    rho = np.array([b["position"] for b in body["balls"]])
+    inertia, mass = np.array(body["inertia"]), body["mass"]
+    x, q, p, w = rows[:, 2:5], rows[:, 5:9], rows[:, 9:12], rows[:, 12:15]
+    r = np.array([rotation(qa) for qa in q])                        # (N, 3, 3)
+    omega = np.einsum("nij,nj->ni", r, np.linalg.solve(inertia, 0.5 * w.T).T)
+    arms = np.einsum("nij,kj->nki", r, rho)                         # (N, 3 sites, 3)
+    pos = (x[:, None, :] + arms).reshape(-1, 3)
+    vel = (p[:, None, :] / mass + np.cross(omega[:, None, :], arms)).reshape(-1, 3)
+    mol = np.repeat(rows[:, 1].astype(int) + 1, len(rho))
+    lines = [f"LAMMPS data: lgvi's periodic lj-gas, {len(rows)} molecules (benchmarks/lammps/scale_lammps.py)", "",
+             f"{len(pos)} atoms", "1 atom types", ""]
+    lines += [f"{box[0]!r} {box[1]!r} {c}lo {c}hi" for c in "xyz"]
+    lines += ["", "Masses", "", "1 1.0", "", "Atoms # molecular", ""]
+    lines += [f"{i + 1} {m} 1 {a[0]!r} {a[1]!r} {a[2]!r}" for i, (m, a) in enumerate(zip(mol, pos))]
+    lines += ["", "Velocities", ""]
+    lines += [f"{i + 1} {v[0]!r} {v[1]!r} {v[2]!r}" for i, v in enumerate(vel)]
+    (work / "lj-triangles.data").write_text("\n".join(lines) + "\n")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("lgvi")
+    ap.add_argument("lmp")
+    ap.add_argument("--sizes", type=int, nargs="+", default=[22, 46, 100])
+    ap.add_argument("--steps", type=int, default=100)
+    ap.add_argument("--step", type=float, default=0.002)
+    args = ap.parse_args()
+    print(f"Periodic Lennard-Jones gas of rigid triangle molecules, {args.steps} steps of h = {args.step}, "
+          "one thread each:\n")
+    print("| molecules | lgvi set-up s | LAMMPS set-up s | lgvi ms/step | LAMMPS ms/step | / LAMMPS "
+          "| lgvi MB | LAMMPS MB | / LAMMPS |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for n in args.sizes:
+        with tempfile.TemporaryDirectory() as tmp:
+            work = pathlib.Path(tmp)
+            text, box = scenario(n, args.steps, args.step)
+            data_file(args.lgvi, work, n, box)
+            (work / "gas.toml").write_text(text)
+            lgvi_wall, lgvi_rss = timed([args.lgvi, "run", work / "gas.toml", "--out", work / "lgvi", "--force",
+                                         "--no-figures", "-q", "--threads", "1"])
+            with open(work / "lgvi" / "summary.json") as f:
+                lgvi_loop = json.load(f)["wall_seconds"]
+            lmp_wall, lmp_rss = timed([args.lmp, "-in", HERE / "in.lj-triangles", "-log", "none", "-screen", "none",
+                                       "-var", "boundary", "p", "-var", "data", work / "lj-triangles.data",
+                                       "-var", "steps", args.steps, "-var", "dt", repr(args.step),
+                                       "-var", "thermo", args.steps, "-var", "log", work / "lammps.log"])
+            lmp_loop = float(re.search(r"Loop time of ([0-9.eE+-]+)", (work / "lammps.log").read_text()).group(1))
+            t_lgvi, t_lmp = lgvi_loop / args.steps * 1e3, lmp_loop / args.steps * 1e3
+            print(f"| {n ** 3} | {lgvi_wall - lgvi_loop:.2f} | {lmp_wall - lmp_loop:.2f} | {t_lgvi:.2f} | {t_lmp:.2f} "
+                  f"| {t_lgvi / t_lmp:.2f} | {lgvi_rss:.0f} | {lmp_rss:.0f} | {lgvi_rss / lmp_rss:.2f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
