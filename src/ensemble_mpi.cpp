@@ -346,9 +346,18 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
       }
     }
   };
+  // Rank 0's runners start once every worker has been heard from (its first request, or its
+  // abort): a worker reads the plan before it asks, and rank 0's threads, started at once, could
+  // take every member of a short ensemble in that time, leaving a rank idle. So every rank gets a
+  // member while there are as many pending as ranks.
   std::vector<std::thread> local;
   local.reserve(static_cast<std::size_t>(runners));
-  for (int t = 0; t < runners; ++t) local.emplace_back(local_runs);
+  std::vector<bool> heard(static_cast<std::size_t>(ranks), false);
+  int unheard = ranks - 1;
+  auto start_local_runs = [&] {
+    for (int t = 0; t < runners; ++t) local.emplace_back(local_runs);
+  };
+  if (unheard == 0) start_local_runs();
   int active = ranks - 1;
   while (active > 0) {
     int flag = 0;
@@ -363,6 +372,8 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
       continue;
     }
     const std::string text = receive_text(status);
+    const bool first_word = !heard[static_cast<std::size_t>(status.MPI_SOURCE)];
+    heard[static_cast<std::size_t>(status.MPI_SOURCE)] = true;
     switch (status.MPI_TAG) {
       case kAbort: {
         std::lock_guard<std::mutex> lock(mutex);
@@ -379,6 +390,8 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
         out.post_index(i, status.MPI_SOURCE, work ? kWork : kStop);
       }
     }
+    // After the switch, so that a worker's first request is answered before rank 0's threads take.
+    if (first_word && --unheard == 0) start_local_runs();
   }
   for (std::thread& t : local) t.join();
   if (!abort_message.empty()) {
