@@ -375,6 +375,11 @@ def outputs(core, binary):
         header = getattr(core, attr)
         cols = header.split(",")
         out.append(f"| {what} ({len(cols)}) | " + ", ".join(f"`{c}`" for c in cols) + " |")
+    out += ["", "A molecular run (`[[bodies]]` with a short-range pair interaction: `lennard-jones`, `wca`) adds "
+            + " and ".join(f"`{c}`" for c in core.THERMO_COLUMNS)
+            + " after those (the pressure in a box periodic along every axis only): the kinetic temperature "
+            "2 K / (6 N - 3) with k_B = 1 and the pressure of the rigid molecules (2 K_trans + W) / 3V "
+            "([Many bodies](../guide/many-bodies.md#temperature-and-pressure))."]
     out += ["", "## Output files by format", "", "| `[output] format` | file in the run folder | holds the trajectory's columns |",
             "|---|---|---|"]
     for f in core.FORMATS:
@@ -385,6 +390,8 @@ def outputs(core, binary):
         "a single body (`scenarios/paper-orbit.toml`)": ("run", ROOT / "scenarios" / "paper-orbit.toml"),
         "a forced single body (`scenarios/attitude-slew.toml`)": ("run", ROOT / "scenarios" / "attitude-slew.toml"),
         "many bodies (`scenarios/binary-asteroid.toml`)": ("run", ROOT / "scenarios" / "binary-asteroid.toml"),
+        "a periodic molecular gas (`tests/cli/good/periodic-gas.toml`)":
+            ("run", ROOT / "tests" / "cli" / "good" / "periodic-gas.toml"),
     }
     out += ["## `summary.json` keys", "",
             "Dotted paths; `NAME[]` is an array of objects (its elements' keys listed once). Runs are shortened "

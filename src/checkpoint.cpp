@@ -92,6 +92,11 @@ CheckpointFields run_fields(const Checkpoint& c) {
   }
   f.put_i64("statistics.contacts.steps", std::move(steps));
   f.put_f64("statistics.contacts.values", std::move(values));
+  if (const ThermoStatistics& t = s.thermo; t.frames > 0) {  // a molecular run's (thermo_columns)
+    f.put_f64("statistics.thermo", {t.temperature0, t.pressure0, t.temperature, t.pressure, t.temperature_sum,
+                                    t.pressure_sum});
+    f.put_i64("statistics.thermo_frames", {t.frames});
+  }
   f.put_i64("sink.position", {c.sink.rows, c.sink.bytes, static_cast<std::int64_t>(c.sink.crc32)});
   return f;
 }
@@ -145,6 +150,10 @@ void take_run_fields(CheckpointFields& f, Checkpoint& c) {
     e.last_t = values[4 * i + 1];
     e.max_depth = values[4 * i + 2];
     e.distance = values[4 * i + 3];
+  }
+  if (f.has("statistics.thermo")) {
+    const std::vector<double>& t = f.f64("statistics.thermo", 6);
+    s.thermo = {t[0], t[1], t[2], t[3], t[4], t[5], f.i64_value("statistics.thermo_frames")};
   }
   const std::vector<std::int64_t>& sink = f.i64("sink.position", 3);
   c.sink.rows = sink[0];

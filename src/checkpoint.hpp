@@ -30,6 +30,15 @@ struct ContactEpisode {
 };
 
 /// Diagnostics over every step, written or not.
+/// The thermodynamic columns' values over the written frames (thermo_columns):
+/// the first and the last, their sums (the mean is sum / frames) and how many
+/// frames. The pressure is NaN without a periodic box.
+struct ThermoStatistics {
+  double temperature0 = 0.0, pressure0 = 0.0, temperature = 0.0, pressure = 0.0;
+  double temperature_sum = 0.0, pressure_sum = 0.0;
+  std::int64_t frames = 0;
+};
+
 struct RunStatistics {
   double energy0 = 0.0;
   Vector3<double> momentum0 = Vector3<double>::Zero();  ///< total angular momentum about the origin
@@ -55,6 +64,7 @@ struct RunStatistics {
   /// the order they began; at most max_listed_contacts of them,
   /// contact_episodes counts them all.
   std::vector<ContactEpisode> contacts;
+  ThermoStatistics thermo;  ///< a molecular run's temperature and pressure (written frames only)
   std::int64_t contact_episodes = 0;
   static constexpr std::size_t max_listed_contacts = 10000;
 };

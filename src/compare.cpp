@@ -410,10 +410,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
     sc.integrator.steps = static_cast<std::int64_t>(static_cast<double>(opt.long_steps) / cost_factor);
     sc.output_every = std::max<std::int64_t>(1, sc.integrator.steps / 2000);
     // A [[bodies]] scenario writes the long layout: one row per body and output step.
-    const TrajectoryLayout layout = base.bodies_format
-                                        ? TrajectoryLayout::long_format(static_cast<std::int64_t>(base.bodies()),
-                                                                        !base.forcing.empty())
-                                        : TrajectoryLayout{};
+    const TrajectoryLayout layout = base.bodies_format ? scenario_layout(sc) : TrajectoryLayout{};
     MemorySink sink(2100 * layout.rows_per_step(), layout);
     const SimulationResult r = simulate(sc, sink);
     LongRun& L = long_runs[m];

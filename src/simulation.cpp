@@ -15,6 +15,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
+#include <limits>
+#include <utility>
 #include <variant>
 
 namespace lgvi::app {
@@ -71,11 +74,20 @@ ScenarioSystemPotential scenario_system_potential(const Scenario& s, const Calla
   return {std::move(external), std::move(mutual), evaluations};
 }
 
+ThermoColumns thermo_columns(const Scenario& s) {
+  if (!s.bodies_format || !s.interaction.descriptor || !s.interaction.descriptor->reach) return ThermoColumns::none;
+  const Box& box = s.system.box();
+  const bool closed = !box.free_space() && box.periodic(0) && box.periodic(1) && box.periodic(2);
+  return closed ? ThermoColumns::temperature_and_pressure : ThermoColumns::temperature;
+}
+
+std::int64_t degrees_of_freedom(const Scenario& s) { return 6 * static_cast<std::int64_t>(s.bodies()) - 3; }
+
 TrajectoryLayout scenario_layout(const Scenario& s) {
   const bool forced = !s.forcing.empty();
-  TrajectoryLayout layout = s.bodies_format
-                                ? TrajectoryLayout::long_format(static_cast<std::int64_t>(s.bodies()), forced)
-                                : TrajectoryLayout::single_body(forced);
+  TrajectoryLayout layout =
+      s.bodies_format ? TrajectoryLayout::long_format(static_cast<std::int64_t>(s.bodies()), forced, thermo_columns(s))
+                      : TrajectoryLayout::single_body(forced);
   if (!holds_columns(s.output_format)) layout.shapes = body_shapes(s.system);
   layout.step = s.integrator.step;
   layout.box = s.system.box();
@@ -182,6 +194,38 @@ struct Recorder {
   TrajectorySink& sink;
   RunStatistics& stats;
   ContactWatch& contact;
+  /// The molecular virial at a state (the stepper's potential's), for the
+  /// pressure column; empty when the layout has none.
+  std::function<double(const SystemState&)> virial = {};
+  ThermoColumns thermo = ThermoColumns::none;
+
+  /// The kinetic temperature and the pressure of a written frame (thermo_columns),
+  /// into the statistics: T = 2 K / (k_B n_f), n_f = 6 N - 3 (LAMMPS's count for
+  /// rigid bodies: 3 translational and 3 rotational per body, less the 3 of the
+  /// total momentum), k_B = 1 (T in energy units); P = (2 K_trans + W) / (3 V),
+  /// W the pair forces' molecular virial (PairInteraction::virial), V the box's volume.
+  std::pair<double, double> thermodynamics(const SystemState& s, double kinetic) {
+    const System& sys = scenario.system;
+    const double temperature = 2.0 * kinetic / static_cast<double>(degrees_of_freedom(scenario));
+    double pressure = std::numeric_limits<double>::quiet_NaN();
+    if (thermo == ThermoColumns::temperature_and_pressure) {
+      double translational = 0.0;
+      for (std::size_t a = 0; a < s.size(); ++a) translational += s.p[a].squaredNorm() / (2.0 * sys.body(a).mass());
+      const Vector3<double>& length = sys.box().periodic_length();
+      pressure = (2.0 * translational + virial(s)) / (3.0 * length.prod());
+    }
+    ThermoStatistics& th = stats.thermo;
+    if (th.frames == 0) {
+      th.temperature0 = temperature;
+      th.pressure0 = pressure;
+    }
+    th.temperature = temperature;
+    th.pressure = pressure;
+    th.temperature_sum += temperature;
+    th.pressure_sum += pressure;
+    ++th.frames;
+    return {temperature, pressure};
+  }
 
   /// The state is finite (the stepper checks it), but what is derived from
   /// it can still overflow: |p|^2 / 2m or x x p beyond the largest double.
@@ -278,13 +322,22 @@ struct Recorder {
       sink.row(row.values);  // the layout's columns: the work only when forced
       return;
     }
+    // The optional columns after the system's: the work when forced, then the thermodynamic ones.
+    double tail[3] = {};
+    int tail_size = 0;
+    if (forced) tail[tail_size++] = i.work;
+    if (thermo != ThermoColumns::none) {
+      const auto [temperature, pressure] = thermodynamics(s, kinetic);
+      tail[tail_size++] = temperature;
+      if (thermo == ThermoColumns::temperature_and_pressure) tail[tail_size++] = pressure;
+    }
     for (std::size_t a = 0; a < n; ++a) {
       const auto& q = s.q[a].quaternion();
       const Vector3<double>&x = s.x[a], &p = s.p[a], &w = s.w[a];
-      const double row[bodies_trajectory_columns + 1] = {
-          i.t,   static_cast<double>(a), x.x(), x.y(), x.z(), q.w(), q.x(),  q.y(),  q.z(),
-          p.x(), p.y(), p.z(), w.x(), w.y(), w.z(), s.q[a].norm_error(), energy, de, P.x(), P.y(), P.z(), dp,
-          L.x(), L.y(), L.z(), dl, i.work};  // the sink reads the layout's columns: work only when forced
+      const double row[bodies_trajectory_columns + 3] = {
+          i.t,     static_cast<double>(a), x.x(),   x.y(), x.z(), q.w(), q.x(),  q.y(),  q.z(),
+          p.x(),   p.y(), p.z(), w.x(),   w.y(), w.z(), s.q[a].norm_error(), energy, de, P.x(), P.y(), P.z(), dp,
+          L.x(),   L.y(), L.z(), dl,      tail[0], tail[1], tail[2]};  // the sink reads the layout's columns
       sink.row(row);
     }
   }
@@ -333,6 +386,20 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
   ContactWatch contact(sc, stats);
   if (opt.resume) contact.resume_at(k0);
   Recorder recorder{sc, sink, stats, contact};
+  recorder.thermo = thermo_columns(sc);
+  if (opt.resume && recorder.thermo != ThermoColumns::none && stats.thermo.frames == 0) {
+    // A checkpoint from before the thermodynamic columns: the first frame and the
+    // sums over the earlier leg are unknown (the summary says null), not the resumed leg's.
+    const double unknown = std::numeric_limits<double>::quiet_NaN();
+    stats.thermo = {unknown, unknown, unknown, unknown, unknown, unknown, 1};
+  }
+  if (recorder.thermo == ThermoColumns::temperature_and_pressure) {
+    if constexpr (requires { stepper.potential().virial(state); }) {
+      recorder.virial = [&stepper](const SystemState& s) { return stepper.potential().virial(s).value(); };
+    } else {
+      throw InvalidInput("the pressure needs the stepper's potential; this method has none");
+    }
+  }
   const double h = sc.integrator.step;
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   auto checkpoint = [&](std::int64_t k) {

@@ -52,6 +52,9 @@ class ScenarioSystemPotential {
     mutual_.add(s, e);
     ++*evaluations_;
   }
+  /// The mutual interaction's molecular virial at `s` (the pressure's;
+  /// PairInteraction::virial), if it has one.
+  std::optional<double> virial(const SystemState& s) const { return mutual_.virial(s); }
   /// No field and no interaction: the free body (for method "exact").
   bool is_free() const {
     return std::holds_alternative<ExternalField<NoPotential>>(external_) &&
@@ -111,6 +114,15 @@ struct SingleBodyRow {
                work.value_or(0.0)},
         columns(trajectory_columns + (work ? 1 : 0)) {}
 };
+
+/// The thermodynamic columns of a scenario's trajectory (ThermoColumns): a
+/// many-body scenario with a short-range pair interaction (one with a reach)
+/// has the temperature, and in a box periodic along every axis the pressure.
+ThermoColumns thermo_columns(const Scenario& s);
+
+/// The degrees of freedom n_f of the temperature T = 2 K / n_f: 6 per body
+/// less the 3 of the total momentum, as LAMMPS counts rigid bodies.
+std::int64_t degrees_of_freedom(const Scenario& s);
 
 /// The trajectory layout of a scenario: the single-body columns for a [body]
 /// scenario, the long (per body) format for a [[bodies]] one; with the

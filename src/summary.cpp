@@ -220,11 +220,29 @@ std::string summary_json(const Scenario& sc, const SimulationResult& r) {
     s["energy_error_is"] = "E - E0 - work";
     s["momentum_error_is"] = "the change of L and P, which the forcing does not conserve";
   }
+  if (const ThermoColumns thermo = thermo_columns(sc); thermo != ThermoColumns::none) {
+    // Over the written frames (the trajectory's temperature and pressure columns).
+    const ThermoStatistics& th = st.thermo;
+    const double frames = static_cast<double>(th.frames);
+    auto values = [&](double first, double last, double sum) {
+      return Json{{"initial", first}, {"final", last}, {"mean", th.frames > 0 ? sum / frames : std::nan("")}};
+    };
+    Json t = {{"degrees_of_freedom", degrees_of_freedom(sc)},
+              {"boltzmann_constant", 1.0},
+              {"frames", th.frames},
+              {"temperature", values(th.temperature0, th.temperature, th.temperature_sum)}};
+    if (thermo == ThermoColumns::temperature_and_pressure) {
+      const Vector3<double>& length = sc.system.box().periodic_length();
+      t["volume"] = length.prod();
+      t["pressure"] = values(th.pressure0, th.pressure, th.pressure_sum);
+    }
+    s["thermodynamics"] = std::move(t);
+  }
   // The two short diagnostics on one line each, the lists of bodies one body a line.
   // The lists of bodies are made one body at a time as they are written, so
   // that a large system's summary holds its text, not also a JSON object per
   // body (several times the text's size).
-  JsonLayout layout{{"rotation", "conserved"}, {"contacts"}, {}};
+  JsonLayout layout{{"rotation", "conserved", "thermodynamics"}, {"contacts"}, {}};
   layout.generated.push_back({&s["final_bodies"], r.final_state.size(), [&](std::size_t a) {
                                 Json body = {{"name", sc.system.name(a)}};
                                 body.update(state_json(r.final_state.body(a)));

@@ -38,6 +38,14 @@ inline constexpr const char* forced_bodies_trajectory_header =
     "t,body,x,y,z,qw,qx,qy,qz,px,py,pz,wx,wy,wz,quat_norm_error,energy,energy_error,Px,Py,Pz,"
     "linear_momentum_error,Lx,Ly,Lz,momentum_error,work";
 
+/// The thermodynamic columns a molecular run (a short-range pair
+/// interaction between the bodies' sites) ends the long layout's rows with,
+/// after "work" when forced: the kinetic temperature, and in a box periodic
+/// along every axis the pressure (the same on every row of a step).
+enum class ThermoColumns { none, temperature, temperature_and_pressure };
+inline constexpr const char* temperature_column = "temperature";
+inline constexpr const char* pressure_column = "pressure";
+
 /// One sphere of a body as the particle exports (xyz, vtk, lammps-dump) draw it: its
 /// centre in the body frame (about the centre of mass) and its radius.
 struct Site {
@@ -64,7 +72,7 @@ struct BodyShape {
 /// [[bodies]] scenario, whose npz and HDF5 arrays are then shaped
 /// (steps, N, columns)).
 struct TrajectoryLayout {
-  const char* header = trajectory_header;
+  std::string header = trajectory_header;
   int columns = trajectory_columns;
   std::int64_t bodies = 0;  ///< 0: the single-body layout, 2-D arrays; N >= 1: the long layout
   /// The bodies' shapes, one per row of a step: needed by the particle
@@ -82,9 +90,18 @@ struct TrajectoryLayout {
     if (forced) return {forced_trajectory_header, trajectory_columns + 1, 0};
     return {};
   }
-  static TrajectoryLayout long_format(std::int64_t n, bool forced = false) {
-    if (forced) return {forced_bodies_trajectory_header, bodies_trajectory_columns + 1, n};
-    return {bodies_trajectory_header, bodies_trajectory_columns, n};
+  static TrajectoryLayout long_format(std::int64_t n, bool forced = false, ThermoColumns thermo = ThermoColumns::none) {
+    TrajectoryLayout layout{forced ? forced_bodies_trajectory_header : bodies_trajectory_header,
+                            bodies_trajectory_columns + (forced ? 1 : 0), n};
+    if (thermo != ThermoColumns::none) {
+      layout.header += std::string(",") + temperature_column;
+      ++layout.columns;
+    }
+    if (thermo == ThermoColumns::temperature_and_pressure) {
+      layout.header += std::string(",") + pressure_column;
+      ++layout.columns;
+    }
+    return layout;
   }
   /// Rows per output step.
   std::int64_t rows_per_step() const { return bodies > 0 ? bodies : 1; }

@@ -20,6 +20,36 @@ WORK = "work"
 FORCED_COLUMNS = COLUMNS + (WORK,)
 FORCED_BODIES_COLUMNS = BODIES_COLUMNS + (WORK,)
 
+#: The columns a molecular run (a many-body scenario with a short-range pair
+#: interaction) adds after those (and after "work" when forced): the kinetic
+#: temperature 2 K / (6 N - 3), and in a box periodic along every axis the
+#: pressure of the rigid molecules (2 K_trans + W) / 3V (the summary's
+#: "thermodynamics" says which, and the convention).
+THERMO_COLUMNS = ("temperature", "pressure")
+
+
+def bodies_columns(names):
+    """The long format's column names as a tuple if ``names`` are one of its layouts (BODIES_COLUMNS, then "work"
+    when forced, then "temperature" and "pressure" or "temperature" alone), else None."""
+    names = tuple(names)
+    if names[:len(BODIES_COLUMNS)] != BODIES_COLUMNS:
+        return None
+    tail = names[len(BODIES_COLUMNS):]
+    if tail[:1] == (WORK,):
+        tail = tail[1:]
+    return names if tail in ((), THERMO_COLUMNS[:1], THERMO_COLUMNS) else None
+
+
+def bodies_columns_of(width, summary):
+    """The long format's column names of rows ``width`` wide, from the run's summary: "work" when it has the
+    forcing's work, then the columns its "thermodynamics" names."""
+    names = BODIES_COLUMNS + ((WORK,) if "work" in summary else ())
+    thermo = summary.get("thermodynamics") or {}
+    names += tuple(c for c in THERMO_COLUMNS if c in thermo)
+    if len(names) != width:
+        raise ValueError(f"data: {width} columns, but the summary says {len(names)} ({','.join(names)})")
+    return names
+
 
 def body_of(summary):
     """The body of a summary: setup.body (the CLI's layout) or body."""

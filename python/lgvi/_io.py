@@ -20,7 +20,8 @@ import zipfile
 
 import numpy as np
 
-from ._result import BODIES_COLUMNS, COLUMNS, FORCED_BODIES_COLUMNS, FORCED_COLUMNS, Result, SystemResult
+from ._columns import bodies_columns
+from ._result import COLUMNS, FORCED_COLUMNS, Result, SystemResult
 
 TRAJECTORY_FILES = ("trajectory.csv", "trajectory.npz", "trajectory.h5")
 
@@ -156,11 +157,11 @@ def load(path):
         _refuse_export(file)
     else:
         raise ValueError(f"{file}: unknown trajectory format (expected .csv, .npz or .h5)")
-    if tuple(_text(n).strip() for n in names) in (BODIES_COLUMNS, FORCED_BODIES_COLUMNS):
+    if (many := bodies_columns(_text(n).strip() for n in names)) is not None:
         summary = _summary(folder, summary_text)
         if scenario is None:
             scenario = _read_side_file(folder, "scenario.toml")
-        return SystemResult(data, summary, scenario, source=file)
+        return SystemResult(data, summary, scenario, source=file, columns=many)
     _check_columns(names, file)
     if data.ndim != 2 or data.shape[1] != len(names):
         raise ValueError(f"{file}: trajectory has shape {data.shape}, expected (rows, {len(names)})")

@@ -10,6 +10,7 @@ import numpy as np
 
 from . import _attitude
 from ._columns import (BODIES_COLUMNS, COLUMNS, FORCED_BODIES_COLUMNS, FORCED_COLUMNS, HEADER,  # noqa: F401
+                       THERMO_COLUMNS, bodies_columns, bodies_columns_of,
                        body_of)
 
 
@@ -204,20 +205,21 @@ class SystemResult(_RunSummary, _Attitude):
     ``names`` are the bodies' names; ``summary`` the run's summary dict.
     """
 
-    def __init__(self, data, summary=None, scenario_toml=None, source=None):
+    def __init__(self, data, summary=None, scenario_toml=None, source=None, columns=None):
         data = np.asarray(data, dtype=float)
-        widths = (len(BODIES_COLUMNS), len(FORCED_BODIES_COLUMNS))
+        widths = range(len(BODIES_COLUMNS), len(FORCED_BODIES_COLUMNS) + len(THERMO_COLUMNS) + 1)
         if data.ndim == 2:  # the long format's rows: regroup them by step
             if data.shape[1] not in widths:
-                raise ValueError(f"data: must have {len(BODIES_COLUMNS)} columns ({len(FORCED_BODIES_COLUMNS)} with "
-                                 f"the forcing's work), got shape {data.shape}")
+                raise ValueError(f"data: must have {len(BODIES_COLUMNS)} columns (and work, temperature, pressure "
+                                 f"after them as the run has them), got shape {data.shape}")
             bodies = int(data[:, 1].max()) + 1 if len(data) else 0
             if bodies == 0 or len(data) % bodies:
                 raise ValueError(f"data: {len(data)} rows are not whole steps of {bodies} bodies")
             data = data.reshape(len(data) // bodies, bodies, data.shape[1])
         if data.ndim != 3 or data.shape[2] not in widths:
             raise ValueError(f"data: must have shape (steps, N, {len(BODIES_COLUMNS)}), got shape {data.shape}")
-        #: The (steps, N, 26) array; (steps, N, 27) with "work" for a forced scenario.
+        #: The (steps, N, 26) array; with "work" for a forced scenario, then "temperature" (and "pressure") for a
+        #: molecular run, after them.
         self.data = data
         self.summary = dict(summary or {})
         self.scenario_toml = scenario_toml
@@ -225,10 +227,32 @@ class SystemResult(_RunSummary, _Attitude):
         names = [b.get("name") for b in self.summary.get("final_bodies", [])]
         #: The bodies' names, in scenario order.
         self.names = names if len(names) == data.shape[1] else [f"body{i}" for i in range(data.shape[1])]
+        if columns is not None:
+            names = bodies_columns(columns)
+            if names is None or len(names) != data.shape[2]:
+                raise ValueError(f"columns: {','.join(columns)} are not the long format's for {data.shape[2]} values")
+        elif self.summary:
+            names = bodies_columns_of(data.shape[2], self.summary)
+        else:  # no summary: the width says whether the forcing's work is there
+            names = (BODIES_COLUMNS, FORCED_BODIES_COLUMNS)[data.shape[2] - len(BODIES_COLUMNS)] \
+                if data.shape[2] <= len(FORCED_BODIES_COLUMNS) else None
+            if names is None:
+                raise ValueError(f"data: {data.shape[2]} columns need the run's summary (or columns=) to name them")
         #: Column name -> array: (steps, N) for per-body columns, (steps,) for the system's.
-        names = FORCED_BODIES_COLUMNS if data.shape[2] == len(FORCED_BODIES_COLUMNS) else BODIES_COLUMNS
         per_body = BODIES_COLUMNS.index("energy")  # the body's columns come first, then the system's
         self.columns = {name: (data[:, :, i] if i < per_body else data[:, 0, i]) for i, name in enumerate(names)}
+
+    @property
+    def temperature(self):
+        """The kinetic temperature 2 K / (6 N - 3) (k_B = 1) of each written step, (steps,): a molecular run's
+        (the summary's "thermodynamics"); KeyError otherwise."""
+        return self.columns["temperature"]
+
+    @property
+    def pressure(self):
+        """The pressure of the rigid molecules (2 K_trans + W) / 3V of each written step, (steps,): a molecular
+        run's in a box periodic along every axis; KeyError otherwise."""
+        return self.columns["pressure"]
 
     @property
     def bodies(self):

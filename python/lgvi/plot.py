@@ -248,6 +248,29 @@ def _momentum_words(summary):
     return angular, linear
 
 
+def _draw_thermodynamics(plt, r, out_dir, written):
+    """thermodynamics.png of a molecular run: the kinetic temperature and, in a periodic box, the pressure of
+    the rigid molecules at each written step, with their means over the written steps (the summary's)."""
+    thermo = (r.summary or {}).get("thermodynamics", {})
+    panels = [("temperature", "temperature (k_B = 1)")]
+    if "pressure" in r.columns:
+        panels.append(("pressure", "pressure (2 K_trans + W) / 3V"))
+    fig, axes = plt.subplots(len(panels), 1, figsize=(FIGSIZE[0], FIGSIZE[1] * (0.6 + 0.4 * len(panels))),
+                             sharex=True, squeeze=False)
+    for ax, (name, label) in zip(axes[:, 0], panels):
+        values = r.columns[name]
+        mean = float(np.mean(values))
+        ax.plot(r.t, values, lw=0.9)
+        ax.axhline(mean, color="0.5", lw=0.8, ls="--", label=f"mean {mean:.4g}")
+        ax.set_ylabel(label)
+        ax.legend(loc="best", fontsize="small")
+    axes[-1, 0].set_xlabel("t")
+    dof = thermo.get("degrees_of_freedom")
+    axes[0, 0].set_title(f"Temperature{' and pressure' if len(panels) > 1 else ''} of {r.bodies} rigid bodies"
+                         + (f"\n({dof} degrees of freedom)" if dof else ""), fontsize="medium")
+    _save(fig, out_dir, "thermodynamics.png", written)
+
+
 def _draw_system(plt, r, out_dir, written):
     """The figures of a many-body run: the system's energy and momentum errors,
     the bodies' |q| - 1, their paths (projected), and for two bodies the
@@ -274,6 +297,8 @@ def _draw_system(plt, r, out_dir, written):
                  + (f"\n{notes}" if notes else ""))
     ax.legend(loc="best", fontsize="small")
     _save(fig, out_dir, "momentum_error.png", written)
+    if "temperature" in r.columns:
+        _draw_thermodynamics(plt, r, out_dir, written)
     fig, ax = plt.subplots(figsize=FIGSIZE)
     shown = np.unique(np.linspace(0, r.bodies - 1, min(r.bodies, MAX_PATHS)).astype(int))
     for a in shown:
@@ -411,7 +436,8 @@ def draw_figures(source, out_dir=None):
     Raises OSError/ValueError on bad input. A many-body run (an
     lgvi.SystemResult, or a folder of a [[bodies]] scenario) gets its own
     figures: energy_error.png, quaternion_error.png, momentum_error.png (total
-    angular and linear momentum), trajectory.png (the bodies' paths) and, for
+    angular and linear momentum), trajectory.png (the bodies' paths), for a molecular run
+    thermodynamics.png (temperature, and pressure in a periodic box) and, for
     two bodies, libration.png. An ensemble (a folder with members.csv, or an
     lgvi.EnsembleResult) gets error_distribution.png and error_vs_varied.png.
     """

@@ -28,7 +28,7 @@ class CsvTrajectory final : public TrajectorySink {
       : path_(path), columns_(static_cast<std::size_t>(layout.columns)) {
     file_ = open_appendable_file(path, resume);
     if (resume) rows_ = resume->rows;
-    if (!resume && std::fputs((std::string(layout.header) + "\n").c_str(), file_) < 0)
+    if (!resume && std::fputs((layout.header + "\n").c_str(), file_) < 0)
       throw std::runtime_error("cannot write " + path);
     filling_.reserve(rows_per_block * columns_);
     writing_.reserve(filling_.capacity());

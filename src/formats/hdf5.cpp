@@ -185,7 +185,7 @@ class Hdf5Trajectory final : public TrajectorySink {
                       H5Dclose, "create /trajectory in");
 
     std::vector<std::string> names;
-    for (const char *p = layout_.header, *q = p;; ++q)
+    for (const char *p = layout_.header.c_str(), *q = p;; ++q)
       if (*q == ',' || *q == '\0') {
         names.emplace_back(p, q);
         if (*q == '\0') break;

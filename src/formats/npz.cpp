@@ -143,7 +143,7 @@ class NpzTrajectory final : public TrajectorySink {
                                              header.size() + data_bytes));
 
     std::vector<std::string> names;
-    for (const char *p = layout_.header, *q = p;; ++q)
+    for (const char *p = layout_.header.c_str(), *q = p;; ++q)
       if (*q == ',' || *q == '\0') {
         names.emplace_back(p, q);
         if (*q == '\0') break;

@@ -61,7 +61,7 @@ ParticleFrames::ParticleFrames(const TrajectoryLayout& layout)
     throw std::runtime_error("the particle exports (xyz, vtk, lammps-dump) need the shape of each of the " +
                              std::to_string(layout.rows_per_step()) + " bodies, got " +
                              std::to_string(shapes_.size()));
-  const char* h = layout.header;
+  const char* h = layout.header.c_str();
   col_ = {column_of(h, "t"),      column_of(h, "x"),           column_of(h, "qw"),
           column_of(h, "px"),     column_of(h, "wx"),          column_of(h, "energy"),
           column_of(h, "energy_error"), column_of(h, "momentum_error")};

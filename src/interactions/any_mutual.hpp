@@ -5,6 +5,7 @@
 #include <lgvi/interaction.hpp>
 
 #include <memory>
+#include <optional>
 #include <type_traits>
 #include <utility>
 
@@ -32,6 +33,9 @@ class AnyMutualInteraction {
     if (held_) held_->add(s, e);
   }
   bool empty() const { return !held_; }
+  /// The held interaction's molecular virial at `s` (PairInteraction::virial),
+  /// if it has one: nullopt for none, or one without (long-range gravity).
+  std::optional<double> virial(const SystemState& s) const { return held_ ? held_->virial(s) : std::nullopt; }
   /// The held interaction if it is an M, else null.
   template <class M>
   const M* get() const {
@@ -43,12 +47,19 @@ class AnyMutualInteraction {
   struct Concept {
     virtual ~Concept() = default;
     virtual void add(const SystemState& s, SystemEvaluation& e) const = 0;
+    virtual std::optional<double> virial(const SystemState& s) const = 0;
     virtual std::unique_ptr<Concept> clone() const = 0;
   };
   template <class M>
   struct Model final : Concept {
     explicit Model(M held) : m(std::move(held)) {}
     void add(const SystemState& s, SystemEvaluation& e) const override { m.add(s, e); }
+    std::optional<double> virial(const SystemState& s) const override {
+      if constexpr (requires { m.virial(s); })
+        return m.virial(s);
+      else
+        return std::nullopt;
+    }
     std::unique_ptr<Concept> clone() const override { return std::make_unique<Model>(m); }
     M m;
   };

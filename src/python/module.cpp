@@ -589,6 +589,7 @@ PYBIND11_MODULE(_core, m) {
   m.attr("BODIES_TRAJECTORY_HEADER") = lgvi::app::bodies_trajectory_header;
   m.attr("FORCED_TRAJECTORY_HEADER") = forced_trajectory_header;
   m.attr("FORCED_BODIES_TRAJECTORY_HEADER") = forced_bodies_trajectory_header;
+  m.attr("THERMO_COLUMNS") = py::make_tuple(lgvi::app::temperature_column, lgvi::app::pressure_column);
   // The names the scenario reader accepts, from the tables it uses.
   py::list methods, solvers, formats, interactions;
   for (const lgvi::MethodTraits& t : Method::all()) methods.append(t.name);

@@ -94,8 +94,12 @@ def test_results_do_not_depend_on_the_number_of_threads(tmp_path):
 
 
 def test_resume_of_a_many_body_run_is_byte_identical(tmp_path):
+    # In a periodic box (5 x 2.2 a side, the lattice continued across the faces), so that the temperature and
+    # pressure columns and their statistics (the summary's "thermodynamics") go through the checkpoint too.
     path = variant(tmp_path, "lj-gas", [("count = 1000", "count = 125"), ("duration = 2.0", "duration = 200.0"),
-                                        ("every = 100", "every = 500")])
+                                        ("every = 100", "every = 500"),
+                                        ("[interaction]", "[box]\nlower = [-1.1, -1.1, -1.1]\n"
+                                                          "upper = [9.9, 9.9, 9.9]\n\n[interaction]")])
     full = tmp_path / "full"
     assert run(path, "--out", full, "--threads", 1).returncode == 0
     out = tmp_path / "run"
@@ -115,7 +119,9 @@ def test_resume_of_a_many_body_run_is_byte_identical(tmp_path):
         assert resumed.returncode == 0, resumed.stderr
     assert (out / "trajectory.csv").read_bytes() == (full / "trajectory.csv").read_bytes()
     s_full, s_run = (json.loads((d / "summary.json").read_text()) for d in (full, out))
-    for key in ("max_abs_energy_error", "max_linear_momentum_error", "max_momentum_error", "final_bodies"):
+    assert (full / "trajectory.csv").read_text().split("\n", 1)[0].endswith(",temperature,pressure")
+    for key in ("max_abs_energy_error", "max_linear_momentum_error", "max_momentum_error", "final_bodies",
+                "thermodynamics"):
         assert s_full[key] == s_run[key], key
 
 
@@ -249,7 +255,7 @@ def test_from_arrays_with_a_periodic_box_gives_the_file_scenario():
     from_file = lgvi.Scenario.from_string(text.replace("duration = 2.0", "duration = 0.4"), "periodic-gas")
     from_arrays = lgvi.Scenario.from_arrays(duration=0.4, every=100, name="periodic-gas", **arrays)
     a, b = lgvi.simulate(from_file), lgvi.simulate(from_arrays)
-    assert a.data.shape == b.data.shape == (3, 64, 26)
+    assert a.data.shape == b.data.shape == (3, 64, 28)  # with the temperature and pressure
     assert np.max(np.abs(a.data - b.data)) <= 1e-11
     assert b.summary["setup"]["box"] == {"lower": [-1.1] * 3, "upper": [7.7] * 3, "periodic": [True] * 3}
     # A periodic box conserves linear momentum (to round-off: each pair's
@@ -276,3 +282,72 @@ def test_from_arrays_box_errors_name_the_key(box, message):
     arrays["box"] = box
     with pytest.raises(ValueError, match=message):
         lgvi.Scenario.from_arrays(duration=0.1, **arrays)
+
+
+def gas_kinetic_energy(r, summary, k):
+    """The kinetic energy sum p^2 / 2m + w . J^-1 w / 8 of written step k, from the state and the summary's
+    setup (every body of the gas is the same triangle)."""
+    body = summary["setup"]["bodies"][0]
+    inertia, mass = np.array(body["inertia"]), body["mass"]
+    p, w = r.p[k], r.w[k]
+    return float(np.sum(p * p) / (2 * mass) + np.einsum("ai,ai->", w, np.linalg.solve(inertia, w.T).T) / 8)
+
+
+@pytest.mark.parametrize("fmt", ["csv", "npz"])
+def test_a_periodic_gas_writes_its_temperature_and_pressure(tmp_path, fmt):
+    # The molecular run's columns after the others: the temperature 2 K / (6 N - 3) (LAMMPS's count for rigid
+    # bodies; its value against LAMMPS: test_the_periodic_start_equals_lammps) and the pressure; the summary's
+    # "thermodynamics" holds the first, last and mean of the written frames.
+    import lgvi
+    text = (SOURCE / "tests" / "cli" / "good" / "periodic-gas.toml").read_text()
+    path = tmp_path / "gas.toml"
+    path.write_text(text.replace('format = "lammps-dump"', f'format = "{fmt}"'))
+    assert run(path, "--out", tmp_path / "out").returncode == 0
+    r = lgvi.load(tmp_path / "out")
+    thermo = r.summary["thermodynamics"]
+    assert thermo["degrees_of_freedom"] == 6 * 64 - 3 and thermo["frames"] == len(r.t) == 11
+    assert thermo["volume"] == pytest.approx(8.8 ** 3, rel=1e-15)
+    for k in (0, 5, len(r.t) - 1):
+        # The same sum of 64 bodies' terms in another order: round-off, ~1e-15.
+        assert r.temperature[k] == pytest.approx(2 * gas_kinetic_energy(r, r.summary, k) / 381, rel=1e-13)
+    for name in ("temperature", "pressure"):
+        values = r.columns[name]
+        assert values.shape == (11,) and np.all(np.isfinite(values))
+        assert thermo[name]["initial"] == values[0] and thermo[name]["final"] == values[-1]
+        assert thermo[name]["mean"] == pytest.approx(np.mean(values), rel=1e-14)  # summed in another order
+    # The file's header names them, after the system's columns.
+    if fmt == "csv":
+        header = (tmp_path / "out" / "trajectory.csv").read_text().split("\n", 1)[0]
+        assert header == BODIES_HEADER + ",temperature,pressure"
+    # Through the Python package: the same numbers, named by the summary.
+    s = lgvi.simulate(lgvi.Scenario.from_string(path.read_text(), "gas"))
+    assert np.array_equal(s.temperature, r.temperature) and np.array_equal(s.pressure, r.pressure)
+
+
+def test_only_molecular_runs_have_thermodynamic_columns(tmp_path):
+    # A gas in free space: a temperature, no pressure (no volume); a binary asteroid (gravity): neither.
+    gas = variant(tmp_path, "lj-gas", [("count = 1000", "count = 27"), ("duration = 2.0", "duration = 0.02")])
+    assert run(gas, "--out", tmp_path / "gas").returncode == 0
+    header = (tmp_path / "gas" / "trajectory.csv").read_text().split("\n", 1)[0]
+    assert header == BODIES_HEADER + ",temperature"
+    summary = json.loads((tmp_path / "gas" / "summary.json").read_text())
+    assert set(summary["thermodynamics"]) == {"degrees_of_freedom", "boltzmann_constant", "frames", "temperature"}
+    binary = variant(tmp_path, "binary-asteroid", [("duration = 400.0", "duration = 1.0")])
+    assert run(binary, "--out", tmp_path / "binary").returncode == 0
+    assert (tmp_path / "binary" / "trajectory.csv").read_text().split("\n", 1)[0] == BODIES_HEADER
+    assert "thermodynamics" not in json.loads((tmp_path / "binary" / "summary.json").read_text())
+
+
+LAMMPS = __import__("shutil").which(os.environ.get("LMP_BINARY", "lmp"))
+
+
+@pytest.mark.skipif(LAMMPS is None, reason="LAMMPS (Debian's lammps, lmp) not installed")
+def test_the_periodic_start_equals_lammps():
+    # benchmarks/lammps/compare_lammps.py --periodic: 1000 triangle molecules in a periodic cube, lgvi's step-0
+    # potential and kinetic energy, temperature and pressure against LAMMPS's (fix rigid/nve/small; the pressure
+    # of the rigid molecules from LAMMPS's per-atom data) to 1e-10 relative (measured: ~1e-15); it exits 1 if not.
+    proc = subprocess.run([os.environ.get("LGVI_PYTHON", "/usr/bin/python3"),
+                           str(SOURCE / "benchmarks" / "lammps" / "compare_lammps.py"), BINARY, LAMMPS, "--periodic"],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "| pressure of the rigid molecules |" in proc.stdout

@@ -7,6 +7,7 @@ written in C++ and *checked* here, not imported: this test fails when the two di
 """
 
 import lgvi._core as core
+import pytest
 from lgvi import _columns, _result, plot
 
 
@@ -18,6 +19,24 @@ def test_columns_are_the_cpp_headers():
     assert _columns.BODIES_COLUMNS == tuple(core.BODIES_TRAJECTORY_HEADER.split(","))
     assert _columns.FORCED_COLUMNS == tuple(core.FORCED_TRAJECTORY_HEADER.split(","))
     assert _columns.FORCED_BODIES_COLUMNS == tuple(core.FORCED_BODIES_TRAJECTORY_HEADER.split(","))
+    assert _columns.THERMO_COLUMNS == core.THERMO_COLUMNS
+
+
+def test_the_long_formats_columns_are_named_by_the_file_or_the_summary():
+    # 27 columns are the forcing's work or a molecular run's temperature: the summary says which, as the
+    # file's header does; without either only the widths without thermodynamic columns are named.
+    m = len(_columns.BODIES_COLUMNS)
+    assert _columns.bodies_columns(_columns.BODIES_COLUMNS + ("work", "temperature", "pressure")) is not None
+    assert _columns.bodies_columns(_columns.BODIES_COLUMNS + ("pressure",)) is None
+    assert _columns.bodies_columns(_columns.BODIES_COLUMNS + ("temperature", "work")) is None
+    row = [[0.0, 0.0] + [float(i) for i in range(2, m + 1)]]
+    forced = _result.SystemResult(row, {"work": 1.0})
+    molecular = _result.SystemResult(row, {"thermodynamics": {"temperature": {}}})
+    assert forced.columns["work"][0] == m and "temperature" not in forced.columns
+    assert molecular.temperature[0] == m and "work" not in molecular.columns
+    assert _result.SystemResult(row).columns["work"][0] == m  # no summary: 27 are the forced layout, as before
+    with pytest.raises(ValueError, match="summary says"):
+        _result.SystemResult(row, {"thermodynamics": {"temperature": {}, "pressure": {}}})
 
 
 def test_figures_need_only_columns_that_exist():

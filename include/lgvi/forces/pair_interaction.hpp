@@ -156,6 +156,63 @@ class PairInteraction {
   }
 
   void add(const SystemState& s, SystemEvaluation& e) const {
+    prepare(s);
+    const std::size_t n = s.size();
+    energy_.assign(n, 0.0);
+    finite_.assign(n, 1);
+    ranged_pass(s, e);
+    for (std::size_t a = 0; a < n; ++a) e.energy += energy_[a];
+  }
+
+  /// The molecular virial at `s`, over the pairs within r_c:
+  ///
+  ///   W = sum over pairs (i of body a, j of body b) of f_i . (X_a - X_b),
+  ///
+  /// f_i the pair's force on site i and X_a - X_b the centres' separation
+  /// of the pair's minimum image (X_i - rho_i - (X_j - rho_j), rho the sites'
+  /// arms). It is -dV/d(epsilon) when every centre of mass and the box are
+  /// scaled by 1 + epsilon at fixed attitudes, so that the pressure of rigid
+  /// molecules in a periodic box of volume V is P = (2 K_trans + W) / (3 V)
+  /// (K_trans the bodies' translational kinetic energy; LAMMPS's pressure
+  /// with fix rigid, whose constraint virial cancels the rotational kinetic
+  /// energy and the sites' arms). Summed per body in list order and then in
+  /// body order on this thread, so it does not depend on the thread count.
+  /// Costs about one serial evaluation (the runs call it per written frame).
+  double virial(const SystemState& s) const {
+    prepare(s);
+    PassScratch scratch;
+    double total = 0.0;
+    for (std::size_t a = 0; a < s.size(); ++a) {
+      const std::size_t first = list_start_[sites_.begin(a)];
+      scratch.resize(list_start_[sites_.end(a)] - first);
+      pair_terms(a, a + 1, scratch, scratch.fx.data(), scratch.fy.data(), scratch.fz.data());
+      double w = 0.0;
+      for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i)
+        for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k) {
+          // X_a - X_b = -d - rho_i + rho_j, d = X_j - X_i (minimum image); beyond r_c f = 0 exactly.
+          const Vector3<double> centres = arm_[neighbours_[k]] - arm_[i] -
+                                          Vector3<double>(scratch.dx[k - first], scratch.dy[k - first],
+                                                          scratch.dz[k - first]);
+          w += scratch.fx[k - first] * centres.x() + scratch.fy[k - first] * centres.y() +
+               scratch.fz[k - first] * centres.z();
+        }
+      total += w;
+    }
+    return total;
+  }
+
+  /// How many times the neighbour lists were built, and pruned (every build
+  /// prunes too), for tests and benchmarks.
+  std::int64_t list_builds() const { return builds_; }
+  std::int64_t list_prunes() const { return prunes_; }
+
+  const Kernel& kernel() const { return kernel_; }
+  double cutoff() const { return cutoff_; }
+  double skin() const { return skin_; }
+
+ private:
+  /// Places the sites of `s` and brings the lists up to date for it.
+  void prepare(const SystemState& s) const {
     const std::size_t n = s.size();
     // The sites, and whether any moved more than skin/2 since the lists were
     // built (then no pair can have crossed into r_c unseen), or else more
@@ -176,22 +233,8 @@ class PairInteraction {
     const char most = *std::max_element(moved_.begin(), moved_.end());
     if (most == beyond_skin) build_lists();
     else if (most == beyond_margin) prune_lists();
-    energy_.assign(n, 0.0);
-    finite_.assign(n, 1);
-    ranged_pass(s, e);
-    for (std::size_t a = 0; a < n; ++a) e.energy += energy_[a];
   }
 
-  /// How many times the neighbour lists were built, and pruned (every build
-  /// prunes too), for tests and benchmarks.
-  std::int64_t list_builds() const { return builds_; }
-  std::int64_t list_prunes() const { return prunes_; }
-
-  const Kernel& kernel() const { return kernel_; }
-  double cutoff() const { return cutoff_; }
-  double skin() const { return skin_; }
-
- private:
   /// One thread's buffers for the list entries of a batch of bodies: the
   /// separations and the pairs' energies.
   struct Scratch {
