@@ -103,6 +103,14 @@ class Box {
   /// One component of minimum_image.
   double reduce(double d, int k) const { return d - length_(k) * std::nearbyint(d * inverse_length_(k)); }
 
+  /// The fractional coordinate of x_k along periodic axis k, (x_k - lower_k) / L_k
+  /// less its floor: in [0, 1], 1 only where rounding lifts a value just below
+  /// an integer (the cell lists clamp their index); NaN for x_k not finite.
+  double fraction(double x_k, int k) const {
+    const double f = (x_k - lower_(k)) * inverse_length_(k);
+    return f - std::floor(f);
+  }
+
   /// The image count of position x along each periodic axis, n_k =
   /// floor((x_k - lower_k) / L_k) (0 along open axes), and x wrapped into
   /// the box, x - n L, in [lower, upper) along periodic axes. A coordinate

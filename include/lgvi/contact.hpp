@@ -163,9 +163,7 @@ class ContactDetector {
       for (int i = 0; i < 3; ++i) {
         const std::int64_t dims = periodic_cells[static_cast<std::size_t>(i)];
         if (dims > 0) {
-          double f = (x[i] - box.lower()(i)) * box.inverse_periodic_length()(i);
-          f -= std::floor(f);
-          const double k = std::floor(f * static_cast<double>(dims));
+          const double k = std::floor(box.fraction(x[i], i) * static_cast<double>(dims));
           c[static_cast<std::size_t>(i)] = std::isfinite(k) ? std::clamp<std::int64_t>(static_cast<std::int64_t>(k), 0, dims - 1) : 0;
           continue;
         }

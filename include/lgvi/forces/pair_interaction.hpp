@@ -474,10 +474,8 @@ class PairInteraction {
     for (int k = 0; k < 3; ++k) {
       const std::int64_t dims = dims_[static_cast<std::size_t>(k)];
       std::int64_t v = 0;
-      if (box_.periodic(k)) {
-        double f = (x(k) - origin_(k)) * box_.inverse_periodic_length()(k);
-        f -= std::floor(f);
-        v = static_cast<std::int64_t>(f * static_cast<double>(dims));
+      if (box_.periodic(k)) {  // (origin_(k) is the box's lower face there)
+        v = static_cast<std::int64_t>(box_.fraction(x(k), k) * static_cast<double>(dims));
       } else {
         v = static_cast<std::int64_t>((x(k) - origin_(k)) * inv_cell_(k));
       }
