@@ -216,15 +216,32 @@ TEST(PeriodicPairs, TheMolecularVirialIsMinusTheEnergysDerivativeUnderScaling) {
   // W = -dV/de at e = 0 when every centre and the box scale by 1 + e at
   // fixed attitudes (the definition behind P = (2 K_trans + W) / 3V), by a
   // central difference at e = 1e-6: truncation (e^2 / 6) x the third
-  // derivative, which the close sites' r^-12 make large (~1e-10 of W here),
-  // and round-off ~ eps |V| / e ~ 1e-10 |V|; 1e-8 of the scale |V| + |W|
-  // covers both (measured: 1.4e-10 and 1.5e-10). A pair crossing r_c between
-  // the two states (the shifted energy has a kink there, |u'(r_c)| ~ 0.04)
-  // would add ~0.04 x 1e-6 x 2.5: within the bound.
-  const Box box(V3(-3.0, 2.0, 0.5), V3(-3.0 + 6.8, 2.0 + 6.8, 0.5 + 6.8), {true, true, true});
+  // derivative (sites 0.85 apart or more, below) and round-off
+  // ~ eps |V| / e ~ 1e-10 |V|; 1e-8 of the scale |V| + |W| covers both (measured:
+  // at most 2.2e-7 for scales ~1e3, seeds 1, 2, 3, 7, 12, 23).
+  const Box box(V3(-3.0, 2.0, 0.5), V3(-3.0 + 8.8, 2.0 + 8.8, 0.5 + 8.8), {true, true, true});
   const System sys = triangles(64, box);
-  for (const double spacing : {1.7, 1.6}) {
-    const SystemState s = gas(64, spacing, box, 0.0);
+  // Spacings 2.2 and 2.0: sites of different molecules at least 2.2 - 2 / sqrt(3) = 1.05 and
+  // 0.85 apart whatever the attitudes (the sites lie within 1 / sqrt(3) of their centre), so
+  // that the differences' truncation stays bounded for every seed. (Three sites per molecule:
+  // sites i and j belong to one molecule when i / 3 == j / 3.)
+  for (const double spacing : {2.2, 2.0}) {
+    // The shifted energy has a kink at r_c (its slope jumps by |u'(r_c)| = 0.039): a site pair
+    // within the differences' reach of r_c would add up to |u'(r_c)| r_c / 2 ~ 0.05 to them
+    // (it did for seeds 7, 12, 23), so the attitudes are redrawn until no pair's distance is
+    // within 1e-4 of r_c (100 times that reach; a draw is refused with probability ~ 0.1).
+    SystemState s = gas(64, spacing, box, 0.0);
+    auto near_cutoff = [&](const SystemState& st) {
+      std::vector<V3> sites;
+      for (std::size_t a = 0; a < st.size(); ++a)
+        for (const lgvi::Ball& b : sys.body(a).balls()) sites.push_back(st.x[a] + st.q[a].act(b.position));
+      for (std::size_t i = 0; i < sites.size(); ++i)
+        for (std::size_t j = i + 1; j < sites.size(); ++j)
+          if (i / 3 != j / 3 && std::abs(box.minimum_image(sites[j] - sites[i]).norm() - 2.5) < 2.5e-4) return true;
+      return false;
+    };
+    while (near_cutoff(s))
+      for (auto& q : s.q) q = t::random_unit_quaternion();
     const LennardJones lj(sys, 1.0, 1.0, 2.5);
     const double w = lj.virial(s);
     const double e = 1e-6;
