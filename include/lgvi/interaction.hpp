@@ -237,7 +237,7 @@ namespace detail {
 /// central differences of its energy, as check_potential_derivatives does for
 /// one body (potential.hpp: step eps^(1/5), times max(1, |x_a|) for
 /// positions). The errors are the largest over the bodies, each relative to
-/// the larger of the two vectors compared.
+/// the larger of the two vectors compared (and, in the *_abs_error fields, absolute).
 template <SystemPotential I>
 DerivativeCheck check_system_derivatives(const I& potential, const SystemState& s) {
   const double h0 = std::pow(std::numeric_limits<double>::epsilon(), 0.2);
@@ -272,6 +272,8 @@ DerivativeCheck check_system_derivatives(const I& potential, const SystemState& 
     }
     worst.force_error = std::max(worst.force_error, relative(e.force[a], force_fd));
     worst.torque_error = std::max(worst.torque_error, relative(e.torque[a], torque_fd));
+    worst.force_abs_error = std::max(worst.force_abs_error, (e.force[a] - force_fd).norm());
+    worst.torque_abs_error = std::max(worst.torque_abs_error, (e.torque[a] - torque_fd).norm());
   }
   return worst;
 }

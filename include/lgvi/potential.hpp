@@ -272,6 +272,10 @@ inline Vector3<double> seed_torque_term(const Vector3<double>& torque) { return 
 struct DerivativeCheck {
   double force_error = 0.0;
   double torque_error = 0.0;
+  /// The largest |difference| itself (not relative): for a sum of many terms
+  /// whose total nearly cancels, judged against the terms' size by the caller.
+  double force_abs_error = 0.0;
+  double torque_abs_error = 0.0;
   bool passed(double tolerance) const { return force_error <= tolerance && torque_error <= tolerance; }
 };
 
