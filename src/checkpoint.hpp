@@ -29,7 +29,6 @@ struct ContactEpisode {
   double distance = 0.0;  ///< the pieces' centre distance at the deepest overlap
 };
 
-/// Diagnostics over every step, written or not.
 /// The thermodynamic columns' values over the written frames (thermo_columns):
 /// the first and the last, their sums (the mean is sum / frames) and how many
 /// frames. The pressure is NaN without a periodic box.
@@ -39,6 +38,7 @@ struct ThermoStatistics {
   std::int64_t frames = 0;
 };
 
+/// Diagnostics over every step, written or not.
 struct RunStatistics {
   double energy0 = 0.0;
   Vector3<double> momentum0 = Vector3<double>::Zero();  ///< total angular momentum about the origin

@@ -211,8 +211,7 @@ struct Recorder {
     if (thermo == ThermoColumns::temperature_and_pressure) {
       double translational = 0.0;
       for (std::size_t a = 0; a < s.size(); ++a) translational += s.p[a].squaredNorm() / (2.0 * sys.body(a).mass());
-      const Vector3<double>& length = sys.box().periodic_length();
-      pressure = (2.0 * translational + virial(s)) / (3.0 * length.prod());
+      pressure = (2.0 * translational + virial(s)) / (3.0 * sys.box().volume());
     }
     ThermoStatistics& th = stats.thermo;
     if (th.frames == 0) {

@@ -232,8 +232,7 @@ std::string summary_json(const Scenario& sc, const SimulationResult& r) {
               {"frames", th.frames},
               {"temperature", values(th.temperature0, th.temperature, th.temperature_sum)}};
     if (thermo == ThermoColumns::temperature_and_pressure) {
-      const Vector3<double>& length = sc.system.box().periodic_length();
-      t["volume"] = length.prod();
+      t["volume"] = sc.system.box().volume();
       t["pressure"] = values(th.pressure0, th.pressure, th.pressure_sum);
     }
     s["thermodynamics"] = std::move(t);

@@ -103,6 +103,9 @@ class Box {
   /// One component of minimum_image.
   double reduce(double d, int k) const { return d - length_(k) * std::nearbyint(d * inverse_length_(k)); }
 
+  /// The volume L_x L_y L_z of a box periodic along every axis (0 if one is open).
+  double volume() const { return length_.prod(); }
+
   /// The fractional coordinate of x_k along periodic axis k, (x_k - lower_k) / L_k
   /// less its floor: in [0, 1], 1 only where rounding lifts a value just below
   /// an integer (the cell lists clamp their index); NaN for x_k not finite.
