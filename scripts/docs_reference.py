@@ -43,6 +43,7 @@ DESCRIPTIONS = {
     ".run": "table: threads and contact checks",
     ".forcing": "array of tables [[forcing]]: forces and torques no potential gives",
     ".box": "table: a periodic (or bounded) box for [[bodies]] (default: free space)",
+    ".import": "table: the bodies, initial state and box of a LAMMPS data file, in place of [[bodies]] and [box]",
     # [body]
     "body.mass": "number > 0: total mass (with inertia, or with shape)",
     "body.inertia": "3x3 array: the inertia J about the centre of mass, body axes (symmetric positive definite)",
@@ -56,6 +57,7 @@ DESCRIPTIONS = {
     "body.ball.position": "[x, y, z]: the ball's centre, body frame (the centre of mass is moved to the origin)",
     "body.ball.mass": "number > 0: the ball's mass",
     "body.ball.radius": "number >= 0: the ball's radius (0: a point mass)",
+    "body.ball.type": "integer in [1, 256], default 1: the site's type, which picks [[interaction.pair]]'s coefficients",
     # [[bodies]]
     "bodies.name": "string, optional, unique: the body's name (default body0, body1, ...; a block: NAME0, NAME1, ...)",
     "bodies.mass": "as body.mass",
@@ -127,6 +129,11 @@ DESCRIPTIONS = {
     "box.lower": "[x, y, z]: the box's lower corner",
     "box.upper": "[x, y, z]: its upper corner (each > lower)",
     "box.periodic": "[bool, bool, bool] per axis (default all true); an open axis is free space",
+    # [import]
+    "import.lammps_data": "string: a LAMMPS data file (atom_style full, molecular, bond or angle), relative to the scenario; each molecule one rigid body",
+    "import.radius": "number >= 0, or one per atom type (default 0: point masses): each atom a uniform ball",
+    "import.periodic": "[bool, bool, bool] per axis of the file's box (default all true)",
+    "import.checksum": "string, written by the run into its copy of the scenario: the data file's FNV-1a checksum; a changed file is refused",
     # [[forcing]]
     "forcing.kind": "\"torque\" | \"force\" | \"damping\" | \"attitude-control\"",
     "forcing.body": "string: the body it acts on (default every body)",
@@ -166,6 +173,8 @@ INTERACTION_DESCRIPTIONS = {
     "sigma": "length scale sigma (> 0)",
     "cutoff": "lennard-jones: cutoff radius r_c, > sigma (default 2.5 sigma); the energy is shifted to 0 there",
     "skin": "Verlet-list skin, >= 0 (default 0.3 sigma): lists hold pairs within r_c + skin, rebuilt after a displacement of skin/2",
+    "mixing": "lennard-jones with site types: \"geometric\" (default) | \"arithmetic\": the coefficients of pairs of types not given, from each type's own",
+    "pair": "lennard-jones: [[interaction.pair]] tables, each types = [i, j], epsilon, sigma: one pair of site types' coefficients",
 }
 
 ARRAYS_OF_TABLES = {"body.ball", "bodies", "forcing", "vary"}

@@ -113,14 +113,18 @@ def main():
     # redesign (tests/reference/single_body_outputs.sha256); forced scenarios
     # ([[forcing]], added later) have no such outputs.
     if not ALL:
-        sources = [s for s in sources if "[[bodies]]" not in s.read_text() and "[[forcing]]" not in s.read_text()]
+        sources = [s for s in sources if not any(table in s.read_text() for table in ("[[bodies]]", "[[forcing]]",
+                                                                                       "[import]"))]
     work = out / "_work"
     work.mkdir(exist_ok=True)
     for path in sources:
         for method, solver, fmt in variants(path, every_format=ALL):
             name = f"{path.stem}__{method}{'__' + solver if solver else ''}__{fmt}"
             scen = work / f"{name}.toml"
-            scen.write_text(scenario_text(path.read_text(), method, solver, fmt))
+            # (An [import]'s data file is relative to the scenario: made absolute for the copy in work/.)
+            text = re.sub(r'^lammps_data = "([^"]*)"', lambda m: f'lammps_data = "{(path.parent / m.group(1)).resolve()}"',
+                          path.read_text(), flags=re.M)
+            scen.write_text(scenario_text(text, method, solver, fmt))
             run = work / name
             proc = subprocess.run([str(binary), "run", str(scen), "--out", str(run), "--force", "--no-figures", "-q"],
                                   capture_output=True, text=True)

@@ -1,5 +1,6 @@
 #include "scenario.hpp"
 #include "interactions/registry.hpp"
+#include "lammps_data.hpp"
 #include "toml_reader.hpp"
 #include "toml_writer.hpp"
 
@@ -144,8 +145,16 @@ RigidBody read_body_table(const Reader& r, const toml::table& t, const std::stri
   for (std::size_t i = 0; i < arr->size(); ++i) {
     const toml::table& b = *arr->get(i)->as_table();
     const std::string ball = prefix + ".ball[" + std::to_string(i) + "]";
-    r.only_keys(b, ball, {"position", "mass", "radius"});
-    balls.push_back({r.vector<3>(b, ball, "position"), r.number(b, ball, "mass"), r.number(b, ball, "radius")});
+    r.only_keys(b, ball, {"position", "mass", "radius", "type"});
+    int type = 1;
+    if (b.contains("type")) {
+      const std::int64_t t = r.integer(b, ball, "type");
+      if (t < 1 || t > max_site_types)
+        r.fail(ball + ".type", "must be an integer in [1, " + std::to_string(max_site_types) +
+                                   "] (the site's type, which picks the pair coefficients of [[interaction.pair]])");
+      type = static_cast<int>(t);
+    }
+    balls.push_back({r.vector<3>(b, ball, "position"), r.number(b, ball, "mass"), r.number(b, ball, "radius"), type});
   }
   return checked([&] { return RigidBody::from_balls(std::move(balls)); });
 }
@@ -549,24 +558,57 @@ void require_no_overlap(const Reader& r, const System& system, const SystemState
 /// reader's messages (each key named interaction.<key>).
 class TableInteractionReader final : public InteractionReader {
  public:
-  TableInteractionReader(const Reader& r, const toml::table& t) : r_(r), t_(t) {}
+  /// `prefix`: the table's name in messages ("interaction", "interaction.pair[0]").
+  TableInteractionReader(const Reader& r, const toml::table& t, int site_types, std::string prefix = "interaction")
+      : r_(r), t_(t), site_types_(site_types), prefix_(std::move(prefix)) {}
   bool has(std::string_view key) const override { return t_.contains(key); }
-  double number(std::string_view key) const override { return r_.number(t_, "interaction", std::string(key)); }
+  double number(std::string_view key) const override { return r_.number(t_, prefix_, std::string(key)); }
+  std::vector<std::int64_t> integers(std::string_view key, std::size_t count) const override {
+    const std::string name = prefix_ + "." + std::string(key);
+    const toml::node* n = t_.get(key);
+    const toml::array* a = n ? n->as_array() : nullptr;
+    if (!a || a->size() != count)
+      r_.fail(name, (n ? "must be " : "missing: ") + std::string("an array of ") + std::to_string(count) + " integers");
+    std::vector<std::int64_t> v;
+    for (std::size_t i = 0; i < count; ++i) {
+      if (!a->get(i)->is_integer()) r_.fail(name + "[" + std::to_string(i) + "]", "must be an integer");
+      v.push_back(a->get(i)->value<std::int64_t>().value());
+    }
+    return v;
+  }
+  std::vector<std::unique_ptr<InteractionReader>> tables(std::string_view key,
+                                                         std::initializer_list<std::string_view> keys) const override {
+    std::vector<std::unique_ptr<InteractionReader>> out;
+    const toml::node* n = t_.get(key);
+    if (!n) return out;
+    const std::string name = prefix_ + "." + std::string(key);
+    const toml::array* a = n->as_array();
+    if (!a || a->empty() || !a->is_array_of_tables()) r_.fail(name, "must be one or more [[" + name + "]] tables");
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const std::string element = name + "[" + std::to_string(i) + "]";
+      r_.only_keys(*a->get(i)->as_table(), element, keys);
+      out.push_back(std::make_unique<TableInteractionReader>(r_, *a->get(i)->as_table(), site_types_, element));
+    }
+    return out;
+  }
+  int site_types() const override { return site_types_; }
   std::string choice(std::string_view key, std::initializer_list<std::string_view> allowed) const override {
-    return r_.string(t_, "interaction", std::string(key), allowed);
+    return r_.string(t_, prefix_, std::string(key), allowed);
   }
   [[noreturn]] void fail(std::string_view key, const std::string& what) const override {
-    r_.fail("interaction." + std::string(key), what);
+    r_.fail(prefix_ + "." + std::string(key), what);
   }
 
  private:
   const Reader& r_;
   const toml::table& t_;
+  int site_types_;
+  std::string prefix_;
 };
 
 /// [interaction]: kind "none" or a registered kind (interactions/registry.hpp),
 /// its keys only, read and checked by its descriptor.
-InteractionSpec read_interaction(const Reader& r, const toml::table& root) {
+InteractionSpec read_interaction(const Reader& r, const toml::table& root, int site_types) {
   InteractionSpec spec;
   const toml::table* t = r.optional_table(root, "", "interaction");
   if (!t) return spec;
@@ -577,8 +619,78 @@ InteractionSpec read_interaction(const Reader& r, const toml::table& root) {
   std::vector<std::string_view> keys{"kind"};
   if (spec.descriptor) keys.insert(keys.end(), spec.descriptor->keys.begin(), spec.descriptor->keys.end());
   r.only_keys(*t, "interaction", keys);
-  if (spec.descriptor) spec.descriptor->read(TableInteractionReader(r, *t), spec);
+  if (spec.descriptor) spec.descriptor->read(TableInteractionReader(r, *t, site_types), spec);
   return spec;
+}
+
+/// A table's `periodic`: three booleans, one per axis (default all true).
+std::array<bool, 3> read_periodic(const Reader& r, const toml::table& t, const std::string& prefix) {
+  std::array<bool, 3> periodic{true, true, true};
+  if (const toml::node* n = t.get("periodic")) {
+    const toml::array* a = n->as_array();
+    if (!a || a->size() != 3)
+      r.fail(prefix + ".periodic", "must be an array of 3 booleans, one per axis, e.g. [true, true, false]");
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (!a->get(k)->is_boolean())
+        r.fail(prefix + ".periodic[" + std::to_string(k) + "]", "must be true (periodic) or false (open)");
+      periodic[k] = a->get(k)->value<bool>().value();
+    }
+  }
+  return periodic;
+}
+
+/// [import] lammps_data = "FILE" (lammps_data.hpp): the bodies, their initial
+/// state and the box of a LAMMPS data file, in place of [[bodies]] and [box].
+/// Keys: radius (one, or one per atom type; default 0: point masses),
+/// periodic (default [true, true, true], LAMMPS's `boundary p p p`) and
+/// checksum (written by the run into its copy of the scenario, whose
+/// lammps_data is then absolute: a resume refuses a changed file). `root`'s
+/// table is rewritten so.
+Box read_import(const Reader& r, toml::table& root, const std::string& scenario_name, BodyList& bodies,
+                std::vector<std::string>& names, SystemState& state) {
+  for (const char* other : {"bodies", "body", "initial", "box"})
+    if (root.contains(other))
+      r.fail(other, std::string("an [import] gives the bodies, their initial state and the box; remove [") + other +
+                        (std::string(other) == "bodies" ? "]]" : "]") + " (or the [import])");
+  toml::table& t = *root.get("import")->as_table();
+  r.only_keys(t, "import", {"lammps_data", "radius", "periodic", "checksum"});
+  const toml::node* file_node = t.get("lammps_data");
+  if (!file_node || !file_node->is_string())
+    r.fail("import.lammps_data", "missing (a string: the LAMMPS data file, relative to the scenario file)");
+  std::filesystem::path file(file_node->value<std::string>().value());
+  if (file.is_relative()) file = std::filesystem::path(scenario_name).parent_path() / file;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec))
+    r.fail("import.lammps_data", "\"" + printable(file.string()) + "\" is not a file (the path is relative to the "
+                                                                   "scenario file)");
+  std::vector<double> radius;
+  if (t.contains("radius")) {
+    bool scalar = false;
+    radius = r.numbers(*t.get("radius"), "import.radius", scalar);
+    for (std::size_t k = 0; k < radius.size(); ++k)
+      if (!(radius[k] >= 0.0))
+        r.fail("import.radius", "must be >= 0 (a ball's radius per atom type; 0: point masses)");
+  }
+  const std::array<bool, 3> periodic = read_periodic(r, t, "import");
+  const std::string checksum = file_checksum(file.string());
+  if (const toml::node* n = t.get("checksum")) {
+    if (!n->is_string() || n->value<std::string>().value() != checksum)
+      r.fail("import.checksum", "the data file " + printable(file.string()) + " is not the one this run began with " +
+                                    "(its checksum is now " + checksum +
+                                    "); restore it, or start the run again without this key");
+  }
+  LammpsDataBodies data = read_lammps_data(file.string(), radius);
+  if (data.bodies.size() > 1000000) r.fail("import.lammps_data", "more than 10^6 bodies");
+  for (RigidBody& b : data.bodies) {
+    bodies.kinds.push_back(std::move(b));
+    bodies.kind.push_back(static_cast<std::uint32_t>(bodies.kinds.size() - 1));
+  }
+  names = std::move(data.names);
+  state = SystemState(data.states.size());
+  for (std::size_t a = 0; a < data.states.size(); ++a) state.set_body(a, data.states[a]);
+  t.insert_or_assign("lammps_data", std::filesystem::absolute(file).lexically_normal().string());
+  t.insert_or_assign("checksum", checksum);
+  return Box(data.lower, data.upper, periodic);
 }
 
 /// [box]: lower, upper and periodic (default [true, true, true]); free space
@@ -590,17 +702,7 @@ Box read_box(const Reader& r, const toml::table& root, bool bodies_format) {
     r.fail("box", "a box holds [[bodies]]; a single-body scenario ([body] + [initial]) has no pairs to wrap");
   r.only_keys(*t, "box", {"lower", "upper", "periodic"});
   const Vector3<double> lower = r.vector<3>(*t, "box", "lower"), upper = r.vector<3>(*t, "box", "upper");
-  std::array<bool, 3> periodic{true, true, true};
-  if (const toml::node* n = t->get("periodic")) {
-    const toml::array* a = n->as_array();
-    if (!a || a->size() != 3)
-      r.fail("box.periodic", "must be an array of 3 booleans, one per axis, e.g. [true, true, false]");
-    for (std::size_t k = 0; k < 3; ++k) {
-      if (!a->get(k)->is_boolean())
-        r.fail("box.periodic[" + std::to_string(k) + "]", "must be true (periodic) or false (open)");
-      periodic[k] = a->get(k)->value<bool>().value();
-    }
-  }
+  const std::array<bool, 3> periodic = read_periodic(r, *t, "box");
   for (int k = 0; k < 3; ++k) {
     const std::string at = "[" + std::to_string(k) + "]";
     if (!(upper(k) > lower(k)))
@@ -936,14 +1038,19 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
     throw InvalidInput(os.str());
   }
   r.only_keys(root, "", {"body", "bodies", "potential", "initial", "interaction", "integrator", "output", "run",
-                         "forcing", "box"});
-  const bool bodies_format = root.contains("bodies");
+                         "forcing", "box", "import"});
+  if (root.contains("import") && !root.get("import")->is_table()) r.fail("import", "must be a table [import]");
+  const bool imported = root.contains("import");
+  const bool bodies_format = root.contains("bodies") || imported;
   if (bodies_format && (root.contains("body") || root.contains("initial")))
     r.fail("bodies", "give either [body] + [initial] (one body) or [[bodies]] tables, not both");
   BodyList bodies;
   std::vector<std::string> names;
   SystemState initial;
-  if (bodies_format) {
+  Box box;
+  if (imported) {
+    box = read_import(r, root, name, bodies, names, initial);
+  } else if (bodies_format) {
     read_bodies(r, root, bodies, names, initial);
   } else {
     bodies.kinds.push_back(read_body(r, root));
@@ -952,8 +1059,11 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   PotentialSpec potential = read_potential(r, root);
   const std::string converted = bodies_format ? std::string() : convert_orbit_attitude(r, root, bodies[0], potential);
   if (!bodies_format) initial = SystemState(read_initial(r, root, bodies[0]));
-  const InteractionSpec interaction = read_interaction(r, root);
-  const Box box = read_box(r, root, bodies_format);
+  int site_types = 1;
+  for (const RigidBody& kind : bodies.kinds)
+    for (const Ball& ball : kind.balls()) site_types = std::max(site_types, ball.type);
+  const InteractionSpec interaction = read_interaction(r, root, site_types);
+  if (!imported) box = read_box(r, root, bodies_format);
   require_fits_box(r, box, bodies, potential, interaction);
   // The state is unwrapped, but a body placed millions of box lengths away
   // would have lost its place in the box to rounding.
@@ -1060,10 +1170,11 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   sc.output_every = every;
   sc.output_format = format;
   sc.source_text = text;
-  if (inlined || !converted.empty()) {
-    // File tables were read into the document, or [initial] orbit / attitude
-    // converted into plain keys: the run's copy of the scenario holds them
-    // (toml++ prints each double to round-trip).
+  if (inlined || !converted.empty() || imported) {
+    // File tables were read into the document, [initial] orbit / attitude
+    // converted into plain keys, or an [import]'s file made absolute with its
+    // checksum: the run's copy of the scenario holds them (toml++ prints each
+    // double to round-trip).
     sc.source_text = converted + write_toml(root) + "\n";
   }
   return sc;

@@ -21,6 +21,7 @@
 #include <string>
 #include <string_view>
 #include <utility>
+#include <vector>
 
 namespace lgvi::app {
 
@@ -39,6 +40,18 @@ struct PotentialSpec {
 
 struct InteractionDescriptor;  // interactions/registry.hpp
 
+/// The most site types (Ball::type) a scenario may use: a typed pair
+/// potential holds a table of types^2 coefficients.
+inline constexpr int max_site_types = 256;
+
+/// One pair of site types' coefficients (`[[interaction.pair]]`, or mixed
+/// from the types' own), types first <= second.
+struct TypePairSpec {
+  int first = 1, second = 1;
+  std::map<std::string, double, std::less<>> numbers;  ///< e.g. epsilon, sigma
+  bool mixed = false;  ///< mixed from (first, first) and (second, second) rather than given
+};
+
 /// Mutual interactions between the bodies (`[interaction]`): which one (its
 /// descriptor, interactions/registry.hpp; null: none) and its keys as read,
 /// defaults filled in.
@@ -46,6 +59,9 @@ struct InteractionSpec {
   const InteractionDescriptor* descriptor = nullptr;
   std::map<std::string, double, std::less<>> numbers;      ///< e.g. G, epsilon, sigma, cutoff, skin
   std::map<std::string, std::string, std::less<>> words;  ///< e.g. model
+  /// Per pair of site types, every pair first <= second of the system's
+  /// types; empty where the interaction has one set of coefficients for all.
+  std::vector<TypePairSpec> type_pairs;
   bool none() const { return descriptor == nullptr; }
   /// A key the descriptor has read (std::logic_error otherwise).
   double number(std::string_view key) const;

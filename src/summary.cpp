@@ -21,8 +21,10 @@ Json inertia_json(const RigidBody& b) {
 }
 Json balls_json(const RigidBody& b) {
   Json balls = Json::array();
-  for (const Ball& ball : b.balls())
+  for (const Ball& ball : b.balls()) {
     balls.push_back({{"position", to_vector(ball.position)}, {"mass", ball.mass}, {"radius", ball.radius}});
+    if (ball.type != 1) balls.back()["type"] = ball.type;  // (written where it is not the default)
+  }
   return balls;
 }
 

@@ -332,7 +332,7 @@ TEST(LennardJonesPairs, VectorizedTermsAreTheScalarFormulaBitForBit) {
   dy.push_back(0.0);
   dz.push_back(0.0);
   std::vector<double> fx(dx.size()), fy(dx.size()), fz(dx.size()), energy(dx.size());
-  ASSERT_TRUE(lgvi::detail::pair_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), fx.data(), fy.data(), fz.data(),
+  ASSERT_TRUE(lgvi::detail::pair_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), nullptr, fx.data(), fy.data(), fz.data(),
                                        energy.data()));
   int inside = 0;
   for (std::size_t k = 0; k < dx.size(); ++k) {
@@ -350,7 +350,7 @@ TEST(LennardJonesPairs, VectorizedTermsAreTheScalarFormulaBitForBit) {
   EXPECT_LT(inside, 200);
   // A separation of zero (two sites on top of each other) is reported.
   dx[7] = dy[7] = dz[7] = 0.0;
-  EXPECT_FALSE(lgvi::detail::pair_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), fx.data(), fy.data(), fz.data(),
+  EXPECT_FALSE(lgvi::detail::pair_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), nullptr, fx.data(), fy.data(), fz.data(),
                                         energy.data()));
 }
 
@@ -544,6 +544,95 @@ TEST(LennardJonesPairs, ListsFindEveryPairOfBodiesLargerThanTheReachAndInADilute
   dilute.x[5] += V3(1000.0, 0.0, 0.0);
   dilute.x[6] += V3(1000.0, 0.5, 0.0);
   expect_index_order_sums(molecules(64), dilute, "dilute");
+}
+
+/// n triangle molecules of site types 1 and 2: even molecules (1, 2, 1), odd
+/// ones (2, 2, 2), so that every pair of types meets.
+System typed_molecules(std::size_t n) {
+  const double s3 = std::sqrt(3.0);
+  const RigidBody even = RigidBody::from_balls(
+      {{V3(0.0, 0.0, 0.0), 1.0, 0.5, 1}, {V3(1.0, 0.0, 0.0), 2.0, 0.5, 2}, {V3(0.5, 0.5 * s3, 0.0), 1.0, 0.5, 1}});
+  const RigidBody odd = RigidBody::from_balls(
+      {{V3(0.0, 0.0, 0.0), 2.0, 0.5, 2}, {V3(1.0, 0.0, 0.0), 2.0, 0.5, 2}, {V3(0.5, 0.5 * s3, 0.0), 2.0, 0.5, 2}});
+  std::vector<RigidBody> bodies;
+  for (std::size_t a = 0; a < n; ++a) bodies.push_back(a % 2 ? odd : even);
+  return System(std::move(bodies));
+}
+
+TEST(LennardJonesTypes, AUniformTableIsTheOneKernelBitForBit) {
+  // Every pair of the two types with eps = 1, sigma = 1: the typed kernel's operations are the
+  // untyped one's, so forces, torques and energies are equal to the bit.
+  const System sys = typed_molecules(64);
+  const SystemState s = lattice_state(64, 1.7, 0.0);
+  const lgvi::LennardJonesTypes typed(sys, lgvi::LennardJonesTypesKernel(2, {1, 1, 1, 1}, {1, 1, 1, 1}, 2.5), 0.3);
+  const LennardJones one(sys, 1.0, 1.0, 2.5);
+  SystemEvaluation a(s.size()), b(s.size());
+  typed.add(s, a);
+  one.add(s, b);
+  EXPECT_EQ(a.energy, b.energy);
+  for (std::size_t k = 0; k < s.size(); ++k) {
+    EXPECT_EQ(a.force[k], b.force[k]) << k;
+    EXPECT_EQ(a.torque[k], b.torque[k]) << k;
+  }
+}
+
+TEST(LennardJonesTypes, ForcesTorquesAndEnergyEqualADirectSumWithEachPairsCoefficients) {
+  // Types 1 and 2 with their own eps and sigma and a pair (1, 2) of its own, against the O(S^2)
+  // sum that takes each pair's coefficients from its sites' types; the tolerance as in
+  // LennardJonesPairs.ForcesTorquesAndEnergyEqualADirectSumOverAllPairs (round-off of sums of
+  // ~100 terms in another order, relative to the sum of the terms' magnitudes).
+  const System sys = typed_molecules(64);
+  const SystemState s = lattice_state(64, 1.8, 0.0);
+  const double eps[2][2] = {{1.0, 0.6}, {0.6, 1.7}}, sigma[2][2] = {{1.0, 1.05}, {1.05, 1.2}}, cutoff = 2.7;
+  const lgvi::LennardJonesTypes lj(
+      sys, lgvi::LennardJonesTypesKernel(2, {1.0, 0.6, 0.6, 1.7}, {1.0, 1.05, 1.05, 1.2}, cutoff), 0.3);
+  const lgvi::InteractionSites sites(sys);
+  std::vector<V3> pos, arm;
+  sites.place(s, Parallelism{}, pos, arm);
+  std::vector<V3> force(s.size(), V3::Zero()), torque(s.size(), V3::Zero());
+  std::vector<double> scale(s.size(), 0.0);
+  double energy = 0.0, magnitude = 0.0;
+  int kinds[2][2] = {{0, 0}, {0, 0}};
+  for (std::size_t i = 0; i < sites.size(); ++i)
+    for (std::size_t j = 0; j < sites.size(); ++j) {
+      const std::size_t a = sites.body_of(i);
+      if (a == sites.body_of(j)) continue;
+      const std::uint32_t ti = sites.type(i), tj = sites.type(j);
+      const double e = eps[ti][tj], sg = sigma[ti][tj];
+      const V3 d = pos[j] - pos[i];
+      const double r2 = d.squaredNorm();
+      if (r2 >= cutoff * cutoff) continue;
+      ++kinds[ti][tj];
+      const double sr6 = std::pow(sg * sg / r2, 3), sr6c = std::pow(sg * sg / (cutoff * cutoff), 3);
+      const V3 f = -24.0 * e * (2.0 * sr6 * sr6 - sr6) / r2 * d;
+      force[a] += f;
+      torque[a] += s.q[a].inverse().act(arm[i].cross(f));
+      scale[a] += f.norm() * (1.0 + arm[i].norm());
+      if (i < j) {
+        const double u = 4.0 * e * (sr6 * sr6 - sr6) - 4.0 * e * (sr6c * sr6c - sr6c);
+        energy += u;
+        magnitude += std::abs(u);
+      }
+    }
+  for (int ti = 0; ti < 2; ++ti)
+    for (int tj = 0; tj < 2; ++tj) EXPECT_GT(kinds[ti][tj], 50) << "pairs of types " << ti + 1 << ", " << tj + 1;
+  SystemEvaluation e(s.size());
+  lj.add(s, e);
+  for (std::size_t a = 0; a < s.size(); ++a) {
+    EXPECT_LE((e.force[a] - force[a]).norm(), 1e-12 * scale[a]) << "body " << a;
+    EXPECT_LE((e.torque[a] - torque[a]).norm(), 1e-12 * scale[a]) << "body " << a;
+  }
+  EXPECT_NEAR(e.energy, energy, 1e-12 * magnitude);
+}
+
+TEST(LennardJonesTypes, ASiteWithoutCoefficientsIsRefused) {
+  const System sys = typed_molecules(2);
+  try {
+    const lgvi::LennardJonesTypes lj(sys, lgvi::LennardJonesTypesKernel(1, {1.0}, {1.0}, 2.5), 0.3);
+    FAIL() << "no exception";
+  } catch (const lgvi::InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("a site of type 2 has no coefficients"), std::string::npos) << e.what();
+  }
 }
 
 TEST(LennardJonesPairs, TwoSitesOnTopOfEachOtherStopTheRunNamingBoth) {

@@ -26,6 +26,7 @@
 #include <concepts>
 #include <limits>
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -128,7 +129,7 @@ class Coupled {
 
 /// The interaction sites of a system's bodies, flattened: body a's sites are
 /// [begin(a), begin(a + 1)), each with its body-frame position rho (relative
-/// to the centre of mass), mass and radius. A body made of balls has one site
+/// to the centre of mass), mass, radius and type. A body made of balls has one site
 /// per ball; a body given by mass and inertia has one site at its centre of
 /// mass with the whole mass (radius 0).
 class InteractionSites {
@@ -139,9 +140,9 @@ class InteractionSites {
     for (std::size_t a = 0; a < sys.size(); ++a) {
       const RigidBody& b = sys.body(a);
       if (b.balls().empty()) {
-        add(a, Vector3<double>::Zero(), b.mass(), 0.0);
+        add(a, Vector3<double>::Zero(), b.mass(), 0.0, 1);
       } else {
-        for (const Ball& ball : b.balls()) add(a, ball.position, ball.mass, ball.radius);
+        for (const Ball& ball : b.balls()) add(a, ball.position, ball.mass, ball.radius, ball.type);
       }
       offset_.push_back(rho_.size());
     }
@@ -155,6 +156,8 @@ class InteractionSites {
   const Vector3<double>& rho(std::size_t i) const { return rho_[i]; }
   double mass(std::size_t i) const { return mass_[i]; }
   double radius(std::size_t i) const { return radius_[i]; }
+  /// The site's type, 0-based (Ball::type - 1; 0 for a body given by mass and inertia).
+  std::uint32_t type(std::size_t i) const { return type_[i]; }
   /// The ball's index within its body (for messages).
   std::size_t local_index(std::size_t i) const { return i - offset_[body_[i]]; }
 
@@ -186,14 +189,16 @@ class InteractionSites {
   }
 
  private:
-  void add(std::size_t body, const Vector3<double>& rho, double mass, double radius) {
+  void add(std::size_t body, const Vector3<double>& rho, double mass, double radius, int type) {
     rho_.push_back(rho);
     mass_.push_back(mass);
     radius_.push_back(radius);
+    type_.push_back(static_cast<std::uint32_t>(type - 1));
     body_.push_back(body);
   }
   std::vector<Vector3<double>> rho_;
   std::vector<double> mass_, radius_;
+  std::vector<std::uint32_t> type_;
   std::vector<std::size_t> body_, offset_;
 };
 

@@ -23,11 +23,14 @@
 namespace lgvi {
 
 /// A uniform ball: a point mass at `position` (body frame) with the inertia
-/// 2/5 m r^2 I of a solid sphere about its own centre.
+/// 2/5 m r^2 I of a solid sphere about its own centre. As an interaction
+/// site it has a `type` (1, 2, ...; LAMMPS's atom types), which picks a
+/// typed pair potential's coefficients.
 struct Ball {
   Vector3<double> position = Vector3<double>::Zero();
   double mass = 0.0;
   double radius = 0.0;
+  int type = 1;
 };
 
 /// What is known of a body's extent, in body axes about its centre of mass.
@@ -78,6 +81,7 @@ class RigidBody {
         throw InvalidInput(name + ".mass: must be a finite number > 0, got " + std::to_string(b.mass));
       if (!(std::isfinite(b.radius) && b.radius >= 0.0))
         throw InvalidInput(name + ".radius: must be a finite number >= 0, got " + std::to_string(b.radius));
+      if (b.type < 1) throw InvalidInput(name + ".type: must be an integer >= 1, got " + std::to_string(b.type));
       m += b.mass;
       c += b.mass * b.position;
     }

@@ -113,6 +113,15 @@ class Scenario:
                     box: Optional[Dict[str, Any]] = ..., name: str = ...) -> Scenario:
         """A scenario of N bodies from (N, 3) / (N, 4) arrays, validated by the reader of `lgvi run`."""
         ...
+    @classmethod
+    def from_lammps_data(cls, path: Union[str, "os.PathLike[str]"], *, interaction: Dict[str, Any], step: float,
+                         duration: float, radius: Union[None, float, Sequence[float]] = ...,
+                         periodic: Optional[Sequence[bool]] = ..., potential: PotentialSpec = ...,
+                         method: Method = ..., order: Optional[int] = ..., every: int = ...,
+                         threads: Optional[int] = ..., on_contact: Optional[Literal["stop", "warn", "ignore"]] = ...,
+                         name: Optional[str] = ...) -> Scenario:
+        """The molecules of a LAMMPS data file as rigid bodies ([import] lammps_data)."""
+        ...
     def replace(self, *, body: Body = ..., potential: PotentialSpec = ..., position: Vector3 = ...,
                 quaternion: Quaternion = ..., momentum: Vector3 = ..., velocity: Vector3 = ..., w: Vector3 = ...,
                 omega: Vector3 = ..., method: Method = ..., solver: Solver = ..., step: float = ...,

@@ -42,28 +42,37 @@ def _floats(a):
 # ---------------------------------------------------------------------------
 # Bodies
 
+# The most site types a scenario may use (max_site_types, src/scenario.hpp).
+MAX_SITE_TYPES = 256
+
+
 def _ball(b, i):
     name = f"balls[{i}]"
+    site_type = None
     if isinstance(b, dict):
-        unknown = set(b) - {"position", "mass", "radius"}
+        unknown = set(b) - {"position", "mass", "radius", "type"}
         if unknown:
             raise ValueError(f"{name}: unknown key(s) {', '.join(sorted(map(str, unknown)))}; "
-                             f"a ball has position, mass, radius")
+                             f"a ball has position, mass, radius and optionally type")
         if "position" not in b or "mass" not in b or "radius" not in b:
             raise ValueError(f"{name}: needs position, mass and radius (radius 0 for a point mass), as a "
                              f"[[body.ball]] of a scenario file does")
-        position, mass, radius = b["position"], b["mass"], b["radius"]
+        position, mass, radius, site_type = b["position"], b["mass"], b["radius"], b.get("type")
     elif isinstance(b, (tuple, list)) and len(b) == 2:
         raise ValueError(f"{name}: needs (position, mass, radius) (radius 0 for a point mass), as a "
                          f"[[body.ball]] of a scenario file does; got {b!r}")
-    elif isinstance(b, (tuple, list)) and len(b) == 3:
-        position, mass, radius = b
+    elif isinstance(b, (tuple, list)) and len(b) in (3, 4):
+        position, mass, radius = b[:3]
+        site_type = b[3] if len(b) == 4 else None
     else:
-        raise ValueError(f"{name}: must be (position, mass, radius) or a dict with position, mass, radius; "
-                         f"got {b!r}")
-    return {"position": _floats(_check.vector3(position, f"{name}.position")),
-            "mass": _check.positive(mass, f"{name}.mass"),
-            "radius": _check.non_negative(radius, f"{name}.radius")}
+        raise ValueError(f"{name}: must be (position, mass, radius), (position, mass, radius, type) or a dict with "
+                         f"position, mass, radius (and type); got {b!r}")
+    out = {"position": _floats(_check.vector3(position, f"{name}.position")),
+           "mass": _check.positive(mass, f"{name}.mass"),
+           "radius": _check.non_negative(radius, f"{name}.radius")}
+    if site_type is not None:
+        out["type"] = _check.integer(site_type, f"{name}.type", 1, MAX_SITE_TYPES)
+    return out
 
 
 class Body:
@@ -100,7 +109,8 @@ class Body:
                 raise ValueError(f"balls: must be a non-empty list of (position, mass, radius), got {balls!r}")
             spec = {"ball": [_ball(b, i) for i, b in enumerate(balls)]}
             try:
-                core = _core.Body.from_balls([(b["position"], b["mass"], b["radius"]) for b in spec["ball"]])
+                core = _core.Body.from_balls([(b["position"], b["mass"], b["radius"], b.get("type", 1))
+                                              for b in spec["ball"]])
             except ValueError as e:
                 raise _value_error(str(e).replace("body.ball[", "balls[")
                                    .replace("body.inertia:", "balls: the inertia of these balls")) from None
@@ -443,6 +453,50 @@ class Scenario:
                             names=names, potential=potential, interaction=interaction, method=method, order=order,
                             every=every, threads=threads, on_contact=on_contact, box=box, name=name)
 
+    @classmethod
+    def from_lammps_data(cls, path, *, interaction, step, duration, radius=None, periodic=None, potential=None,
+                         method="lgvi", order=None, every=1, threads=None, on_contact=None, name=None):
+        """A scenario of the molecules of a LAMMPS data file (``[import] lammps_data``), each one rigid body.
+
+        ``path``: the data file (atom_style full, molecular, bond or angle:
+        Atoms with molecule IDs, Masses, optional Velocities; the box from
+        its bounds). Each molecule's atoms are point masses (or balls of
+        ``radius``: one number, or one per atom type) at their unwrapped
+        positions; its momentum and angular momentum are the rigid projection
+        of the atoms' velocities, as LAMMPS's ``fix rigid/small`` makes them.
+        ``periodic``: 3 booleans (default all true, ``boundary p p p``).
+        ``interaction``: as for from_arrays, e.g. ``{"kind": "lennard-jones",
+        "cutoff": 2.5, "pair": [{"types": (1, 1), "epsilon": 1.0, "sigma":
+        1.0}, ...], "mixing": "geometric"}`` (the atom types are the site
+        types). ``name``: default the file's stem. The rest as for
+        from_arrays. ValueError with the reader's one-line message, naming
+        the file and the line, for a file it cannot read.
+        """
+        path = os.path.abspath(os.fspath(path))
+        if not os.path.isfile(path):
+            raise FileNotFoundError(2, "No such LAMMPS data file", path)
+        table = {"lammps_data": path}
+        if radius is not None:
+            if isinstance(radius, (list, tuple, np.ndarray)):
+                table["radius"] = [_check.non_negative(r, f"radius[{k}]") for k, r in enumerate(radius)]
+            else:
+                table["radius"] = _check.non_negative(radius, "radius")
+        if periodic is not None:
+            table["periodic"] = _periodic(periodic, "periodic")
+        integ, run = _integrator_and_run(method, step, duration, order, threads, on_contact)
+        lines = []
+        tables = (("import", table), ("potential", _potential.spec(potential)),
+                  ("interaction", _interaction(interaction)), ("integrator", integ),
+                  ("output", {"every": _check.integer(every, "every", 1)}), ("run", run or None))
+        for key, t in tables:
+            if t is None:
+                continue
+            lines.append(f"[{key}]")
+            lines.extend(f"{k} = {_toml_value(v)}" for k, v in t.items())
+            lines.append("")
+        stem = os.path.splitext(os.path.basename(path))[0]
+        return cls._wrap(_parse("\n".join(lines), _check_name(stem if name is None else name)))
+
     def replace(self, **changes):
         """A copy with some arguments changed, e.g. ``scenario.replace(step=0.005, duration=10)``.
 
@@ -631,8 +685,31 @@ def _interaction(interaction):
     for k, v in interaction.items():
         if k == "model":
             out[k] = _check.choice(v, "interaction.model", ("balls", "inertia"))
+        elif k == "mixing":
+            out[k] = _check.choice(v, "interaction.mixing", ("geometric", "arithmetic"))
+        elif k == "pair":
+            out[k] = _type_pairs(v)
         elif k != "kind":
             out[k] = _check.number(v, f"interaction.{k}")
+    return out
+
+
+def _type_pairs(pairs):
+    """[[interaction.pair]] from a list of dicts {"types": (i, j), "epsilon": .., "sigma": ..}."""
+    if isinstance(pairs, (str, bytes, dict)) or not hasattr(pairs, "__len__") or len(pairs) == 0:
+        raise ValueError(f"interaction.pair: must be a non-empty list of dicts {{'types': (1, 2), 'epsilon': .., "
+                         f"'sigma': ..}}, got {pairs!r}")
+    out = []
+    for k, p in enumerate(pairs):
+        name = f"interaction.pair[{k}]"
+        if not isinstance(p, dict) or set(p) != {"types", "epsilon", "sigma"}:
+            raise ValueError(f"{name}: must be a dict with types, epsilon and sigma, got {p!r}")
+        types = p["types"]
+        if isinstance(types, (str, bytes)) or not hasattr(types, "__len__") or len(types) != 2:
+            raise ValueError(f"{name}.types: must be two site types (i, j), got {types!r}")
+        out.append({"types": [_check.integer(t, f"{name}.types", 1, MAX_SITE_TYPES) for t in types],
+                    "epsilon": _check.positive(p["epsilon"], f"{name}.epsilon"),
+                    "sigma": _check.positive(p["sigma"], f"{name}.sigma")})
     return out
 
 
@@ -714,6 +791,14 @@ def _from_arrays(cls, *, bodies, positions, quaternions, step, duration, momenta
         names = [str(x) for x in names]
         if len(names) != n:
             raise ValueError(f"names: must have one name per body ({n}), got {len(names)}")
+    integ, run = _integrator_and_run(method, step, duration, order, threads, on_contact)
+    text = _system_toml(bodies, rows, names, _potential.spec(potential), _interaction(interaction), integ,
+                        _check.integer(every, "every", 1), run, _box(box))
+    return cls._wrap(_parse(text, _check_name(name)))
+
+
+def _integrator_and_run(method, step, duration, order, threads, on_contact):
+    """The [integrator] and [run] tables of a many-body scenario built in Python; ValueError naming the argument."""
     integ = {"method": _check.choice(method, "method", METHODS), "step": _check.positive(step, "step"),
              "duration": _check.non_negative(duration, "duration")}
     if order is not None:
@@ -723,9 +808,15 @@ def _from_arrays(cls, *, bodies, positions, quaternions, step, duration, momenta
         run["threads"] = _check.integer(threads, "threads", 1)
     if on_contact is not None:
         run["on_contact"] = _check.choice(on_contact, "on_contact", ("stop", "warn", "ignore"))
-    text = _system_toml(bodies, rows, names, _potential.spec(potential), _interaction(interaction), integ,
-                        _check.integer(every, "every", 1), run, _box(box))
-    return cls._wrap(_parse(text, _check_name(name)))
+    return integ, run
+
+
+def _periodic(periodic, name):
+    """Three booleans, one per axis; ValueError naming the argument."""
+    if (isinstance(periodic, (str, bytes)) or not hasattr(periodic, "__len__") or len(periodic) != 3
+            or not all(isinstance(p, (bool, np.bool_)) for p in periodic)):
+        raise ValueError(f"{name}: must be 3 booleans, one per axis, got {periodic!r}")
+    return [bool(p) for p in periodic]
 
 
 def _box(box):
@@ -743,11 +834,7 @@ def _box(box):
             raise ValueError(f"box.{key}: missing (3 numbers)")
         table[key] = [float(x) for x in _check.vector3(box[key], f"box.{key}")]
     if "periodic" in box:
-        periodic = box["periodic"]
-        if (isinstance(periodic, (str, bytes)) or not hasattr(periodic, "__len__") or len(periodic) != 3
-                or not all(isinstance(p, (bool, np.bool_)) for p in periodic)):
-            raise ValueError(f"box.periodic: must be 3 booleans, one per axis, got {periodic!r}")
-        table["periodic"] = [bool(p) for p in periodic]
+        table["periodic"] = _periodic(box["periodic"], "box.periodic")
     return table
 
 

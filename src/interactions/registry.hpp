@@ -14,7 +14,9 @@
 #include <lgvi/parallel.hpp>
 #include <lgvi/system.hpp>
 
+#include <cstdint>
 #include <initializer_list>
+#include <memory>
 #include <span>
 #include <string>
 #include <string_view>
@@ -24,13 +26,21 @@ namespace lgvi::app {
 
 /// The [interaction] table as a descriptor reads it: each method names a key
 /// of the table (e.g. "epsilon") and fails with the scenario reader's message
-/// naming "interaction.<key>".
+/// naming "interaction.<key>" (a sub-table's: "interaction.pair[0].<key>").
 class InteractionReader {
  public:
   virtual ~InteractionReader() = default;
   virtual bool has(std::string_view key) const = 0;
   /// The key's number (finite); fails if missing or not a number.
   virtual double number(std::string_view key) const = 0;
+  /// The key's array of `count` integers; fails otherwise.
+  virtual std::vector<std::int64_t> integers(std::string_view key, std::size_t count) const = 0;
+  /// The tables [[interaction.<key>]] (none if absent), each taking only `keys`.
+  virtual std::vector<std::unique_ptr<InteractionReader>> tables(std::string_view key,
+                                                                 std::initializer_list<std::string_view> keys) const = 0;
+  /// The number of site types of the scenario's bodies (the largest
+  /// Ball::type; 1 where no ball has a type).
+  virtual int site_types() const = 0;
   /// The key's string, one of `allowed`; fails otherwise.
   virtual std::string choice(std::string_view key, std::initializer_list<std::string_view> allowed) const = 0;
   [[noreturn]] virtual void fail(std::string_view key, const std::string& what) const = 0;

@@ -546,13 +546,14 @@ RigidBody body_from_balls(const py::sequence& balls) {
   for (std::size_t i = 0; i < balls.size(); ++i) {
     const std::string name = "balls[" + std::to_string(i) + "]";
     py::object b = balls[i];
-    if (!(py::isinstance<py::tuple>(b) || py::isinstance<py::list>(b)) || py::len(b) != 3)
-      throw py::value_error(name + ": must be (position, mass, radius)");
+    if (!(py::isinstance<py::tuple>(b) || py::isinstance<py::list>(b)) || (py::len(b) != 3 && py::len(b) != 4))
+      throw py::value_error(name + ": must be (position, mass, radius) or (position, mass, radius, type)");
     const py::sequence s = b.cast<py::sequence>();
     Ball ball;
     ball.position = vec3(s[0], name + ".position");
     ball.mass = number(s[1], name + ".mass");
     ball.radius = number(s[2], name + ".radius");
+    if (py::len(s) == 4) ball.type = s[3].cast<int>();
     v.push_back(ball);
   }
   return RigidBody::from_balls(std::move(v));
@@ -565,6 +566,7 @@ py::list balls_list(const RigidBody& b) {
     d["position"] = array3(ball.position);
     d["mass"] = ball.mass;
     d["radius"] = ball.radius;
+    d["type"] = ball.type;
     out.append(d);
   }
   return out;

@@ -13,6 +13,10 @@
 //   double cutoff() const;            r_c
 //   double cutoff2() const;           r_c^2, the bound of `inside` below
 //   PairTerms operator()(double r2) const;   {coef, energy} at r^2 = r2 < r_c^2
+// or, for a kernel of typed sites (TypedPairKernel: LAMMPS's atom types),
+//   std::uint32_t types() const;      the number of site types T
+//   PairTerms operator()(double r2, std::uint32_t pair) const;   pair = T t_i + t_j
+// (t the sites' types, 0-based: Ball::type - 1), one cutoff for every pair.
 // The call is made for every list entry, inside r_c or not, without a branch
 // (the result beyond r_c is discarded, by a select, below), so that the loop
 // over entries vectorizes; it must therefore be branch-free itself and
@@ -83,20 +87,31 @@ struct PairTerms {
   double coef, energy;
 };
 
-/// The contract of a pair kernel (the comment at the top of this file).
+/// The contract of a pair kernel of typed sites (the comment at the top of this file).
 template <class K>
-concept PairKernel = std::copyable<K> && requires(const K& k, double r2) {
+concept TypedPairKernel = std::copyable<K> && requires(const K& k, double r2, std::uint32_t pair) {
+  { k.cutoff() } -> std::convertible_to<double>;
+  { k.cutoff2() } -> std::convertible_to<double>;
+  { k.types() } -> std::convertible_to<std::uint32_t>;
+  { k(r2, pair) } -> std::same_as<PairTerms>;
+};
+
+/// The contract of a pair kernel (the comment at the top of this file): one
+/// function of r^2 for every pair, or one per pair of site types.
+template <class K>
+concept PairKernel = TypedPairKernel<K> || (std::copyable<K> && requires(const K& k, double r2) {
   { k.cutoff() } -> std::convertible_to<double>;
   { k.cutoff2() } -> std::convertible_to<double>;
   { k(r2) } -> std::same_as<PairTerms>;
-};
+});
 
 namespace detail {
 
 /// The pair terms of `count` list entries with separations d = (dx, dy, dz):
 /// r^2 = (dx^2 + dy^2) + dz^2, the force on the list's site f = coef d into
 /// (fx, fy, fz), and the pair's energy into `energy`, from the kernel for
-/// r^2 < r_c^2; all 0 for r >= r_c. Returns true if every force is finite
+/// r^2 < r_c^2; all 0 for r >= r_c. `pair`: each entry's pair of site types
+/// for a TypedPairKernel (ignored, and may be null, otherwise). Returns true if every force is finite
 /// (false may also mean a sum of components overflowed: the caller looks).
 /// Branch-free, so that the compiler vectorizes it (GCC does only without
 /// trapping math, which changes no result: it only stops treating the
@@ -116,15 +131,19 @@ __attribute__((target_clones("avx2", "default")))
 #endif
 #endif
 bool pair_terms(std::size_t count, const Kernel& kernel, const double* __restrict dx, const double* __restrict dy,
-                const double* __restrict dz, double* __restrict fx, double* __restrict fy, double* __restrict fz,
-                double* __restrict energy) {
-  const Kernel k = kernel;  // (a local copy: its constants stay in registers)
+                const double* __restrict dz, const std::uint32_t* __restrict pair, double* __restrict fx,
+                double* __restrict fy, double* __restrict fz, double* __restrict energy) {
+  // A local copy of a trivially copyable kernel (its constants stay in
+  // registers); a kernel that shares a table (TypedPairKernel's) by reference.
+  std::conditional_t<std::is_trivially_copyable_v<Kernel>, const Kernel, const Kernel&> k = kernel;
   const double cutoff2 = k.cutoff2();
   double bad = 0.0;  // (a double, not a bool: this form GCC vectorizes)
   for (std::size_t i = 0; i < count; ++i) {
     const double r2 = (dx[i] * dx[i] + dy[i] * dy[i]) + dz[i] * dz[i];
     const bool inside = r2 < cutoff2;
-    const PairTerms t = k(r2);  // computed for every entry: no branch
+    PairTerms t;  // computed for every entry: no branch
+    if constexpr (TypedPairKernel<Kernel>) t = k(r2, pair[i]);
+    else t = k(r2);
     const double coef = inside ? t.coef : 0.0;
     fx[i] = coef * dx[i];
     fy[i] = coef * dy[i];
@@ -148,6 +167,13 @@ class PairInteraction {
   PairInteraction(const System& sys, const Kernel& kernel, Parallelism par, double skin)
       : sys_(sys), sites_(sys), kernel_(kernel), cutoff_(kernel.cutoff()), skin_(skin),
         prune_margin_(prune_fraction * skin_), par_(par), box_(sys.box()) {
+    if constexpr (TypedPairKernel<Kernel>) {
+      for (std::size_t i = 0; i < sites_.size(); ++i)
+        if (sites_.type(i) >= kernel.types())
+          throw InvalidInput("interaction: a site of type " + std::to_string(sites_.type(i) + 1) +
+                             " has no coefficients (the interaction's types are 1.." +
+                             std::to_string(kernel.types()) + ")");
+    }
     if (box_.any_periodic() && !(2.0 * (cutoff_ + skin_) < box_.shortest_periodic_length()))
       throw InvalidInput("interaction.cutoff: the cutoff + skin = " + std::to_string(cutoff_ + skin_) +
                          " must be less than half the shortest periodic length of the box (" +
@@ -239,9 +265,11 @@ class PairInteraction {
   /// separations and the pairs' energies.
   struct Scratch {
     std::vector<double> dx, dy, dz, energy;
+    std::vector<std::uint32_t> pair;  ///< the entries' pairs of site types (a TypedPairKernel's)
     void resize(std::size_t count) {
       if (dx.size() >= count) return;
       for (std::vector<double>* v : {&dx, &dy, &dz, &energy}) v->resize(count);
+      if constexpr (TypedPairKernel<Kernel>) pair.resize(count);
     }
   };
   /// A range pass's buffers: also the pair forces (the crossing bodies' go
@@ -257,7 +285,8 @@ class PairInteraction {
 
   /// The separations d = X_j - X_i of the list entries of bodies [a, b) into
   /// the scratch (entry k - first, first the bodies' first entry); their count.
-  /// In a periodic box, each separation's minimum image (box.hpp).
+  /// In a periodic box, each separation's minimum image (box.hpp). For a
+  /// TypedPairKernel also each entry's pair of site types.
   template <class Buffers>
   std::size_t gather(std::size_t a, std::size_t b, Buffers& scratch) const {
     return box_.any_periodic() ? gather<true>(a, b, scratch) : gather<false>(a, b, scratch);
@@ -273,6 +302,11 @@ class PairInteraction {
         scratch.dx[k - first] = separation<Periodic>(xj(0) - xi(0), 0);
         scratch.dy[k - first] = separation<Periodic>(xj(1) - xi(1), 1);
         scratch.dz[k - first] = separation<Periodic>(xj(2) - xi(2), 2);
+      }
+      if constexpr (TypedPairKernel<Kernel>) {
+        const std::uint32_t row = kernel_.types() * sites_.type(i);
+        for (std::size_t k = list_start_[i]; k < list_start_[i + 1]; ++k)
+          scratch.pair[k - first] = row + sites_.type(neighbours_[k]);
       }
     }
     return count;
@@ -295,8 +329,8 @@ class PairInteraction {
   template <class Buffers>
   bool pair_terms(std::size_t a, std::size_t b, Buffers& scratch, double* fx, double* fy, double* fz) const {
     const std::size_t count = gather(a, b, scratch);
-    return detail::pair_terms(count, kernel_, scratch.dx.data(), scratch.dy.data(), scratch.dz.data(), fx, fy, fz,
-                              scratch.energy.data());
+    return detail::pair_terms(count, kernel_, scratch.dx.data(), scratch.dy.data(), scratch.dz.data(),
+                              scratch.pair.data(), fx, fy, fz, scratch.energy.data());
   }
 
   /// The energy of body a's pairs, summed in list order into energy_[a], from

@@ -1,0 +1,380 @@
+#include "lammps_data.hpp"
+
+#include "scenario.hpp"
+#include "toml_reader.hpp"
+
+#include <lgvi/error.hpp>
+
+#include <Eigen/Eigenvalues>
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <numeric>
+#include <optional>
+#include <string_view>
+#include <tuple>
+#include <unordered_map>
+
+namespace lgvi::app {
+namespace {
+
+/// The file read line by line: comments ('#' to the end) cut off and kept,
+/// the rest split at white space; messages name the file and the line.
+class DataLines {
+ public:
+  explicit DataLines(const std::string& path) : path_(path), in_(path, std::ios::binary) {
+    if (!in_) throw InvalidInput(printable(path) + ": cannot open the LAMMPS data file ([import] lammps_data is "
+                                                   "relative to the scenario file)");
+  }
+
+  /// The next line; false at the end of the file.
+  bool next() {
+    if (!std::getline(in_, text_)) return false;
+    ++number_;
+    if (!text_.empty() && text_.back() == '\r') text_.pop_back();
+    const std::size_t hash = text_.find('#');
+    comment_ = hash == std::string::npos ? std::string() : text_.substr(hash + 1);
+    if (hash != std::string::npos) text_.resize(hash);
+    tokens_.clear();
+    std::size_t i = 0;
+    while (i < text_.size()) {
+      while (i < text_.size() && std::isspace(static_cast<unsigned char>(text_[i]))) ++i;
+      const std::size_t start = i;
+      while (i < text_.size() && !std::isspace(static_cast<unsigned char>(text_[i]))) ++i;
+      if (i > start) tokens_.emplace_back(text_.data() + start, i - start);
+    }
+    return true;
+  }
+
+  const std::vector<std::string_view>& tokens() const { return tokens_; }
+  bool blank() const { return tokens_.empty(); }
+  /// A section's name ("Atoms", "Pair Coeffs"): a line that begins with a letter.
+  bool section() const { return !blank() && std::isalpha(static_cast<unsigned char>(tokens_[0][0])); }
+  std::string words(std::size_t from = 0) const {
+    std::string s;
+    for (std::size_t k = from; k < tokens_.size(); ++k) {
+      if (k > from) s.push_back(' ');
+      s.append(tokens_[k]);
+    }
+    return s;
+  }
+  /// The comment's first word ("Atoms # full" gives "full").
+  std::string comment_word() const {
+    std::size_t i = 0;
+    while (i < comment_.size() && std::isspace(static_cast<unsigned char>(comment_[i]))) ++i;
+    std::size_t j = i;
+    while (j < comment_.size() && !std::isspace(static_cast<unsigned char>(comment_[j]))) ++j;
+    return comment_.substr(i, j - i);
+  }
+
+  double number(std::size_t k, const char* what) const {
+    double v = 0.0;
+    const std::string_view t = tokens_[k];
+    const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
+    if (ec != std::errc() || end != t.data() + t.size() || !std::isfinite(v))
+      fail(fmt::format("{} must be a finite number, got \"{}\"", what, printable(t)));
+    return v;
+  }
+  std::int64_t integer(std::size_t k, const char* what) const {
+    std::int64_t v = 0;
+    const std::string_view t = tokens_[k];
+    const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
+    if (ec != std::errc() || end != t.data() + t.size())
+      fail(fmt::format("{} must be an integer, got \"{}\"", what, printable(t)));
+    return v;
+  }
+
+  [[noreturn]] void fail(const std::string& what) const {
+    throw InvalidInput(fmt::format("{}:{}: {}", printable(path_), number_, what));
+  }
+
+ private:
+  std::string path_;
+  std::ifstream in_;
+  std::string text_, comment_;
+  std::vector<std::string_view> tokens_;
+  long number_ = 0;
+};
+
+struct Atom {
+  std::int64_t id = 0, molecule = 0;
+  int type = 0;
+  Vector3<double> x = Vector3<double>::Zero();  ///< unwrapped: x + image * L
+  Vector3<double> v = Vector3<double>::Zero();
+};
+
+/// The Atoms section's columns: id mol type [q] x y z [ix iy iz].
+struct AtomColumns {
+  std::size_t position = 3;  ///< the column of x
+  bool images = false;
+};
+
+AtomColumns atom_columns(const DataLines& in, std::string& style) {
+  const std::size_t n = in.tokens().size();
+  if (style.empty()) {
+    if (n == 6 || n == 9) style = "molecular";
+    else if (n == 7 || n == 10) style = "full";
+    else
+      in.fail(fmt::format("an Atoms line has {} columns; lgvi reads atom_style molecular, bond or angle (id mol type x "
+                          "y z, and optionally ix iy iz: 6 or 9 columns) or full (id mol type q x y z [ix iy iz]: 7 "
+                          "or 10)",
+                          n));
+  }
+  const std::size_t base = style == "full" ? 7 : 6;
+  if (n != base && n != base + 3)
+    in.fail(fmt::format("an Atoms line of atom_style {} has {} or {} columns, this one {}", style, base, base + 3, n));
+  return {base - 3, n == base + 3};
+}
+
+}  // namespace
+
+LammpsDataBodies read_lammps_data(const std::string& path, const std::vector<double>& radius) {
+  DataLines in(path);
+  const std::string file = printable(path);
+  LammpsDataBodies out;
+  out.lower = Vector3<double>::Constant(-0.5);  // LAMMPS's defaults
+  out.upper = Vector3<double>::Constant(0.5);
+  std::optional<std::int64_t> header_atoms;
+  std::optional<std::int64_t> header_types;
+  if (!in.next()) throw InvalidInput(file + ": empty; a LAMMPS data file begins with a title line");
+  // The header: "N atoms", "N atom types", "xlo xhi" ..., until the first section.
+  bool more = in.next();
+  for (; more && !in.section(); more = in.next()) {
+    if (in.blank()) continue;
+    std::size_t numbers = 0;
+    while (numbers < in.tokens().size() &&
+           !std::isalpha(static_cast<unsigned char>(in.tokens()[numbers][0])))
+      ++numbers;
+    const std::string keyword = in.words(numbers);
+    if (keyword == "atoms" && numbers == 1) {
+      header_atoms = in.integer(0, "the number of atoms");
+      if (*header_atoms < 1 || *header_atoms > 100000000) in.fail("the number of atoms must be in [1, 10^8]");
+    } else if (keyword == "atom types" && numbers == 1) {
+      header_types = in.integer(0, "the number of atom types");
+      if (*header_types < 1 || *header_types > max_site_types)
+        in.fail(fmt::format("the number of atom types must be in [1, {}]", max_site_types));
+    } else if ((keyword == "xlo xhi" || keyword == "ylo yhi" || keyword == "zlo zhi") && numbers == 2) {
+      const int k = keyword[0] - 'x';
+      out.lower(k) = in.number(0, "the box's lower bound");
+      out.upper(k) = in.number(1, "the box's upper bound");
+      if (!(out.upper(k) > out.lower(k))) in.fail(keyword + ": the upper bound must exceed the lower");
+    } else if (keyword == "xy xz yz") {
+      in.fail("a triclinic box (xy xz yz) is not supported yet: lgvi's boxes are orthogonal");
+    } else if (numbers == 0) {
+      in.fail("expected a header line (\"N atoms\", \"N atom types\", \"xlo xhi\", ...) or a section name, got \"" +
+              printable(in.words()) + "\"");
+    }
+    // Other header lines (bonds, angles, their types, extra ... per atom) say
+    // nothing about rigid bodies: their sections are skipped below.
+  }
+  if (!header_atoms) throw InvalidInput(file + ": the header has no \"N atoms\" line");
+  if (!header_types) throw InvalidInput(file + ": the header has no \"N atom types\" line");
+  const auto atoms = static_cast<std::size_t>(*header_atoms);
+  const auto types = static_cast<std::size_t>(*header_types);
+  out.atoms = *header_atoms;
+  out.atom_types = static_cast<int>(types);
+  if (!radius.empty() && radius.size() != 1 && radius.size() != types)
+    throw InvalidInput(fmt::format("{}: [import] radius has {} entries; give one radius, or one per atom type ({})",
+                                   file, radius.size(), types));
+
+  std::vector<double> mass(types + 1, 0.0);
+  std::vector<Atom> atom;
+  std::unordered_map<std::int64_t, std::size_t> index;  // atom ID -> atom
+  bool have_masses = false, have_velocities = false;
+  const Vector3<double> length = out.upper - out.lower;
+  // Reads the `count` data lines of the section just named, calling row() on each.
+  auto section_rows = [&](std::size_t count, const std::string& name, const char* counted, auto&& row) {
+    for (std::size_t k = 0; k < count;) {
+      if (!in.next())
+        throw InvalidInput(fmt::format("{}: the {} section ends after {} lines; the header says {} {}", file, name, k,
+                                       count, counted));
+      if (in.blank()) continue;
+      if (in.section())
+        in.fail(fmt::format("the {} section has {} lines before \"{}\"; the header says {} {}", name, k,
+                            printable(in.words()), count, counted));
+      row();
+      ++k;
+    }
+    more = in.next();
+  };
+  while (more) {
+    if (in.blank()) {
+      more = in.next();
+      continue;
+    }
+    if (!in.section())
+      in.fail("a line of numbers outside any section: the section before it has more lines than its count in the "
+              "header");
+    const std::string name = in.words();
+    if (name == "Atoms") {
+      if (!atom.empty()) in.fail("a second Atoms section");
+      std::string style = in.comment_word();
+      if (!style.empty() && style != "full" && style != "molecular" && style != "bond" && style != "angle")
+        in.fail("atom_style " + printable(style) +
+                " has no molecule IDs; lgvi makes rigid bodies of the molecules of atom_style full, molecular, bond "
+                "or angle");
+      if (style == "bond" || style == "angle") style = "molecular";
+      atom.reserve(atoms);
+      index.reserve(atoms);
+      std::optional<AtomColumns> cols;
+      section_rows(atoms, "Atoms", "atoms", [&] {
+        if (!cols) cols = atom_columns(in, style);
+        if (in.tokens().size() != cols->position + 3 + (cols->images ? 3 : 0))
+          in.fail(fmt::format("an Atoms line of atom_style {} has {} columns, this one {}", style,
+                              cols->position + 3 + (cols->images ? 3 : 0), in.tokens().size()));
+        Atom a;
+        a.id = in.integer(0, "the atom ID");
+        if (a.id < 1) in.fail(fmt::format("the atom ID must be >= 1, got {}", a.id));
+        a.molecule = in.integer(1, "the molecule ID");
+        if (a.molecule < 0) in.fail(fmt::format("the molecule ID must be >= 0, got {}", a.molecule));
+        const std::int64_t type = in.integer(2, "the atom type");
+        if (type < 1 || type > static_cast<std::int64_t>(types))
+          in.fail(fmt::format("atom type {} is not in 1..{} (the header's atom types)", type, types));
+        a.type = static_cast<int>(type);
+        for (int k = 0; k < 3; ++k) {
+          a.x(k) = in.number(cols->position + static_cast<std::size_t>(k), "a coordinate");
+          if (cols->images) {
+            const std::int64_t image = in.integer(cols->position + 3 + static_cast<std::size_t>(k), "an image flag");
+            if (std::abs(image) > (std::int64_t{1} << 20)) in.fail("an image flag beyond 2^20");
+            a.x(k) += static_cast<double>(image) * length(k);
+          }
+        }
+        if (!index.emplace(a.id, atom.size()).second) in.fail(fmt::format("atom ID {} is given twice", a.id));
+        atom.push_back(a);
+      });
+      out.atom_style = style;
+    } else if (name == "Masses") {
+      if (have_masses) in.fail("a second Masses section");
+      have_masses = true;
+      section_rows(types, "Masses", "atom types", [&] {
+        if (in.tokens().size() != 2) in.fail("a Masses line is \"type mass\"");
+        const std::int64_t type = in.integer(0, "the atom type");
+        if (type < 1 || type > static_cast<std::int64_t>(types))
+          in.fail(fmt::format("atom type {} is not in 1..{} (the header's atom types)", type, types));
+        const double m = in.number(1, "the mass");
+        if (!(m > 0.0)) in.fail(fmt::format("the mass of atom type {} must be > 0, got {}", type, m));
+        if (mass[static_cast<std::size_t>(type)] != 0.0) in.fail(fmt::format("atom type {} has two masses", type));
+        mass[static_cast<std::size_t>(type)] = m;
+      });
+    } else if (name == "Velocities") {
+      if (atom.empty()) in.fail("the Velocities section comes before the Atoms section");
+      if (have_velocities) in.fail("a second Velocities section");
+      have_velocities = true;
+      std::vector<bool> seen(atom.size(), false);
+      section_rows(atoms, "Velocities", "atoms", [&] {
+        if (in.tokens().size() != 4) in.fail("a Velocities line is \"id vx vy vz\"");
+        const std::int64_t id = in.integer(0, "the atom ID");
+        const auto it = index.find(id);
+        if (it == index.end()) in.fail(fmt::format("atom ID {} is not in the Atoms section", id));
+        if (seen[it->second]) in.fail(fmt::format("atom ID {} has two velocities", id));
+        seen[it->second] = true;
+        for (int k = 0; k < 3; ++k) atom[it->second].v(k) = in.number(1 + static_cast<std::size_t>(k), "a velocity");
+      });
+    } else {
+      // Bonds, Angles, Pair Coeffs, ...: nothing a rigid body needs (the
+      // interaction is the scenario's; bonds within a molecule are rigid).
+      more = in.next();
+      while (more && !in.section()) more = in.next();
+    }
+  }
+  if (atom.empty()) throw InvalidInput(file + ": no Atoms section");
+  if (!have_masses) throw InvalidInput(file + ": no Masses section (lgvi needs each atom type's mass)");
+  for (std::size_t t = 1; t <= types; ++t)
+    if (mass[t] == 0.0) throw InvalidInput(fmt::format("{}: the Masses section gives no mass for atom type {}", file, t));
+
+  // Molecules in increasing ID (an atom's place in it: increasing atom ID),
+  // then the atoms of molecule 0, one body each.
+  std::vector<std::size_t> order(atom.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    const bool a0 = atom[a].molecule == 0, b0 = atom[b].molecule == 0;
+    if (a0 != b0) return b0;
+    return std::tie(atom[a].molecule, atom[a].id) < std::tie(atom[b].molecule, atom[b].id);
+  });
+  auto radius_of = [&](int type) {
+    return radius.empty() ? 0.0 : radius.size() == 1 ? radius[0] : radius[static_cast<std::size_t>(type - 1)];
+  };
+  std::vector<Ball> balls;
+  for (std::size_t first = 0; first < order.size();) {
+    const Atom& head = atom[order[first]];
+    std::size_t last = first + 1;
+    if (head.molecule != 0)
+      while (last < order.size() && atom[order[last]].molecule == head.molecule) ++last;
+    balls.clear();
+    for (std::size_t k = first; k < last; ++k) {
+      const Atom& a = atom[order[k]];
+      balls.push_back({a.x, mass[static_cast<std::size_t>(a.type)], radius_of(a.type), a.type});
+    }
+    const std::string name = head.molecule != 0 ? fmt::format("mol{}", head.molecule) : fmt::format("atom{}", head.id);
+    std::optional<RigidBody> body;
+    try {
+      body = RigidBody::from_balls(balls);
+    } catch (const InvalidInput& e) {
+      const std::string what = head.molecule != 0 ? fmt::format("molecule {} ({} atoms)", head.molecule, last - first)
+                                                  : fmt::format("atom {} (molecule ID 0: a body of its own)", head.id);
+      if (last - first == 1 || std::string(e.what()).find("positive definite") != std::string::npos)
+        throw InvalidInput(fmt::format(
+            "{}: {} {}: a rigid body of point masses needs three atoms off one line (lgvi does not integrate linear "
+            "molecules or single atoms yet); give the atoms a size with [import] radius (each a uniform ball)",
+            file, what, last - first == 1 ? "is a single point mass, with no inertia" : "lies on one line, with no inertia about it"));
+      throw InvalidInput(fmt::format("{}: {}: {}", file, what, e.what()));
+    }
+    // The centre of mass as from_balls forms it (the same sum in the same
+    // order), and the rigid projection of the velocities.
+    double m = 0.0;
+    Vector3<double> centre = Vector3<double>::Zero(), p = Vector3<double>::Zero(), l = Vector3<double>::Zero();
+    for (const Ball& b : balls) {
+      m += b.mass;
+      centre += b.mass * b.position;
+    }
+    centre /= m;
+    for (std::size_t k = first; k < last; ++k) {
+      const Atom& a = atom[order[k]];
+      const Ball& b = body->balls()[k - first];
+      p += b.mass * a.v;
+      l += b.mass * b.position.cross(a.v);
+    }
+    // The body in its principal axes, as LAMMPS takes it: R the eigenvectors
+    // of J (a right-handed frame), the balls at R^T r_i, the attitude q with
+    // pi(q) = R, and the body momentum R^T L (w = 2 R^T L).
+    const Eigen::SelfAdjointEigenSolver<Matrix3<double>> es(body->inertia());
+    Matrix3<double> axes = es.eigenvectors();
+    if (axes.determinant() < 0.0) axes.col(0) = -axes.col(0);
+    RigidBodyState s;
+    s.q = S3d::from_rotation_matrix(axes);
+    const Matrix3<double> r = s.q.matrix();
+    balls.clear();
+    for (const Ball& b : body->balls()) balls.push_back({r.transpose() * b.position, b.mass, b.radius, b.type});
+    body = RigidBody::from_balls(balls);
+    s.x = centre;
+    s.p = p;
+    s.w = 2.0 * (r.transpose() * l);
+    out.bodies.push_back(std::move(*body));
+    out.names.push_back(name);
+    out.states.push_back(s);
+    first = last;
+  }
+  return out;
+}
+
+std::string file_checksum(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InvalidInput(printable(path) + ": cannot open the LAMMPS data file");
+  std::uint64_t h = 0xcbf29ce484222325ULL;
+  char buffer[1 << 16];
+  while (in) {
+    in.read(buffer, sizeof buffer);
+    for (std::streamsize i = 0; i < in.gcount(); ++i) {
+      h ^= static_cast<unsigned char>(buffer[i]);
+      h *= 0x100000001b3ULL;
+    }
+  }
+  return fmt::format("{:016x}", h);
+}
+
+}  // namespace lgvi::app
