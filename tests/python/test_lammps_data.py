@@ -209,48 +209,56 @@ def typed_scenario(tmp_path, data, case):
     return path
 
 
-@pytest.mark.skipif(LAMMPS is None, reason="LAMMPS (lmp, Debian's lammps package) is not installed")
-@pytest.mark.parametrize("case", sorted(TYPES))
-def test_the_imported_start_equals_lammps(tmp_path, case):
-    # The same data file in LAMMPS (benchmarks/lammps/in.lj-triangles-thermo: fix rigid/nve/small, the rigid
-    # projection of the velocities at set-up; pair_coeff per pair of types): step-0 potential and kinetic energy,
-    # temperature and the pressure of the rigid molecules agree to 1e-10 relative (sums of the same terms in other
-    # orders: ~1e-15).
+def expect_lammps_start(tmp_path, data, run_dir, coeffs=None):
+    """lgvi's step 0 (the summary and trajectory in run_dir) against LAMMPS reading `data`
+    (benchmarks/lammps/in.lj-triangles-thermo: fix rigid/nve/small, the rigid projection of the velocities at
+    set-up; `coeffs`: pair_coeff commands per pair of types, else one pair_coeff for all): the potential and
+    kinetic energy, the temperature and the pressure of the rigid molecules to 1e-10 relative (sums of the same
+    terms in other orders, ~1e-15, and the sites' places rounded through the principal axes). Returns pe."""
     import re
-    atoms, velocities = mixed_molecules()
-    data = write_data(tmp_path / "mixed.data", atoms, velocities, other_sections=False)
-    proc = run(typed_scenario(tmp_path, data.name, case), "--out", tmp_path / "run")
-    assert proc.returncode == 0, proc.stderr
-    coeffs = []
-    if case != "one":
-        (tmp_path / "coeffs.lammps").write_text(
-            "pair_coeff 1 1 1.0 1.0\npair_coeff 2 2 1.7 1.2\n" + TYPES[case][1] + "\n")
-        coeffs = ["-var", "typed", "1", "-var", "coeffs", str(tmp_path / "coeffs.lammps")]
+    extra = []
+    if coeffs is not None:
+        (tmp_path / "coeffs.lammps").write_text(coeffs)
+        extra = ["-var", "typed", "1", "-var", "coeffs", str(tmp_path / "coeffs.lammps")]
     out = subprocess.run([LAMMPS, "-in", str(SOURCE / "benchmarks" / "lammps" / "in.lj-triangles-thermo"), "-log",
                           "none", "-screen", "none", "-var", "data", str(data), "-var", "log",
-                          str(tmp_path / "thermo.log"), *coeffs], capture_output=True, text=True, cwd=tmp_path,
+                          str(tmp_path / "thermo.log"), *extra], capture_output=True, text=True, cwd=tmp_path,
                          timeout=120)
     assert out.returncode == 0, out.stdout + out.stderr
     row = re.search(r"^\s*0\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s*$", (tmp_path / "thermo.log").read_text(),
                     re.M)
     pe, ke, temp, pressure, _ = (float(v) for v in row.groups())
-    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
-    rows = np.loadtxt(tmp_path / "run" / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
+    summary = json.loads((run_dir / "summary.json").read_text())
+    rows = np.loadtxt(run_dir / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
     kinetic = sum(r[9:12] @ r[9:12] / (2 * b["mass"]) + r[12:15] @ np.linalg.solve(b["inertia"], r[12:15]) / 8
                   for r, b in zip(rows, summary["setup"]["bodies"]))
     thermo = summary["thermodynamics"]
+    assert summary["initial_energy"] - kinetic == pytest.approx(pe, rel=1e-10)
+    assert kinetic == pytest.approx(ke, rel=1e-10)
+    assert thermo["temperature"]["initial"] == pytest.approx(temp, rel=1e-10)
+    assert thermo["pressure"]["initial"] == pytest.approx(pressure, rel=1e-10)
+    return pe
+
+
+@pytest.mark.skipif(LAMMPS is None, reason="LAMMPS (lmp, Debian's lammps package) is not installed")
+@pytest.mark.parametrize("case", sorted(TYPES))
+def test_the_imported_start_equals_lammps(tmp_path, case):
+    # The same data file in LAMMPS, with the pair coefficients of each case.
+    atoms, velocities = mixed_molecules()
+    data = write_data(tmp_path / "mixed.data", atoms, velocities, other_sections=False)
+    proc = run(typed_scenario(tmp_path, data.name, case), "--out", tmp_path / "run")
+    assert proc.returncode == 0, proc.stderr
+    coeffs = None if case == "one" else "pair_coeff 1 1 1.0 1.0\npair_coeff 2 2 1.7 1.2\n" + TYPES[case][1] + "\n"
+    pe = expect_lammps_start(tmp_path, data, tmp_path / "run", coeffs)
+    assert abs(pe) > 0.1  # molecules within reach of each other: a potential energy to compare
     if case != "one":  # the pairs as the summary states them: (1, 2) mixed or given
+        summary = json.loads((tmp_path / "run" / "summary.json").read_text())
         pairs = {tuple(p["types"]): p for p in summary["setup"]["interaction"]["pairs"]}
         assert sorted(pairs) == [(1, 1), (1, 2), (2, 2)]
         mixed = {"geometric": (1.7**0.5, 1.2**0.5), "arithmetic": (1.7**0.5, 1.1), "explicit": (0.45, 1.33)}[case]
         assert pairs[(1, 2)]["epsilon"] == pytest.approx(mixed[0], rel=1e-15)
         assert pairs[(1, 2)]["sigma"] == pytest.approx(mixed[1], rel=1e-15)
         assert pairs[(1, 2)]["mixed"] == (case != "explicit")
-    assert abs(pe) > 0.1  # molecules within reach of each other: a potential energy to compare
-    assert summary["initial_energy"] - kinetic == pytest.approx(pe, rel=1e-10)
-    assert kinetic == pytest.approx(ke, rel=1e-10)
-    assert thermo["temperature"]["initial"] == pytest.approx(temp, rel=1e-10)
-    assert thermo["pressure"]["initial"] == pytest.approx(pressure, rel=1e-10)
 
 
 def test_balls_make_linear_molecules_and_single_atoms_rigid_bodies(tmp_path):
@@ -392,7 +400,6 @@ def test_the_bent_fluid_scenario_runs_with_its_conservation_laws(tmp_path):
 def test_the_bent_fluid_starts_as_in_lammps(tmp_path):
     # scenarios/bent-fluid.toml's data file read by LAMMPS with the same coefficients (pair_coeff per type, mixed
     # geometrically): step-0 energies, temperature and pressure to 1e-10 relative, as above.
-    import re
     text = (SOURCE / "scenarios" / "bent-fluid.toml").read_text()
     data = SOURCE / "scenarios" / "data" / "bent-fluid.data"
     text = text.replace('lammps_data = "data/bent-fluid.data"', f'lammps_data = "{data}"').replace(
@@ -400,21 +407,5 @@ def test_the_bent_fluid_starts_as_in_lammps(tmp_path):
     (tmp_path / "bent.toml").write_text(text)
     proc = run(tmp_path / "bent.toml", "--out", tmp_path / "run")
     assert proc.returncode == 0, proc.stderr
-    (tmp_path / "coeffs.lammps").write_text("pair_coeff 1 1 1.0 1.0\npair_coeff 2 2 0.3 0.7\npair_modify mix geometric\n")
-    out = subprocess.run([LAMMPS, "-in", str(SOURCE / "benchmarks" / "lammps" / "in.lj-triangles-thermo"), "-log",
-                          "none", "-screen", "none", "-var", "data", str(data), "-var", "log",
-                          str(tmp_path / "thermo.log"), "-var", "typed", "1", "-var", "coeffs",
-                          str(tmp_path / "coeffs.lammps")], capture_output=True, text=True, cwd=tmp_path, timeout=120)
-    assert out.returncode == 0, out.stdout + out.stderr
-    row = re.search(r"^\s*0\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s*$", (tmp_path / "thermo.log").read_text(),
-                    re.M)
-    pe, ke, temp, pressure, _ = (float(v) for v in row.groups())
-    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
-    rows = np.loadtxt(tmp_path / "run" / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
-    kinetic = sum(r[9:12] @ r[9:12] / (2 * b["mass"]) + r[12:15] @ np.linalg.solve(b["inertia"], r[12:15]) / 8
-                  for r, b in zip(rows, summary["setup"]["bodies"]))
-    thermo = summary["thermodynamics"]
-    assert summary["initial_energy"] - kinetic == pytest.approx(pe, rel=1e-10)
-    assert kinetic == pytest.approx(ke, rel=1e-10)
-    assert thermo["temperature"]["initial"] == pytest.approx(temp, rel=1e-10)
-    assert thermo["pressure"]["initial"] == pytest.approx(pressure, rel=1e-10)
+    expect_lammps_start(tmp_path, data, tmp_path / "run",
+                        "pair_coeff 1 1 1.0 1.0\npair_coeff 2 2 0.3 0.7\npair_modify mix geometric\n")
