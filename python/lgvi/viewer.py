@@ -168,6 +168,16 @@ def page_data(result, max_frames=MAX_FRAMES, max_bytes=MAX_BYTES):
             "momentum_error": result.momentum_error}
     extent_pts = x[idx].reshape(-1, 3)
     lo, hi = extent_pts.min(axis=0), extent_pts.max(axis=0)
+    # A periodic box: the page wraps each centre of mass into it along the periodic axes (after interpolating
+    # the unwrapped path, so that nothing sweeps across the box between frames) and draws its outline; the view
+    # frames the box there.
+    box = setup.get("box") or {}
+    periodic_box = None
+    if any(box.get("periodic", ())):
+        periodic = np.array(box["periodic"], dtype=bool)
+        lower, upper = np.array(box["lower"], dtype=float), np.array(box["upper"], dtype=float)
+        lo, hi = np.where(periodic, lower, lo), np.where(periodic, upper, hi)
+        periodic_box = {"lower": lower.tolist(), "upper": upper.tolist(), "periodic": periodic.tolist()}
     size = float(np.max(parts[:, 8:11])) if len(parts) else 0.0
     reach = float(np.max(np.linalg.norm(parts[:, 1:4], axis=1) + parts[:, 8:11].max(axis=1))) if len(parts) else 0.0
     meta = {
@@ -178,6 +188,7 @@ def page_data(result, max_frames=MAX_FRAMES, max_bytes=MAX_BYTES):
         "potential": {k: v for k, v in potential.items() if isinstance(v, (str, int, float, list))},
         "interaction": (setup.get("interaction") or {}).get("kind", "none"),
         "parts": len(parts), "box": [lo.tolist(), hi.tolist()], "part_size": size, "body_size": reach,
+        "periodic_box": periodic_box,
         "max_abs": {k: float(np.max(np.abs(v))) if len(v) else 0.0 for k, v in diag.items()},
         "plots": {},
     }

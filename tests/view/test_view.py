@@ -424,6 +424,45 @@ def test_many_bodies_in_the_browser(tmp_path_factory, tmp_path):
     assert matched >= 0.95 * checked, f"{matched} of {checked} centres show the expected molecule's colour"
 
 
+@needs_browser
+def test_a_periodic_box_in_the_browser(tmp_path_factory, tmp_path):
+    """The periodic gas (lj-gas.toml in the cube [-1.1, 20.9)^3, 1000 steps): the page draws the box and shows
+    each centre of mass wrapped into it, x -> lower + (x - lower) mod 22, from the file's unwrapped positions (to
+    the float32 rounding of the embedded data: 2^-24 of |x| before wrapping, plus that of the subtraction), and
+    wraps after interpolating, so a body between frames is where its unwrapped path puts it."""
+    lo, hi = -1.1, 20.9
+    run = make_run(tmp_path_factory, "lj-gas.toml", "periodic-gas", replace=[(
+        "[output]", f"[box]\nlower = [{lo}, {lo}, {lo}]\nupper = [{hi}, {hi}, {hi}]\n\n[output]")])
+    run_cli("view", run, "-q")
+    r = lgvi.load(run)
+    meta, _ = viewer.page_data(r)
+    assert meta["periodic_box"] == {"lower": [lo] * 3, "upper": [hi] * 3, "periodic": [True] * 3}
+    report = drive(os.path.join(run, "view.html"), tmp_path, {"times": [r.t[0], r.t[-1], r.t[5] + 0.05],
+                                                            "seek": r.t[-1], "set": {"trails": True}})
+    # Angular momentum is not conserved in a periodic box: the overlay calls its column a change.
+    assert report["overlay"]["momentum_error"] != "" and report["overlay"]["time"] != "NaN"
+    assert report["box"]["lower"] == pytest.approx([lo] * 3) and report["box"]["upper"] == pytest.approx([hi] * 3)
+    states = report["states"]
+    length = hi - lo
+    # Some bodies have left the box by the end (unwrapped), so that the wrapping is exercised.
+    outside = np.any((r.x[-1] < lo) | (r.x[-1] >= hi), axis=1)
+    assert outside.sum() >= 5
+    for state, x in ((states[0], r.x[0]), (states[1], r.x[-1])):
+        pos = np.array(state["positions"])
+        assert np.all((pos >= lo) & (pos < hi))
+        expected = lo + np.mod(x - lo, length)
+        # Where the float32 value lands within its rounding of a face, it may wrap to the other face.
+        d = np.abs(pos - expected)
+        d = np.minimum(d, np.abs(d - length))
+        assert np.all(d <= 4 * F32 * (np.abs(x) + length)), d.max()
+    # Between frames: the unwrapped interpolation, wrapped.
+    i, u = states[2]["frame"], states[2]["u"]
+    a, b = (int(np.flatnonzero(r.t == report["times"][k])[0]) for k in (i, i + 1))
+    expected = lo + np.mod(r.x[a] + u * (r.x[b] - r.x[a]) - lo, length)
+    d = np.abs(np.array(states[2]["positions"]) - expected)
+    assert np.all(np.minimum(d, np.abs(d - length)) <= 4 * F32 * (np.abs(r.x[b]) + length))
+
+
 def ray_cast(camera, width, height, xs, ys, centres, rotations, axes, clip=0.0):
     """The reference picture: per pixel (xs, ys: screen pixels from the top left, the ray through the pixel's
     centre), the index of the ellipsoid (centres, rotations: its axes as columns, semi-axes) nearest the camera

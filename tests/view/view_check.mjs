@@ -23,7 +23,7 @@ try {
   if (await view.evaluate(() => !!(window.lgviView && window.lgviView.ready))) {
     Object.assign(report, await view.evaluate(() => ({
       frames: lgviView.frames, rows: lgviView.rows, times: lgviView.times, colours: lgviView.colours,
-      pole: lgviView.pole, drawn: lgviView.drawn })));
+      pole: lgviView.pole, box: lgviView.box, drawn: lgviView.drawn })));
     report.states = await view.evaluate((ts) => ts.map((t) => lgviView.state(t)), plan.times || []);
     await view.evaluate((o) => lgviView.set(Object.assign({ ui: false }, o)), plan.set || {});
     report.seekTime = await view.evaluate((t) => lgviView.seek(t), plan.seek);
