@@ -131,6 +131,7 @@ DESCRIPTIONS = {
     "box.periodic": "[bool, bool, bool] per axis (default all true); an open axis is free space",
     # [import]
     "import.lammps_data": "string: a LAMMPS data file (atom_style full, molecular, bond or angle), relative to the scenario; each molecule one rigid body",
+    "import.atom_style": "\"full\" | \"molecular\" | \"bond\" | \"angle\": where the Atoms section does not name it (\"Atoms # full\")",
     "import.radius": "number >= 0, or one per atom type (default 0: point masses): each atom a uniform ball",
     "import.periodic": "[bool, bool, bool] per axis of the file's box (default all true)",
     "import.checksum": "string, written by the run into its copy of the scenario: the data file's FNV-1a checksum; a changed file is refused",

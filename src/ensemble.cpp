@@ -333,6 +333,12 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
   const fs::path path = fs::path(base_dir) / *scenario_path;
   plan.scenario_name = path.stem().string();
   plan.scenario_text = scenario_text ? *scenario_text : read_text(path, "base scenario (ensemble.scenario)");
+  if (!scenario_text) {
+    // An [import]'s data file is relative to the base scenario: the members (parsed by the scenario's stem
+    // alone) and the ensemble's copy take the base's run copy, with the file's absolute path and checksum.
+    const Scenario base = parse_scenario(plan.scenario_text, path.string());
+    if (base.imported) plan.scenario_text = base.source_text;
+  }
   if (ens->contains("trajectories")) {
     const auto t = (*ens)["trajectories"].value<std::string>();
     if (t != "none" && t != "all") r.fail("ensemble.trajectories", "must be \"none\" (default) or \"all\"");

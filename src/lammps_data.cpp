@@ -74,7 +74,8 @@ class DataLines {
 
   double number(std::size_t k, const char* what) const {
     double v = 0.0;
-    const std::string_view t = tokens_[k];
+    std::string_view t = tokens_[k];
+    if (t.size() > 1 && t[0] == '+') t.remove_prefix(1);  // (from_chars takes no '+'; LAMMPS does)
     const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
     if (ec != std::errc() || end != t.data() + t.size() || !std::isfinite(v))
       fail(fmt::format("{} must be a finite number, got \"{}\"", what, printable(t)));
@@ -82,7 +83,8 @@ class DataLines {
   }
   std::int64_t integer(std::size_t k, const char* what) const {
     std::int64_t v = 0;
-    const std::string_view t = tokens_[k];
+    std::string_view t = tokens_[k];
+    if (t.size() > 1 && t[0] == '+') t.remove_prefix(1);
     const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
     if (ec != std::errc() || end != t.data() + t.size())
       fail(fmt::format("{} must be an integer, got \"{}\"", what, printable(t)));
@@ -101,6 +103,26 @@ class DataLines {
   long number_ = 0;
 };
 
+/// The counted header lines of a data file (LAMMPS's read_data), by their words.
+bool is_counted_header(const std::string& keyword) {
+  static constexpr std::string_view known[] = {
+      "atoms",        "bonds",          "angles",         "dihedrals",       "impropers",
+      "atom types",   "bond types",     "angle types",    "dihedral types",  "improper types",
+      "ellipsoids",   "lines",          "triangles",      "bodies",          "extra bond per atom",
+      "extra angle per atom", "extra dihedral per atom", "extra improper per atom", "extra special per atom"};
+  return std::find(std::begin(known), std::end(known), keyword) != std::end(known);
+}
+
+/// The sections of a data file that make no difference to rigid bodies (LAMMPS's read_data's names).
+bool is_skipped_section(const std::string& name) {
+  static constexpr std::string_view known[] = {
+      "Bonds", "Angles", "Dihedrals", "Impropers", "Pair Coeffs", "PairIJ Coeffs", "Bond Coeffs", "Angle Coeffs",
+      "Dihedral Coeffs", "Improper Coeffs", "BondBond Coeffs", "BondAngle Coeffs", "MiddleBondTorsion Coeffs",
+      "EndBondTorsion Coeffs", "AngleTorsion Coeffs", "AngleAngleTorsion Coeffs", "BondBond13 Coeffs",
+      "AngleAngle Coeffs", "Ellipsoids", "Lines", "Triangles", "Bodies"};
+  return std::find(std::begin(known), std::end(known), name) != std::end(known);
+}
+
 struct Atom {
   std::int64_t id = 0, molecule = 0;
   int type = 0;
@@ -114,17 +136,8 @@ struct AtomColumns {
   bool images = false;
 };
 
-AtomColumns atom_columns(const DataLines& in, std::string& style) {
+AtomColumns atom_columns(const DataLines& in, const std::string& style) {
   const std::size_t n = in.tokens().size();
-  if (style.empty()) {
-    if (n == 6 || n == 9) style = "molecular";
-    else if (n == 7 || n == 10) style = "full";
-    else
-      in.fail(fmt::format("an Atoms line has {} columns; lgvi reads atom_style molecular, bond or angle (id mol type x "
-                          "y z, and optionally ix iy iz: 6 or 9 columns) or full (id mol type q x y z [ix iy iz]: 7 "
-                          "or 10)",
-                          n));
-  }
   const std::size_t base = style == "full" ? 7 : 6;
   if (n != base && n != base + 3)
     in.fail(fmt::format("an Atoms line of atom_style {} has {} or {} columns, this one {}", style, base, base + 3, n));
@@ -133,7 +146,8 @@ AtomColumns atom_columns(const DataLines& in, std::string& style) {
 
 }  // namespace
 
-LammpsDataBodies read_lammps_data(const std::string& path, const std::vector<double>& radius) {
+LammpsDataBodies read_lammps_data(const std::string& path, const std::vector<double>& radius,
+                                  const std::array<bool, 3>& periodic, const std::string& atom_style) {
   DataLines in(path);
   const std::string file = printable(path);
   LammpsDataBodies out;
@@ -163,14 +177,16 @@ LammpsDataBodies read_lammps_data(const std::string& path, const std::vector<dou
       out.lower(k) = in.number(0, "the box's lower bound");
       out.upper(k) = in.number(1, "the box's upper bound");
       if (!(out.upper(k) > out.lower(k))) in.fail(keyword + ": the upper bound must exceed the lower");
-    } else if (keyword == "xy xz yz") {
-      in.fail("a triclinic box (xy xz yz) is not supported yet: lgvi's boxes are orthogonal");
-    } else if (numbers == 0) {
-      in.fail("expected a header line (\"N atoms\", \"N atom types\", \"xlo xhi\", ...) or a section name, got \"" +
-              printable(in.words()) + "\"");
+    } else if (keyword == "xy xz yz" && numbers == 3) {
+      for (std::size_t k = 0; k < 3; ++k)
+        if (in.number(k, "a tilt factor") != 0.0)
+          in.fail("a triclinic box (xy xz yz not all 0) is not supported yet: lgvi's boxes are orthogonal");
+    } else if (!is_counted_header(keyword) || numbers != 1) {
+      in.fail("not a header line of a LAMMPS data file (\"N atoms\", \"N atom types\", \"xlo xhi\", ... each with its "
+              "count of numbers), nor a section name: \"" + printable(in.words()) + "\"");
     }
-    // Other header lines (bonds, angles, their types, extra ... per atom) say
-    // nothing about rigid bodies: their sections are skipped below.
+    // The other counted lines (bonds, angles, their types, extra ... per
+    // atom) say nothing about rigid bodies: their sections are skipped below.
   }
   if (!header_atoms) throw InvalidInput(file + ": the header has no \"N atoms\" line");
   if (!header_types) throw InvalidInput(file + ": the header has no \"N atom types\" line");
@@ -213,8 +229,16 @@ LammpsDataBodies read_lammps_data(const std::string& path, const std::vector<dou
     const std::string name = in.words();
     if (name == "Atoms") {
       if (!atom.empty()) in.fail("a second Atoms section");
+      // The style: the section's comment (LAMMPS's write_data writes it) or [import] atom_style; never
+      // guessed from the columns (charge, sphere or dipole lines have the column counts of molecular or full).
       std::string style = in.comment_word();
-      if (!style.empty() && style != "full" && style != "molecular" && style != "bond" && style != "angle")
+      if (style.empty() && atom_style.empty())
+        in.fail("the Atoms section names no atom_style (\"Atoms # full\"); give it there or as [import] atom_style "
+                "(\"full\", \"molecular\", \"bond\" or \"angle\")");
+      if (!style.empty() && !atom_style.empty() && style != atom_style)
+        in.fail("the Atoms section is of atom_style " + printable(style) + ", [import] atom_style says " + atom_style);
+      if (style.empty()) style = atom_style;
+      if (style != "full" && style != "molecular" && style != "bond" && style != "angle")
         in.fail("atom_style " + printable(style) +
                 " has no molecule IDs; lgvi makes rigid bodies of the molecules of atom_style full, molecular, bond "
                 "or angle");
@@ -241,6 +265,10 @@ LammpsDataBodies read_lammps_data(const std::string& path, const std::vector<dou
           if (cols->images) {
             const std::int64_t image = in.integer(cols->position + 3 + static_cast<std::size_t>(k), "an image flag");
             if (std::abs(image) > (std::int64_t{1} << 20)) in.fail("an image flag beyond 2^20");
+            if (image != 0 && !periodic[static_cast<std::size_t>(k)])
+              in.fail(fmt::format("atom {} has image flag {} along {}, which [import] periodic makes open; an open "
+                                  "axis has no images (LAMMPS resets them to 0: write 0, or make the axis periodic)",
+                                  a.id, image, "xyz"[k]));
             a.x(k) += static_cast<double>(image) * length(k);
           }
         }
@@ -278,6 +306,11 @@ LammpsDataBodies read_lammps_data(const std::string& path, const std::vector<dou
     } else {
       // Bonds, Angles, Pair Coeffs, ...: nothing a rigid body needs (the
       // interaction is the scenario's; bonds within a molecule are rigid).
+      if (!is_skipped_section(name))
+        in.fail("\"" + printable(name) + "\" is not a section of a LAMMPS data file (Atoms, Masses, Velocities, "
+                "Bonds, Pair Coeffs, ...)");
+      if (name == "Ellipsoids" || name == "Lines" || name == "Triangles" || name == "Bodies")
+        in.fail("the " + name + " section belongs to an atom_style without molecule IDs");
       more = in.next();
       while (more && !in.section()) more = in.next();
     }

@@ -36,12 +36,15 @@ struct LammpsDataBodies {
 
 /// Reads a data file (atom_style full, molecular, bond or angle: the Atoms
 /// lines carry molecule IDs; the style comes from the section's "# style"
-/// comment, else from the column count). `radius`: empty (point masses), one
-/// radius for every atom type, or one per type. Throws InvalidInput
-/// "FILE:LINE: problem" (or "FILE: problem") for a file that cannot be read
-/// as such, a molecule of atoms on one line with radius 0 (no inertia about
-/// it) and a single atom of radius 0.
-LammpsDataBodies read_lammps_data(const std::string& path, const std::vector<double>& radius);
+/// comment or from `atom_style`, which must agree where both are given).
+/// `radius`: empty (point masses), one radius for every atom type, or one per
+/// type; `periodic`: the axes with images (a non-zero image flag along an
+/// open axis is refused). Throws InvalidInput "FILE:LINE: problem" (or "FILE:
+/// problem") for a file that cannot be read as such (a header line or a
+/// section name read_data does not know included), a molecule of atoms on one
+/// line with radius 0 (no inertia about it) and a single atom of radius 0.
+LammpsDataBodies read_lammps_data(const std::string& path, const std::vector<double>& radius,
+                                  const std::array<bool, 3>& periodic, const std::string& atom_style = "");
 
 /// FNV-1a, 64 bits, of a file's bytes, as 16 hexadecimal digits: the run's
 /// copy of the scenario records it, so that a resume from a changed data

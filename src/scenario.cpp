@@ -641,19 +641,20 @@ std::array<bool, 3> read_periodic(const Reader& r, const toml::table& t, const s
 
 /// [import] lammps_data = "FILE" (lammps_data.hpp): the bodies, their initial
 /// state and the box of a LAMMPS data file, in place of [[bodies]] and [box].
-/// Keys: radius (one, or one per atom type; default 0: point masses),
+/// Keys: atom_style (where the Atoms section does not name it), radius
+/// (one, or one per atom type; default 0: point masses),
 /// periodic (default [true, true, true], LAMMPS's `boundary p p p`) and
 /// checksum (written by the run into its copy of the scenario, whose
 /// lammps_data is then absolute: a resume refuses a changed file). `root`'s
 /// table is rewritten so.
 Box read_import(const Reader& r, toml::table& root, const std::string& scenario_name, BodyList& bodies,
-                std::vector<std::string>& names, SystemState& state) {
+                std::vector<std::string>& names, SystemState& state, int& site_types) {
   for (const char* other : {"bodies", "body", "initial", "box"})
     if (root.contains(other))
       r.fail(other, std::string("an [import] gives the bodies, their initial state and the box; remove [") + other +
                         (std::string(other) == "bodies" ? "]]" : "]") + " (or the [import])");
   toml::table& t = *root.get("import")->as_table();
-  r.only_keys(t, "import", {"lammps_data", "radius", "periodic", "checksum"});
+  r.only_keys(t, "import", {"lammps_data", "atom_style", "radius", "periodic", "checksum"});
   const toml::node* file_node = t.get("lammps_data");
   if (!file_node || !file_node->is_string())
     r.fail("import.lammps_data", "missing (a string: the LAMMPS data file, relative to the scenario file)");
@@ -679,7 +680,10 @@ Box read_import(const Reader& r, toml::table& root, const std::string& scenario_
                                     "(its checksum is now " + checksum +
                                     "); restore it, or start the run again without this key");
   }
-  LammpsDataBodies data = read_lammps_data(file.string(), radius);
+  const std::string atom_style =
+      t.contains("atom_style") ? r.string(t, "import", "atom_style", {"full", "molecular", "bond", "angle"}) : "";
+  LammpsDataBodies data = read_lammps_data(file.string(), radius, periodic, atom_style);
+  site_types = data.atom_types;
   if (data.bodies.size() > 1000000) r.fail("import.lammps_data", "more than 10^6 bodies");
   for (RigidBody& b : data.bodies) {
     bodies.kinds.push_back(std::move(b));
@@ -1048,8 +1052,9 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   std::vector<std::string> names;
   SystemState initial;
   Box box;
+  int site_types = 1;  // the data file's atom types (declared, used or not), or the balls' largest type
   if (imported) {
-    box = read_import(r, root, name, bodies, names, initial);
+    box = read_import(r, root, name, bodies, names, initial, site_types);
   } else if (bodies_format) {
     read_bodies(r, root, bodies, names, initial);
   } else {
@@ -1059,7 +1064,6 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   PotentialSpec potential = read_potential(r, root);
   const std::string converted = bodies_format ? std::string() : convert_orbit_attitude(r, root, bodies[0], potential);
   if (!bodies_format) initial = SystemState(read_initial(r, root, bodies[0]));
-  int site_types = 1;
   for (const RigidBody& kind : bodies.kinds)
     for (const Ball& ball : kind.balls()) site_types = std::max(site_types, ball.type);
   const InteractionSpec interaction = read_interaction(r, root, site_types);
@@ -1170,6 +1174,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   sc.output_every = every;
   sc.output_format = format;
   sc.source_text = text;
+  sc.imported = imported;
   if (inlined || !converted.empty() || imported) {
     // File tables were read into the document, [initial] orbit / attitude
     // converted into plain keys, or an [import]'s file made absolute with its

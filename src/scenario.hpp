@@ -108,6 +108,7 @@ struct Scenario {
   std::int64_t output_every = 1;
   TrajectoryFormat output_format;  ///< [output] format (default csv)
   std::string source_text;  ///< the TOML text it was read from
+  bool imported = false;    ///< its bodies come from a data file ([import])
 
   /// Body 0 and its initial state: the body of a single-body scenario.
   const RigidBody& body() const { return system.body(0); }

@@ -116,7 +116,9 @@ class Scenario:
     @classmethod
     def from_lammps_data(cls, path: Union[str, "os.PathLike[str]"], *, interaction: Dict[str, Any], step: float,
                          duration: float, radius: Union[None, float, Sequence[float]] = ...,
-                         periodic: Optional[Sequence[bool]] = ..., potential: PotentialSpec = ...,
+                         periodic: Optional[Sequence[bool]] = ...,
+                         atom_style: Optional[Literal["full", "molecular", "bond", "angle"]] = ...,
+                         potential: PotentialSpec = ...,
                          method: Method = ..., order: Optional[int] = ..., every: int = ...,
                          threads: Optional[int] = ..., on_contact: Optional[Literal["stop", "warn", "ignore"]] = ...,
                          name: Optional[str] = ...) -> Scenario:

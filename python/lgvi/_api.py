@@ -454,8 +454,9 @@ class Scenario:
                             every=every, threads=threads, on_contact=on_contact, box=box, name=name)
 
     @classmethod
-    def from_lammps_data(cls, path, *, interaction, step, duration, radius=None, periodic=None, potential=None,
-                         method="lgvi", order=None, every=1, threads=None, on_contact=None, name=None):
+    def from_lammps_data(cls, path, *, interaction, step, duration, radius=None, periodic=None, atom_style=None,
+                         potential=None, method="lgvi", order=None, every=1, threads=None, on_contact=None,
+                         name=None):
         """A scenario of the molecules of a LAMMPS data file (``[import] lammps_data``), each one rigid body.
 
         ``path``: the data file (atom_style full, molecular, bond or angle:
@@ -465,6 +466,8 @@ class Scenario:
         positions; its momentum and angular momentum are the rigid projection
         of the atoms' velocities, as LAMMPS's ``fix rigid/small`` makes them.
         ``periodic``: 3 booleans (default all true, ``boundary p p p``).
+        ``atom_style``: "full", "molecular", "bond" or "angle", where the
+        file's Atoms section does not name it.
         ``interaction``: as for from_arrays, e.g. ``{"kind": "lennard-jones",
         "cutoff": 2.5, "pair": [{"types": (1, 1), "epsilon": 1.0, "sigma":
         1.0}, ...], "mixing": "geometric"}`` (the atom types are the site
@@ -483,6 +486,8 @@ class Scenario:
                 table["radius"] = _check.non_negative(radius, "radius")
         if periodic is not None:
             table["periodic"] = _periodic(periodic, "periodic")
+        if atom_style is not None:
+            table["atom_style"] = _check.choice(atom_style, "atom_style", ("full", "molecular", "bond", "angle"))
         integ, run = _integrator_and_run(method, step, duration, order, threads, on_contact)
         lines = []
         tables = (("import", table), ("potential", _potential.spec(potential)),
@@ -509,7 +514,7 @@ class Scenario:
                                   "predictor_order", "order", "composition", "every", "output_format", "name"}
         if unknown:
             raise ValueError(f"{', '.join(sorted(unknown))}: not a scenario argument")
-        if "bodies" in self.document:
+        if "bodies" in self.document or "import" in self.document:
             raise ValueError("replace: changes single-body scenarios; build a scenario of many bodies anew with "
                              "lgvi.Scenario.from_arrays(...) or edit its TOML (scenario.toml)")
         name = _check_name(changes.pop("name", self.name))

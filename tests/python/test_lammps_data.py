@@ -286,6 +286,46 @@ def test_balls_make_linear_molecules_and_single_atoms_rigid_bodies(tmp_path):
     assert np.allclose(rows[1, 9:12], [0.0, 0.0, -0.2], rtol=0, atol=1e-15)
 
 
+def test_image_flags_along_an_open_axis_and_the_named_style(tmp_path):
+    # An open axis has no images: a non-zero flag there is refused (LAMMPS resets it to 0 with a warning, which
+    # would move the atom by a box length from where the file's unwrapped place says). Zero tilts are an
+    # orthogonal box, and a leading '+' is a number, as in LAMMPS.
+    atoms, velocities = mixed_molecules()
+    atoms = [(m, t, x - [0.5, 0, 0] if m == 1 else x) for m, t, x in atoms]  # molecule 1 across the lower x face
+    data = write_data(tmp_path / "mixed.data", atoms, velocities,
+                      extra_header="+0.0 0.0 -0.0 xy xz yz")
+    proc = run(scenario(tmp_path, data.name, extra="periodic = [false, true, true]"), "--out", tmp_path / "open")
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1
+    assert "has image flag -1 along x, which [import] periodic makes open" in proc.stderr
+    assert run(scenario(tmp_path, data.name), "--out", tmp_path / "periodic").returncode == 0
+    # A style given twice must agree; given once in the scenario, it is read so.
+    proc = run(scenario(tmp_path, data.name, extra='atom_style = "full"'), "--out", tmp_path / "both")
+    assert proc.returncode == 2 and "is of atom_style molecular, [import] atom_style says full" in proc.stderr
+    data.write_text(data.read_text().replace("Atoms # molecular", "Atoms"))
+    proc = run(scenario(tmp_path, data.name, extra='atom_style = "molecular"'), "--out", tmp_path / "named")
+    assert proc.returncode == 0, proc.stderr
+
+
+def test_an_ensemble_reads_the_data_file_beside_its_scenario(tmp_path, monkeypatch):
+    # The base scenario's [import] is relative to it, wherever lgvi ensemble runs from: the members run the base's
+    # run copy (absolute path and checksum).
+    atoms, velocities = mixed_molecules()
+    (tmp_path / "case").mkdir()
+    data = write_data(tmp_path / "case" / "mixed.data", atoms, velocities)
+    scenario(tmp_path / "case", data.name, duration=0.004, every=1)
+    (tmp_path / "sweep.toml").write_text('[ensemble]\nscenario = "case/imported.toml"\n\n'
+                                         '[[vary]]\nkey = "integrator.step"\nvalues = [0.001, 0.002]\n')
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    binary = os.path.abspath(BINARY)
+    monkeypatch.chdir(elsewhere)
+    proc = subprocess.run([binary, "ensemble", str(tmp_path / "sweep.toml"), "--out", str(tmp_path / "ens"), "-q",
+                           "--threads", "1"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    copy = (tmp_path / "ens" / "scenario.toml").read_text()
+    assert f"lammps_data = '{data}'" in copy and "checksum = '" in copy
+
+
 def test_the_run_copy_refuses_a_changed_data_file(tmp_path):
     atoms, velocities = mixed_molecules()
     data = write_data(tmp_path / "mixed.data", atoms, velocities)
@@ -310,8 +350,18 @@ BAD = {
     "no-mass": (lambda t: t.replace("\n2 3.0\n", "\n"),
                 r"mixed.data:[0-9]+: the Masses section has 1 lines before \"Pair Coeffs\"; the header says 2 atom "
                 r"types"),
-    "triclinic": (lambda t: t.replace("1 bond types\n", "1 bond types\n0.0 0.0 0.0 xy xz yz\n"),
-                  r"mixed.data:7: a triclinic box \(xy xz yz\) is not supported yet"),
+    "triclinic": (lambda t: t.replace("1 bond types\n", "1 bond types\n0.5 0.0 0.0 xy xz yz\n"),
+                  r"mixed.data:7: a triclinic box \(xy xz yz not all 0\) is not supported yet"),
+    # What LAMMPS's read_data refuses too ("Unknown identifier in data file"), not skipped:
+    "header-typo": (lambda t: t.replace("2 atom types", "2 atomtypes"),
+                    r"mixed.data:4: not a header line of a LAMMPS data file .*\"2 atomtypes\""),
+    "box-numbers": (lambda t: t.replace("-1.0 11.0 ylo yhi", "11.0 ylo yhi"),
+                    r"mixed.data:9: not a header line of a LAMMPS data file .*\"11.0 ylo yhi\""),
+    "section-typo": (lambda t: t.replace("Velocities", "Velocity"),
+                     r"mixed.data:[0-9]+: \"Velocity\" is not a section of a LAMMPS data file"),
+    # The style is named, never guessed from the column count.
+    "no-style": (lambda t: t.replace("Atoms # molecular", "Atoms"),
+                 r"mixed.data:[0-9]+: the Atoms section names no atom_style .*\[import\] atom_style"),
     "style": (lambda t: t.replace("Atoms # molecular", "Atoms # atomic"), r"atom_style atomic has no molecule IDs"),
     "type": (lambda t: t.replace("Atoms # molecular\n\n", "Atoms # molecular\n\n1000 1 7 0.0 0.0 0.0 0 0 0\n"),
              r"mixed.data:[0-9]+: atom type 7 is not in 1..2"),
