@@ -131,6 +131,12 @@ std::string not_applicable(const Scenario& sc, Method m) {
       if (!sc.system.body(a).has_principal_axes())
         return fmt::format("rotates about the principal axes; {}.inertia is not diagonal",
                            sc.bodies_format ? fmt::format("bodies[{}]", a) : std::string("body"));
+  if (!t.linear_bodies)
+    for (std::size_t a = 0; a < sc.bodies(); ++a)
+      if (sc.system.body(a).rotational_dof() != 3)
+        return fmt::format("needs three principal moments > 0; {} is {}",
+                           sc.bodies_format ? fmt::format("bodies[{}]", a) : std::string("the body"),
+                           sc.system.body(a).rotational_dof() == 2 ? "linear" : "a point mass");
   if (!sc.forcing.empty() && !t.accepts_forcing)
     return "does not take [[forcing]] (" +
            method_names_where([](const MethodTraits& x) { return x.accepts_forcing; }, ", ", " and ", false) + " do)";

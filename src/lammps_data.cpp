@@ -350,11 +350,6 @@ LammpsDataBodies read_lammps_data(const std::string& path, const std::vector<dou
     } catch (const InvalidInput& e) {
       const std::string what = head.molecule != 0 ? fmt::format("molecule {} ({} atoms)", head.molecule, last - first)
                                                   : fmt::format("atom {} (molecule ID 0: a body of its own)", head.id);
-      if (last - first == 1 || std::string(e.what()).find("positive definite") != std::string::npos)
-        throw InvalidInput(fmt::format(
-            "{}: {} {}: a rigid body of point masses needs three atoms off one line (lgvi does not integrate linear "
-            "molecules or single atoms yet); give the atoms a size with [import] radius (each a uniform ball)",
-            file, what, last - first == 1 ? "is a single point mass, with no inertia" : "lies on one line, with no inertia about it"));
       throw InvalidInput(fmt::format("{}: {}: {}", file, what, e.what()));
     }
     // The centre of mass as from_balls forms it (the same sum in the same
@@ -386,7 +381,10 @@ LammpsDataBodies read_lammps_data(const std::string& path, const std::vector<dou
     body = RigidBody::from_balls(balls);
     s.x = centre;
     s.p = p;
-    s.w = 2.0 * (r.transpose() * l);
+    // A linear molecule's L has no part along its axis but for atoms a
+    // little off the line (within RigidBody::linear_threshold): removed, as
+    // LAMMPS's omega has none.
+    s.w = body->admissible_momentum(2.0 * (r.transpose() * l));
     out.bodies.push_back(std::move(*body));
     out.names.push_back(name);
     out.states.push_back(s);

@@ -9,7 +9,8 @@
 // with pi(q) = R, the balls at R^T r_i. The velocities are projected onto
 // rigid motion as LAMMPS does: p = sum m_i v_i, and the angular momentum
 // L = sum m_i r_i x v_i, so that the body's state has w = 2 R^T L (the paper's
-// body momentum doubled). Atoms with molecule ID 0 are bodies of one atom each.
+// body momentum doubled; a linear molecule's has no part along its axis).
+// Atoms with molecule ID 0 are bodies of one atom each.
 #pragma once
 
 #include <lgvi/rigid_body.hpp>
@@ -41,8 +42,9 @@ struct LammpsDataBodies {
 /// type; `periodic`: the axes with images (a non-zero image flag along an
 /// open axis is refused). Throws InvalidInput "FILE:LINE: problem" (or "FILE:
 /// problem") for a file that cannot be read as such (a header line or a
-/// section name read_data does not know included), a molecule of atoms on one
-/// line with radius 0 (no inertia about it) and a single atom of radius 0.
+/// section name read_data does not know included). Point-mass molecules on
+/// one line are linear bodies, single atoms point bodies (rigid_body.hpp), as
+/// in LAMMPS; only the methods that take them run them.
 LammpsDataBodies read_lammps_data(const std::string& path, const std::vector<double>& radius,
                                   const std::array<bool, 3>& periodic, const std::string& atom_style = "");
 

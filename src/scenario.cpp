@@ -467,7 +467,11 @@ void read_block(const Reader& r, const toml::table& t, const std::string& prefix
     if (thermal) {
       s.p = std::sqrt(body.mass() * kT) * Vector3<double>(normal(rng), normal(rng), normal(rng));
       const Vector3<double> z(normal(rng), normal(rng), normal(rng));
-      const Vector3<double> pi = kT > 0.0 ? Vector3<double>(chol.matrixL() * z) : Vector3<double>::Zero();
+      // A linear body: J Omega ~ N(0, kT I) across its axis; a point: none.
+      const Vector3<double> pi =
+          !(kT > 0.0) || body.rotational_dof() == 0 ? Vector3<double>::Zero()
+          : body.rotational_dof() == 2 ? Vector3<double>(std::sqrt(0.5 * kT * body.inertia().trace()) * body.admissible_momentum(z))
+                                       : Vector3<double>(chol.matrixL() * z);
       s.w = 2.0 * pi;  // w = 2 J Omega, J Omega ~ N(0, kT J)
       total += s.p;
     }
@@ -540,7 +544,8 @@ void read_bodies(const Reader& r, const toml::table& root, BodyList& bodies, std
 /// Bodies must not overlap at the start (ContactDetector: balls, spheres,
 /// ellipsoids; a body given by mass + inertia without radius is its centre of
 /// mass, which must not lie inside another body). The message names the
-/// deepest overlap of the first pair, by body index.
+/// deepest overlap of the first pair, by body index and name (an imported
+/// molecule's "mol<ID>").
 void require_no_overlap(const Reader& r, const System& system, const SystemState& s) {
   const ContactDetector detector(system);
   const std::optional<Contact> first = detector.first(s);
@@ -549,9 +554,10 @@ void require_no_overlap(const Reader& r, const System& system, const SystemState
   auto what = [&](std::size_t a, std::ptrdiff_t ball) {
     return "bodies[" + std::to_string(a) + "]" + (ball >= 0 ? ".ball[" + std::to_string(ball) + "]" : "");
   };
-  r.fail(what(c.b, c.ball_b), "overlaps " + what(c.a, c.ball_a) + " at the start (centre distance " +
-                                  fmt::format("{}", c.distance) + ", " + describe_reach(system, c) +
-                                  "); move the bodies apart");
+  r.fail(what(c.b, c.ball_b), fmt::format("overlaps {} at the start (centre distance {}, {}); move the bodies apart "
+                                          "(\"{}\" and \"{}\")",
+                                          what(c.a, c.ball_a), c.distance, describe_reach(system, c),
+                                          printable(system.name(c.b)), printable(system.name(c.a))));
 }
 
 /// The [interaction] table's keys for a descriptor's `read`, with the
@@ -1097,6 +1103,28 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
                                         (bodies_format ? "bodies[" + std::to_string(a) + "]" : std::string("body")) +
                                         ".inertia must be diagonal in body axes (give the body in its principal axes)");
     }
+  }
+  // Linear bodies and points: only methods that take them, and no angular
+  // momentum along a linear body's axis (none at all for a point) beyond
+  // round-off, which is removed (rigid_body.hpp).
+  for (std::size_t a = 0; a < bodies.size(); ++a) {
+    const RigidBody& body = bodies[a];
+    if (body.rotational_dof() == 3) continue;
+    const std::string which = bodies_format ? fmt::format("bodies[{}] (\"{}\")", a, names[a]) : "the body";
+    const std::string what = body.rotational_dof() == 2 ? "a linear body (a zero principal moment)" : "a point mass (no inertia)";
+    if (!method.linear_bodies)
+      r.fail("integrator.method",
+             fmt::format("\"{}\" needs three principal moments > 0; {} is {}; use {}", method.name, which, what,
+                         method_names_where([](const MethodTraits& m) { return m.linear_bodies; }, ", ", " or ",
+                                            false)));
+    const Vector3<double> w = initial.w[a];
+    const Vector3<double> kept = body.admissible_momentum(w);
+    if ((w - kept).norm() > 1e-12 * w.norm())
+      r.fail(bodies_format ? fmt::format("bodies[{}].w", a) : std::string("initial.w"),
+             fmt::format("{} is {}: it has no angular momentum{}", which, what,
+                         body.rotational_dof() == 2 ? " about its axis; give w across the axis, or omega"
+                                                    : "; give w = 0"));
+    initial.w[a] = kept;
   }
   // The rotation per step |Omega| h: at pi the discrete flow is undefined
   // (and the rotation equation has no root well before, near 1 rad).

@@ -81,7 +81,11 @@ ThermoColumns thermo_columns(const Scenario& s) {
   return closed ? ThermoColumns::temperature_and_pressure : ThermoColumns::temperature;
 }
 
-std::int64_t degrees_of_freedom(const Scenario& s) { return 6 * static_cast<std::int64_t>(s.bodies()) - 3; }
+std::int64_t degrees_of_freedom(const Scenario& s) {
+  std::int64_t n = -3;  // less the total momentum's 3
+  for (std::size_t a = 0; a < s.bodies(); ++a) n += 3 + s.system.body(a).rotational_dof();
+  return n;
+}
 
 TrajectoryLayout scenario_layout(const Scenario& s) {
   const bool forced = !s.forcing.empty();
@@ -201,8 +205,8 @@ struct Recorder {
 
   /// The kinetic temperature and the pressure of a written frame (thermo_columns),
   /// into the statistics: T = 2 K / (k_B n_f), n_f = 6 N - 3 (LAMMPS's count for
-  /// rigid bodies: 3 translational and 3 rotational per body, less the 3 of the
-  /// total momentum), k_B = 1 (T in energy units); P = (2 K_trans + W) / (3 V),
+  /// rigid bodies: 3 translational and 3 rotational per body, 2 for a linear
+  /// body and none for a point, less the 3 of the total momentum), k_B = 1 (T in energy units); P = (2 K_trans + W) / (3 V),
   /// W the pair forces' molecular virial (PairInteraction::virial), V the box's volume.
   std::pair<double, double> thermodynamics(const SystemState& s, double kinetic) {
     const System& sys = scenario.system;

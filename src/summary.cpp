@@ -29,9 +29,12 @@ Json balls_json(const RigidBody& b) {
 }
 
 /// A body's mass, inertia and balls, and its extent where it is a shape or
-/// has a bounding radius (mass + inertia + radius).
+/// has a bounding radius (mass + inertia + radius); for a linear body or a
+/// point its rotational degrees of freedom (2 or 0) and a linear body's axis.
 Json body_json(const RigidBody& b) {
   Json o = {{"mass", b.mass()}, {"inertia", inertia_json(b)}, {"balls", balls_json(b)}};
+  if (b.rotational_dof() != 3) o["rotational_dof"] = b.rotational_dof();
+  if (b.rotational_dof() == 2) o["linear_axis"] = to_vector(b.linear_axis());
   if (b.extent() == Extent::Sphere) o["radius"] = b.semi_axes().x();
   if (b.extent() == Extent::Ellipsoid) o["semi_axes"] = to_vector(b.semi_axes());
   return o;

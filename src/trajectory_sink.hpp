@@ -47,10 +47,12 @@ inline constexpr const char* temperature_column = "temperature";
 inline constexpr const char* pressure_column = "pressure";
 
 /// One sphere of a body as the particle exports (xyz, vtk, lammps-dump) draw it: its
-/// centre in the body frame (about the centre of mass) and its radius.
+/// centre in the body frame (about the centre of mass), its radius and its
+/// site type (Ball::type: 1, 2, ...).
 struct Site {
   std::array<double, 3> rho{};
   double radius = 0.0;
+  int type = 1;
 };
 
 /// What the particle exports need of a body beyond the trajectory's rows:

@@ -59,11 +59,13 @@ TEST(RigidBody, InvalidBodiesAreRejectedWithTheFieldNamed) {
   M3 nonsym = M3::Identity();
   nonsym(0, 1) = 0.1;
   EXPECT_THAT(message([&] { RigidBody(1.0, nonsym); }), HasSubstr("symmetric"));
-  EXPECT_THAT(message([] { RigidBody(1.0, M3(V3(1, 1, -1).asDiagonal())); }), HasSubstr("positive definite"));
+  EXPECT_THAT(message([] { RigidBody(1.0, M3(V3(1, 1, -1).asDiagonal())); }), HasSubstr("positive semi-definite"));
   EXPECT_THAT(message([] { RigidBody(1.0, M3(V3(1, 1, 3).asDiagonal())); }), HasSubstr("triangle inequality"));
-  // All balls on one line with no radius: no inertia about the line.
-  EXPECT_THAT(message([] { RigidBody::from_balls({{{0, 0, 0}, 1, 0}, {{1, 0, 0}, 1, 0}}); }),
-              HasSubstr("positive definite"));
+  // A zero moment with unequal others: no mass on a line has it (balls on a
+  // line are a linear body, tests/test_linear_bodies.cpp).
+  EXPECT_THAT(message([] { RigidBody(1.0, M3(V3(0, 1, 1.5).asDiagonal())); }), HasSubstr("a zero moment is a linear body"));
+  // A solid shape whose m r^2 underflows is no line or point.
+  EXPECT_THAT(message([] { RigidBody::sphere(1.0, 1e-170); }), HasSubstr("body.radius"));
   EXPECT_THAT(message([] { RigidBody::from_balls({{{0, 0, 0}, 1, 0.1}, {{1, 0, 0}, 0, 0.1}}); }),
               HasSubstr("body.ball[1].mass"));
   EXPECT_THAT(message([] { RigidBody::from_balls({{{0, 0, 0}, 1, -0.1}}); }), HasSubstr("body.ball[0].radius"));

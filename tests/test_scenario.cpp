@@ -501,7 +501,7 @@ std::vector<BadCase> bad_cases() {
        mutate("[[1.0, 0.0, 0.0], [0.0, 2.0, 0.0]", "[[1.0, 0.1, 0.0], [0.0, 2.0, 0.0]"),
        {"body.inertia", "symmetric"}},
       {"InertiaNotPositiveDefinite", "inertia not positive definite", mutate("[0.0, 0.0, 2.5]]", "[0.0, 0.0, -2.5]]"),
-       {"body.inertia", "positive definite"}},
+       {"body.inertia", "positive semi-definite"}},
       {"InertiaTriangleInequality", "inertia diag(1, 1, 3) violates the triangle inequality",
        mutate("[[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.5]]", "[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 3.0]]"),
        {"body.inertia", "triangle inequality"}},
@@ -512,12 +512,12 @@ std::vector<BadCase> bad_cases() {
        mutate("[[1.0, 0.0, 0.0], [0.0, 2.0, 0.0]", "[[1.0, 0.0, 0.0], [0.0, 2.0]"), {"body.inertia[1]", "3 numbers"}},
       {"InertiaNan", "inertia with nan", mutate("[0.0, 0.0, 2.5]]", "[0.0, 0.0, nan]]"),
        {"body.inertia[2][2]", "finite"}},
-      {"BallsOnALine", "point balls on one line (J singular)",
+      {"LinearBodyWithAxialMomentum", "point balls on one line (a linear body) given w along the line",
        with_balls(ball_entry("[0, 0, 0]", "1.0", "0") + ball_entry("[1, 0, 0]", "1.0", "0") +
                   ball_entry("[2, 0, 0]", "1.0", "0")),
-       {"body.inertia", "positive definite"}},
-      {"SinglePointBall", "one ball of radius 0 (J = 0)", with_balls(ball_entry("[1, 2, 3]", "1.0", "0.0")),
-       {"body.inertia", "positive definite"}},
+       {"initial.w", "a linear body", "no angular momentum about its axis"}},
+      {"PointBallWithMomentum", "one ball of radius 0 (a point) given w", with_balls(ball_entry("[1, 2, 3]", "1.0", "0.0")),
+       {"initial.w", "a point mass", "give w = 0"}},
       {"BallZeroMass", "second ball has mass 0",
        with_balls(ball_entry("[0, 0, 0]", "1.0", "0.1") + ball_entry("[1, 0, 0]", "0.0", "0.1")),
        {"body.ball[1].mass", "> 0"}},
@@ -710,10 +710,10 @@ TEST(ScenarioInput, PhysicalFalseWaivesOnlyTheTriangleInequality) {
   const std::string from = "inertia = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.5]]";
   EXPECT_NE(parse_error(mutate(from, hlw), "h.toml").find("triangle inequality"), std::string::npos);
   EXPECT_NO_THROW(lgvi::app::parse_scenario(mutate(from, hlw + "\nphysical = false"), "h.toml"));
-  // Still symmetric positive definite, whatever `physical` says.
+  // Still symmetric positive semi-definite, whatever `physical` says.
   EXPECT_NE(parse_error(mutate(from, "inertia = [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0]]\nphysical = false"),
                         "h.toml")
-                .find("positive definite"),
+                .find("positive semi-definite"),
             std::string::npos);
   EXPECT_NE(parse_error(mutate(from, from + "\nphysical = 1"), "h.toml").find("body.physical"), std::string::npos);
 }

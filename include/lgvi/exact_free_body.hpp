@@ -412,7 +412,7 @@ class ExactFreeBodySystemStepper {
   static constexpr MethodTraits traits{"exact", "the free rigid body's exact flow (Celledoni, Fasso, Safstrom & Zanna 2008)", 0,
                                       /*symmetric=*/true, /*two_step=*/false, /*implicit=*/false,
                                       /*accepts_forcing=*/false, /*needs_principal_axes=*/false,
-                                      /*free_body_only=*/true};
+                                      /*free_body_only=*/true, /*linear_bodies=*/false};
 
   /// `potential` must be the free body's (the caller checks: the exact flow
   /// knows no forces); more than one body is rejected.

@@ -8,6 +8,10 @@
 //               q_a1 = q_a0 f_a (formed as q_a0 + q_a0 (f_a - e): S3::times_near_identity);
 //   one evaluation of the system at (x_1, q_1);
 //   per body a: p_a1 = p_a0 + (h/2)(F_a0 + F_a1); w_a1 = pi(f_a)^T (w_a0 + h M_a0) + h M_a1.
+// Linear bodies and points (rigid_body.hpp) take the same step: their
+// rotation equation is solved in closed form (rotation_solver.hpp) and w_a1
+// loses the component along the axis that round-off gives it
+// (RigidBody::admissible_momentum), so that it stays what the body can have.
 // A single body is N = 1 (single_body.hpp gives it the RigidBodyState API).
 //
 // Discrete Lagrangian (paper eq. "discrtelag", from Wendlandt & Marsden):
@@ -62,11 +66,11 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
   static constexpr MethodTraits traits{"lgvi", "the quaternion LGVI of Shen & Leok, Hamiltonian form", 2,
                                       /*symmetric=*/true, /*two_step=*/false, /*implicit=*/true,
                                       /*accepts_forcing=*/true, /*needs_principal_axes=*/false,
-                                      /*free_body_only=*/false};
+                                      /*free_body_only=*/false, /*linear_bodies=*/true};
 
   LieGroupVariationalIntegrator(System system, I potential, SolverOptions solver = {}, Parallelism par = {})
       : Base(std::move(system), std::move(potential), solver, par), w_half_(this->system_.size()), f_(this->system_.size()) {
-    for (const RigidBody& b : system_bodies(this->system_)) solvers_.emplace_back(b.inertia(), solver);
+    for (const RigidBody& b : system_bodies(this->system_)) solvers_.emplace_back(b, solver);
     // In batches from two full ones on; fewer bodies keep the scalar solves
     // (a batch pays for four lanes whatever it holds). At the first step a
     // batch seeds all its bodies' predictors before solving: a body after
@@ -117,7 +121,7 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
         for (std::size_t l = 0; l < count; ++l) {
           const std::size_t a = first + l;
           const auto lane = static_cast<int>(l);
-          if (batch.solved[lane]) {
+          if (batch.solved[lane] && solvers_[a].batchable()) {
             this->reports_[a] = {batch.iterations[lane], batch.residual_evaluations[lane], 0};
             advance(a, S3d(batch.f[0][lane], batch.f[1][lane], batch.f[2][lane], batch.f[3][lane]));
             continue;
@@ -142,7 +146,7 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
     const bool checked = this->forcing().empty();
     this->end_step(s, t + h, h, [&](std::size_t a) {
       this->kick(s, a, h);
-      s.w[a] = f_[a].inverse().act(w_half_[a]) + h * this->torque(a);
+      s.w[a] = sys.body(a).admissible_momentum(f_[a].inverse().act(w_half_[a]) + h * this->torque(a));
       if (checked) this->note_finite(s, a);
     });
     this->finish_step(s, checked);
@@ -213,13 +217,13 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
   static constexpr MethodTraits traits{"lgvi-lagrangian", "the quaternion LGVI of Shen & Leok, position-position (Lagrangian) form", 2,
                                       /*symmetric=*/true, /*two_step=*/true, /*implicit=*/true,
                                       /*accepts_forcing=*/false, /*needs_principal_axes=*/false,
-                                      /*free_body_only=*/false};
+                                      /*free_body_only=*/false, /*linear_bodies=*/true};
 
   LagrangianLieGroupVariationalIntegrator(System system, I potential, SolverOptions solver = {},
                                           Parallelism par = {})
       : Base(std::move(system), std::move(potential), solver, par) {
     const std::size_t n = this->system_.size();
-    for (const RigidBody& b : system_bodies(this->system_)) solvers_.emplace_back(b.inertia(), solver);
+    for (const RigidBody& b : system_bodies(this->system_)) solvers_.emplace_back(b, solver);
     x_next_.resize(n);
     d_.resize(n);
     f_.resize(n);
@@ -260,7 +264,7 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
       s.x[a] = x_next_[a];
       s.q[a] = q_next_[a];
       s.p[a] = (body.mass() / h) * d_[a] + (0.5 * h) * force;
-      s.w[a] = (4.0 / h) * g_backward + h * torque;
+      s.w[a] = body.admissible_momentum((4.0 / h) * g_backward + h * torque);
       // DEL for configuration k + 2.
       S3d f = this->predictor(a).predict();
       solvers_[a].solve(g_backward + (0.5 * h * h) * torque, f, this->reports_[a]);

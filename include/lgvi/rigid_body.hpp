@@ -7,6 +7,19 @@
 // The paper's kinetic energy T = m|xdot|^2/2 + Omega^T J Omega / 2 assumes the
 // body frame's origin is the centre of mass (its eq. for T uses
 // int rho dm = 0); `from_balls` moves the origin there.
+//
+// Linear and point bodies (LAMMPS's rigid bodies with a zero principal
+// moment). Point masses on one line, such as CO2 or N2, have no inertia about
+// that line: J = I (1 - n n^T) with axis n. The Lagrangian does not depend on
+// the rotation about n, so the body has two rotational degrees of freedom, its
+// angular momentum has no component along n (the primary constraint
+// dL/dOmega_n = 0), and the rotation about n is fixed to none (as LAMMPS sets
+// omega_n = 0). A single point mass has J = 0 and no rotation at all. A
+// principal moment below 1e-7 of the largest is zero, LAMMPS's threshold
+// (fix rigid/small's EPSILON), so that a molecule written with a few digits
+// is linear; J is then stored as the exact I (1 - n n^T), I the mean of the
+// two others, and inertia_inverse() is its pseudo-inverse (1 - n n^T) / I.
+// Only methods that say so in their traits take such bodies (lgvi.hpp).
 #pragma once
 
 #include <lgvi/error.hpp>
@@ -51,8 +64,9 @@ class RigidBody {
  public:
   /// A body given by mass and standard inertia J (body frame, about the
   /// centre of mass). Throws InvalidInput unless m > 0 is finite and J is
-  /// symmetric positive definite with principal moments that satisfy the
-  /// triangle inequality (J1 + J2 >= J3 for every ordering).
+  /// symmetric positive semi-definite with principal moments that satisfy
+  /// the triangle inequality (J1 + J2 >= J3 for every ordering); a zero
+  /// moment makes a linear body, J = 0 a point (the file comment).
   RigidBody(double mass, const Matrix3<double>& inertia) : mass_(mass), inertia_(inertia) { validate(); }
 
   /// Whether to require the triangle inequality of the principal moments.
@@ -101,6 +115,7 @@ class RigidBody {
   static RigidBody sphere(double mass, double radius) {
     require_length(radius, "body.radius");
     RigidBody body(mass, Matrix3<double>::Identity() * (0.4 * mass * radius * radius));
+    body.require_three_moments("body.radius");
     body.extent_ = Extent::Sphere;
     body.semi_axes_ = Vector3<double>::Constant(radius);
     return body;
@@ -113,6 +128,7 @@ class RigidBody {
     const Vector3<double> s2 = semi_axes.cwiseProduct(semi_axes);
     const Vector3<double> moments(s2.y() + s2.z(), s2.x() + s2.z(), s2.x() + s2.y());
     RigidBody body(mass, Matrix3<double>(((mass / 5.0) * moments).asDiagonal()));
+    body.require_three_moments("body.semi_axes");
     body.extent_ = Extent::Ellipsoid;
     body.semi_axes_ = semi_axes;
     return body;
@@ -141,7 +157,20 @@ class RigidBody {
   double mass() const { return mass_; }
   /// Standard inertia J (the paper's J = tr[J_d] I - J_d).
   const Matrix3<double>& inertia() const { return inertia_; }
+  /// J^{-1}; the pseudo-inverse for a linear body, 0 for a point.
   const Matrix3<double>& inertia_inverse() const { return inertia_inverse_; }
+  /// Rotational degrees of freedom: 3, 2 for a linear body, 0 for a point.
+  int rotational_dof() const { return rotational_dof_; }
+  /// A linear body's axis n (body frame, unit): J = I (1 - n n^T). Zero otherwise.
+  const Vector3<double>& linear_axis() const { return axis_; }
+  /// The momentum w (= 2 J Omega) with what this body cannot have removed:
+  /// its component along a linear body's axis, all of it for a point; w
+  /// itself, bit for bit, for a body with three moments.
+  Vector3<double> admissible_momentum(const Vector3<double>& w) const {
+    if (rotational_dof_ == 3) return w;
+    if (rotational_dof_ == 0) return Vector3<double>::Zero();
+    return w - w.dot(axis_) * axis_;
+  }
   /// Whether the body frame is a principal frame: J diagonal, its
   /// off-diagonal entries within 8 eps of the largest moment (the round-off of
   /// a sum of ball inertias; user input must be diagonal as written). The
@@ -175,6 +204,13 @@ class RigidBody {
     validate();
   }
 
+  /// A solid shape has three moments > 0: one that rounds to a line or a
+  /// point (m r^2 underflowing) is an error, not a linear body.
+  void require_three_moments(const char* key) const {
+    if (rotational_dof_ != 3)
+      throw InvalidInput(std::string(key) + ": the shape's inertia rounds to that of a line or a point");
+  }
+
   static void require_length(double v, const char* key) {
     if (!(std::isfinite(v) && v > 0.0))
       throw InvalidInput(std::string(key) + ": must be a finite number > 0, got " + std::to_string(v));
@@ -189,16 +225,32 @@ class RigidBody {
     // exactly symmetric, user input must be symmetric as written.
     if ((inertia_ - inertia_.transpose()).cwiseAbs().maxCoeff() > 8 * eps * scale)
       throw InvalidInput("body.inertia: must be symmetric");
+    if (scale == 0.0) {  // a point mass (one ball of radius 0, or balls at one place)
+      rotational_dof_ = 0;
+      inertia_.setZero();
+      inertia_inverse_.setZero();
+      return;
+    }
     const Eigen::SelfAdjointEigenSolver<Matrix3<double>> es(inertia_);
     const Vector3<double>& l = es.eigenvalues();  // ascending
-    // Positive definite, with a margin of round-off relative to the largest
-    // moment (a body whose balls lie on one line has a zero moment).
-    if (!(l(0) > 16 * eps * l(2)))
-      throw InvalidInput(
-          "body.inertia: must be positive definite (principal moments " + std::to_string(l(0)) + ", " +
-          std::to_string(l(1)) + ", " + std::to_string(l(2)) +
-          "); a body of point masses on one line has no inertia about that line: give the balls a radius or "
-          "move one off the line");
+    if (!(l(0) >= -linear_threshold * l(2)))
+      throw InvalidInput("body.inertia: must be positive semi-definite (principal moments " + std::to_string(l(0)) +
+                         ", " + std::to_string(l(1)) + ", " + std::to_string(l(2)) + ")");
+    if (l(0) <= linear_threshold * l(2)) {
+      // Linear: the other two moments are equal (mass on one line), to the
+      // same threshold; a test problem's (0, 1, 2) is no body.
+      if (l(2) - l(1) > 2 * linear_threshold * l(2))
+        throw InvalidInput("body.inertia: principal moments " + std::to_string(l(0)) + ", " + std::to_string(l(1)) +
+                           ", " + std::to_string(l(2)) +
+                           ": a zero moment is a linear body (mass on one line), whose other two moments are equal");
+      const double moment = 0.5 * (l(1) + l(2));
+      axis_ = es.eigenvectors().col(0).normalized();
+      const Matrix3<double> across = Matrix3<double>::Identity() - axis_ * axis_.transpose();
+      inertia_ = moment * across;
+      inertia_inverse_ = across / moment;
+      rotational_dof_ = 2;
+      return;
+    }
     // Triangle inequality J1 + J2 >= J3; equality is a lamina (planar point
     // masses), allowed up to round-off of the eigen-decomposition.
     if (require_triangle_ && l(0) + l(1) < l(2) * (1.0 - 64 * eps))
@@ -209,11 +261,16 @@ class RigidBody {
     inertia_inverse_ = inertia_.inverse();
   }
 
+  /// A principal moment at or below this fraction of the largest is zero
+  /// (LAMMPS's fix rigid/small EPSILON).
+  static constexpr double linear_threshold = 1e-7;
   static constexpr double eps = std::numeric_limits<double>::epsilon();
   double mass_;
   Matrix3<double> inertia_;
   bool require_triangle_ = true;
   Matrix3<double> inertia_inverse_;
+  int rotational_dof_ = 3;
+  Vector3<double> axis_ = Vector3<double>::Zero();
   std::vector<Ball> balls_;
   Extent extent_ = Extent::Point;
   Vector3<double> semi_axes_ = Vector3<double>::Zero();

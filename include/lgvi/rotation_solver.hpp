@@ -26,9 +26,20 @@
 // All stop when the residual reaches tolerance * |b| (Broyden also when the
 // update reaches tolerance * |xi|; Newton when it reaches tolerance * |f_v|),
 // default tolerance 4 eps: round-off level. xi0 = log(f) where it is wanted.
+//
+// A linear body (rigid_body.hpp: J = I (1 - n n^T)) has a one-parameter
+// family of roots, the rotations about n, which its Lagrangian does not see
+// (the first component of g along n is 0 for every f). The root without
+// rotation about n (f_v . n = 0, as LAMMPS keeps omega_n = 0) has J f_v = I f_v
+// and f_v x J f_v = 0, so g(f) = I f_s f_v = b_perp (b's part across n, the
+// only part the equation has) is solved in closed form: with k = |b_perp| / I,
+//     f_s^2 = (1 + sqrt(1 - 4 k^2)) / 2,   f_v = b_perp / (I f_s),
+// the root near f = e (rotation 2 asin(|f_v|) per step, sin of it = 2k: none
+// beyond 2k = 1, a quarter turn per step). A point (J = 0) has g = 0: f = e.
 #pragma once
 
 #include <lgvi/error.hpp>
+#include <lgvi/rigid_body.hpp>
 #include <lgvi/s3.hpp>
 
 #include <Eigen/Cholesky>
@@ -422,9 +433,22 @@ inline void newton_cayley_lanes(RotationSolveBatch& batch, int count, double tol
 class RotationSolver {
  public:
   RotationSolver(const Matrix3<double>& inertia, SolverOptions options) : eq_(inertia), opt_(options) {}
+  /// The solver of `body`'s equation: a linear body's or a point's in
+  /// closed form (the file comment), whatever the options' kind.
+  RotationSolver(const RigidBody& body, SolverOptions options)
+      : eq_(body.inertia()), opt_(options), rotational_dof_(body.rotational_dof()), axis_(body.linear_axis()),
+        moment_(body.rotational_dof() == 2 ? 0.5 * body.inertia().trace() : 0.0) {}
 
   void solve(const Vector3<double>& b, S3d& f, SolveReport& report) const {
     report = {};
+    if (rotational_dof_ == 0) {
+      f = S3d();
+      return;
+    }
+    if (rotational_dof_ == 2) {
+      f = linear_rotor(b);
+      return;
+    }
     switch (opt_.kind) {
       case SolverKind::Newton: f = newton_cayley_chart(b, f, report); return;
       case SolverKind::NewtonExp: {
@@ -444,11 +468,21 @@ class RotationSolver {
   const RotationEquation& equation() const { return eq_; }
 
   /// Whether solve() can be done in a RotationSolveBatch (the default
-  /// solver, Newton in the Cayley chart).
-  bool batchable() const { return opt_.kind == SolverKind::Newton; }
+  /// solver, Newton in the Cayley chart, for a body with three moments).
+  bool batchable() const { return opt_.kind == SolverKind::Newton && rotational_dof_ == 3; }
   /// Puts this body's solve of g(f) = b from `guess` into lane l of `batch`.
+  /// A body that is not batchable() loads a problem solved at once (b = 0
+  /// from f = e): the caller ignores the lane and solves the body alone.
   void load(RotationSolveBatch& batch, int lane, const Vector3<double>& b, const S3d& guess) const {
     const auto l = static_cast<std::size_t>(lane);
+    if (!batchable()) {
+      for (int i = 0; i < 9; ++i) batch.inertia[i][l] = i % 4 == 0 ? 1.0 : 0.0;
+      batch.inertia_norm[l] = 1.0;
+      for (int i = 0; i < 3; ++i) batch.b[i][l] = 0.0;
+      batch.guess[0][l] = 1.0;
+      for (int i = 1; i < 4; ++i) batch.guess[i][l] = 0.0;
+      return;
+    }
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) batch.inertia[3 * i + j][l] = eq_.inertia()(i, j);
     batch.inertia_norm[l] = eq_.inertia_norm();
@@ -547,6 +581,22 @@ class RotationSolver {
     }
   }
 
+  /// The closed-form root of a linear body (the file comment). 1 - 4 k^2 is
+  /// formed as (1 - 2k)(1 + 2k), exact near 2k = 1; |f_v|^2 = 1 - f_s^2 then
+  /// holds to round-off.
+  S3d linear_rotor(const Vector3<double>& b) const {
+    const Vector3<double> across = b - b.dot(axis_) * axis_;
+    const double k = across.norm() / moment_;
+    const double root = (1.0 - 2.0 * k) * (1.0 + 2.0 * k);
+    if (!(root >= 0.0))
+      throw StepFailure("a linear body's rotation equation has no root for this step (sin of the rotation per step "
+                        "would be " + std::to_string(2.0 * k) + " > 1: more than a quarter turn per step)",
+                        detail::smaller_step_hint);
+    const double fs = std::sqrt(0.5 * (1.0 + std::sqrt(root)));
+    const Vector3<double> fv = across / (moment_ * fs);
+    return S3d(fs, fv.x(), fv.y(), fv.z());
+  }
+
   static StepFailure left_branch() {
     return StepFailure("the rotation in one step reached pi (|xi0| >= pi/2, Re(q0^* q1) <= 0), where the discrete "
                        "flow is not defined",
@@ -583,6 +633,9 @@ class RotationSolver {
 
   RotationEquation eq_;
   SolverOptions opt_;
+  int rotational_dof_ = 3;
+  Vector3<double> axis_ = Vector3<double>::Zero();  ///< a linear body's axis n
+  double moment_ = 0.0;                             ///< a linear body's I: J = I (1 - n n^T)
 };
 
 }  // namespace lgvi

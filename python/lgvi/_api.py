@@ -192,8 +192,19 @@ class Body:
 
     @property
     def inertia_inverse(self):
-        """J^-1, 3x3 ndarray."""
+        """J^-1, 3x3 ndarray; the pseudo-inverse for a linear body, zeros for a point."""
         return self._core.inertia_inverse
+
+    @property
+    def rotational_dof(self):
+        """Rotational degrees of freedom: 3; 2 for a linear body (point masses on one line: no moment about the
+        line, no rotation about it); 0 for a point mass."""
+        return self._core.rotational_dof
+
+    @property
+    def linear_axis(self):
+        """A linear body's axis n (body frame, unit), J = I (1 - n n^T); zeros otherwise."""
+        return self._core.linear_axis
 
     @property
     def balls(self):

@@ -30,6 +30,8 @@ class Body:
     mass: float
     inertia: Array
     inertia_inverse: Array
+    rotational_dof: int
+    linear_axis: Array
     balls: List[Dict[str, Any]]
 
 class Scenario:

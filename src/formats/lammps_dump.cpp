@@ -16,9 +16,10 @@
 //   <id> <mol> <type> <x> <y> <z> <ix> <iy> <iz>    one line per site
 //
 // id numbers the sites of a frame from 1, mol the bodies from 1 (the bodies'
-// order in the scenario), and type the site radii from 1 in order of first
-// appearance, so that a viewer's per-type radius draws every site at its size
-// (LAMMPS's "types"; one type for a gas of identical molecules). Coordinates
+// order in the scenario), and type the site's type (Ball::type, a data
+// file's atom type) where the scenario gives any; else the site radii from 1
+// in order of first appearance, so that a viewer's per-type radius draws
+// every site at its size (one type for a gas of identical molecules). Coordinates
 // are x + R(q) rho with 17 significant digits, exactly the extended XYZ
 // export's positions: each site wrapped into the box along its periodic axes
 // with its image counts (LAMMPS's convention: unwrapped = x + ix (xhi - xlo)),

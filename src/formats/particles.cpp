@@ -26,7 +26,8 @@ std::vector<BodyShape> body_shapes(const System& system) {
     for (std::size_t i = 0; i < 3; ++i)
       for (std::size_t k = 0; k < 3; ++k)
         s.inertia_inverse[3 * i + k] = j_inv(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(k));
-    for (const Ball& b : body.balls()) s.sites.push_back({{b.position.x(), b.position.y(), b.position.z()}, b.radius});
+    for (const Ball& b : body.balls())
+      s.sites.push_back({{b.position.x(), b.position.y(), b.position.z()}, b.radius, b.type});
     if (s.sites.empty()) {
       // A uniform sphere has every moment 2/5 m r^2: the one of the mean moment tr J / 3.
       const double r = std::sqrt(5.0 * body.inertia().trace() / (6.0 * body.mass()));
@@ -155,11 +156,16 @@ SinkPosition particle_file_position(const char* format, const ParticleFrames& fr
 ParticleTextFile::ParticleTextFile(const char* format, const std::string& path, const TrajectoryLayout& layout,
                                    const SinkPosition* resume)
     : format_(format), path_(path), frames_(layout) {
+  // The sites' own types where the scenario gives any (a ball's type, a data
+  // file's atom types); else one type per radius.
+  bool typed = false;
+  for (const BodyShape& shape : frames_.shapes())
+    for (const Site& site : shape.sites) typed = typed || site.type != 1;
   std::map<double, std::int64_t> type_of_radius;  // O(sites log types)
   for (const BodyShape& shape : frames_.shapes())
     for (const Site& site : shape.sites) {
       const std::int64_t next = static_cast<std::int64_t>(type_of_radius.size()) + 1;
-      site_types_.push_back(type_of_radius.emplace(site.radius, next).first->second);
+      site_types_.push_back(typed ? site.type : type_of_radius.emplace(site.radius, next).first->second);
     }
   if (resume) frames_.resume_at(resume->rows);
   file_ = open_appendable_file(path, resume);

@@ -119,10 +119,12 @@ class ParticleTextFile : public TrajectorySink {
 
  protected:
   const ParticleFrames& frames() const { return frames_; }
-  /// Each site's type, in the frame's site order: the site radii numbered
-  /// from 1 in order of first appearance (a radius seen keeps its type), so
-  /// that a gas of identical molecules has as many types as its molecule has
-  /// radii. The particle exports' species (xyz) and types (lammps-dump).
+  /// Each site's type, in the frame's site order: the balls' own types
+  /// (Ball::type, a data file's atom types) where any is not 1; else the site
+  /// radii numbered from 1 in order of first appearance (a radius seen keeps
+  /// its type), so that a gas of identical molecules has as many types as its
+  /// molecule has radii. The particle exports' species (xyz) and types
+  /// (lammps-dump).
   const std::vector<std::int64_t>& site_types() const { return site_types_; }
   /// Appends the frame's text to `text` (empty on entry).
   virtual void format_frame(const ParticleFrame& frame, std::string& text) = 0;

@@ -7,8 +7,8 @@
 // pos -> Position, orientation -> Orientation, radius -> Radius, id ->
 // Particle Identifier, velo -> Velocity, omega -> Angular Velocity; `body`
 // becomes a property of that name. The species is the site's type, "type1",
-// "type2", ... (ParticleTextFile::site_types: by radius, as the LAMMPS dump's
-// types), so that OVITO colours the sites of a gas by kind, not by molecule. OVITO's Orientation is the quaternion
+// "type2", ... (ParticleTextFile::site_types: the balls' types, or by radius
+// where none is given, as the LAMMPS dump's types), so that OVITO colours the sites of a gas by kind, not by molecule. OVITO's Orientation is the quaternion
 // (X, Y, Z, W), scalar last, in Shoemake's convention (the rotation of the
 // body frame into the inertial frame, as lgvi's q): see
 // https://www.ovito.org/manual/advanced_topics/aspherical_particles.html.

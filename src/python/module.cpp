@@ -644,8 +644,9 @@ PYBIND11_MODULE(_core, m) {
                         "A rigid body (C++ lgvi::RigidBody): mass, standard inertia J about the centre of mass in body "
                         "axes, and the uniform balls it is made of (if any). Validated on construction.")
       .def(py::init(&make_body), py::arg("mass"), py::arg("inertia"),
-           "Body from mass m > 0 and the 3x3 inertia J (symmetric positive definite, principal moments with "
-           "J1 + J2 >= J3). ValueError naming `mass` or `inertia` otherwise.")
+           "Body from mass m > 0 and the 3x3 inertia J (symmetric positive semi-definite, principal moments with "
+           "J1 + J2 >= J3; a zero moment makes a linear body, J = 0 a point). ValueError naming `mass` or "
+           "`inertia` otherwise.")
       .def_static("from_balls", &body_from_balls, py::arg("balls"),
                   "Body from a sequence of (position (3,), mass > 0, radius >= 0) uniform balls; positions are "
                   "shifted so that the centre of mass is the body origin.")
@@ -653,7 +654,12 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("inertia", [](const RigidBody& b) { return matrix_array(b.inertia()); },
                              "Standard inertia J (3x3, body axes, about the centre of mass).")
       .def_property_readonly("inertia_inverse", [](const RigidBody& b) { return matrix_array(b.inertia_inverse()); },
-                             "J^-1 (3x3).")
+                             "J^-1 (3x3); the pseudo-inverse for a linear body, 0 for a point.")
+      .def_property_readonly("rotational_dof", &RigidBody::rotational_dof,
+                             "Rotational degrees of freedom: 3, 2 for a linear body (point masses on one line: no "
+                             "moment about it, no rotation about it), 0 for a point mass.")
+      .def_property_readonly("linear_axis", [](const RigidBody& b) { return array3(b.linear_axis()); },
+                             "A linear body's axis n (body frame, unit), J = I (1 - n n^T); zeros otherwise.")
       .def_property_readonly("balls", &balls_list,
                              "The balls as dicts {position (3,) relative to the centre of mass, mass, radius}; "
                              "empty for a body given by mass and inertia.")

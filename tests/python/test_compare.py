@@ -214,18 +214,8 @@ def test_binary_asteroid_exact_is_not_applicable(binary_asteroid):
     assert "| exact | not applicable: the exact flow of one free body" in (out / "comparison.md").read_text()
 
 
-def test_system_methods_that_cannot_run_are_named(tmp_path):
-    # A body given off its principal axes: no-squish cannot run it, lgvi can; with no method left, one error.
-    scenario = tmp_path / "pair.toml"
-    scenario.write_text("""
-[[bodies]]
-mass = 1.0
-inertia = [[2.0, 0.1, 0.0], [0.1, 3.0, 0.0], [0.0, 0.0, 4.0]]
-position = [0.0, 0.0, 0.0]
-quaternion = [1.0, 0.0, 0.0, 0.0]
-momentum = [0.0, -0.1, 0.0]
-omega = [0.0, 0.0, 0.5]
-[[bodies]]
+# A second body in gravity with the first (model "inertia"), and the run: the tail of the scenarios below.
+PARTNER = """[[bodies]]
 mass = 0.1
 inertia = [[0.1, 0.0, 0.0], [0.0, 0.2, 0.0], [0.0, 0.0, 0.3]]
 position = [5.0, 0.0, 0.0]
@@ -241,7 +231,21 @@ kind = "none"
 [integrator]
 step = 0.1
 duration = 4.0
-""")
+"""
+
+
+def test_system_methods_that_cannot_run_are_named(tmp_path):
+    # A body given off its principal axes: no-squish cannot run it, lgvi can; with no method left, one error.
+    scenario = tmp_path / "pair.toml"
+    scenario.write_text("""
+[[bodies]]
+mass = 1.0
+inertia = [[2.0, 0.1, 0.0], [0.1, 3.0, 0.0], [0.0, 0.0, 4.0]]
+position = [0.0, 0.0, 0.0]
+quaternion = [1.0, 0.0, 0.0, 0.0]
+momentum = [0.0, -0.1, 0.0]
+omega = [0.0, 0.0, 0.5]
+""" + PARTNER)
     args = [BINARY, "compare", str(scenario), "--ladder", "2", "--long-steps", "10", "--timing-budget", "0",
             "--no-figures", "-q"]
     proc = subprocess.run(args + ["--methods", "lgvi,no-squish", "--out", str(tmp_path / "c")], capture_output=True,
@@ -254,6 +258,35 @@ duration = 4.0
     proc = subprocess.run(args + ["--methods", "exact", "--out", str(tmp_path / "d")], capture_output=True, text=True)
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
     assert "none of the methods" in proc.stderr and "one free body" in proc.stderr, proc.stderr
+
+
+def test_methods_that_need_three_moments_skip_a_linear_body(tmp_path):
+    # A rod of two point masses is a linear body: lgvi and lgvi-lagrangian run it, rk4-normalized (which divides
+    # by the moments) is named as not applicable.
+    scenario = tmp_path / "rod.toml"
+    scenario.write_text("""
+[[bodies]]
+position = [0.0, 0.0, 0.0]
+quaternion = [1.0, 0.0, 0.0, 0.0]
+momentum = [0.0, -0.1, 0.0]
+omega = [0.0, 0.3, 0.5]
+[[bodies.ball]]
+position = [-0.5, 0.0, 0.0]
+mass = 1.0
+radius = 0.0
+[[bodies.ball]]
+position = [0.5, 0.0, 0.0]
+mass = 1.0
+radius = 0.0
+""" + PARTNER)
+    proc = subprocess.run([BINARY, "compare", str(scenario), "--ladder", "2", "--long-steps", "10", "--timing-budget",
+                           "0", "--no-figures", "-q", "--methods", "lgvi,lgvi-lagrangian,rk4-normalized", "--out",
+                           str(tmp_path / "c")], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    with open(tmp_path / "c" / "comparison.csv", newline="") as f:
+        rows = {r["method"]: r for r in csv.DictReader(f)}
+    assert rows["rk4-normalized"]["not_applicable"] == "needs three principal moments > 0; bodies[0] is linear"
+    assert float(rows["lgvi"]["error_at_h"]) > 0 and float(rows["lgvi-lagrangian"]["error_at_h"]) > 0
 
 
 def test_single_body_reference_is_unchanged(comparison):

@@ -323,7 +323,7 @@ BAD_ARGUMENTS = [
     (lambda: lgvi.Body(mass=1.0, inertia=np.diag([1.0, 1.0, 3.0])), "inertia"),               # J1 + J2 < J3
     (lambda: lgvi.Body(balls=[]), "balls"),
     (lambda: lgvi.Body(mass=1.0, inertia=np.eye(3), balls=[((0, 0, 0), 1.0, 0.1)]), "balls"),
-    (lambda: lgvi.Body.from_balls([((0, 0, 0), 1.0, 0.0), ((1, 0, 0), 1.0, 0.0)]), "balls"),  # on a line
+    (lambda: lgvi.Body(mass=1.0, inertia=np.diag([0.0, 1.0, 2.0])), "inertia"),  # a zero moment, not a line's
     (lambda: lgvi.Body.from_balls([((0, 0), 1.0, 0.1)]), "balls[0].position"),
     (lambda: lgvi.Body.from_balls([((0, 0, 0), 1.0, 0.1), ((1, 0, 0), -1.0, 0.1)]), "balls[1].mass"),
     (lambda: lgvi.Body.from_balls([((0, 0, 0), 1.0, -0.1)]), "balls[0].radius"),
@@ -398,6 +398,18 @@ BAD_ARGUMENTS = [
     (lambda: lgvi.Scenario.from_string(b"[body]"), "text"),
     (lambda: lgvi.Result(np.zeros((3, 20))), "data"),
 ]
+
+
+def test_point_masses_on_a_line_are_a_linear_body():
+    # No moment about the line (J = I (1 - n n^T), I = sum m s^2 about the centre: 2 * 0.5^2), two rotational
+    # degrees of freedom; one point mass has none (rigid_body.hpp).
+    rod = lgvi.Body.from_balls([((0, 0, 0), 1.0, 0.0), ((0, 1, 0), 1.0, 0.0)])
+    assert rod.rotational_dof == 2 and abs(abs(rod.linear_axis[1]) - 1.0) <= 1e-15
+    assert np.allclose(rod.inertia, np.diag([0.5, 0.0, 0.5]), rtol=0, atol=1e-16)
+    assert np.allclose(rod.inertia_inverse, np.diag([2.0, 0.0, 2.0]), rtol=0, atol=1e-15)
+    point = lgvi.Body.from_balls([((1, 2, 3), 2.0, 0.0)])
+    assert point.rotational_dof == 0 and not point.inertia.any() and not point.linear_axis.any()
+    assert lgvi.Body.sphere(1.0, 0.5).rotational_dof == 3
 
 
 @pytest.mark.parametrize("make, argument", BAD_ARGUMENTS, ids=[f"{i}-{a}" for i, (_, a) in enumerate(BAD_ARGUMENTS)])

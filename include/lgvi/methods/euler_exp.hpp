@@ -37,7 +37,7 @@ class EulerExpIntegrator<I> : public detail::ExplicitStepperBase<I> {
   static constexpr MethodTraits traits{"euler-exp", "semi-implicit Euler with the exponential map", 1,
                                       /*symmetric=*/false, /*two_step=*/false, /*implicit=*/false,
                                       /*accepts_forcing=*/false, /*needs_principal_axes=*/false,
-                                      /*free_body_only=*/false};
+                                      /*free_body_only=*/false, /*linear_bodies=*/false};
 
   EulerExpIntegrator(System system, I potential, SolverOptions = {}, Parallelism par = {})
       : detail::ExplicitStepperBase<I>(std::move(system), std::move(potential), par, "the Euler integrator") {}

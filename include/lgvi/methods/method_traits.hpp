@@ -18,6 +18,8 @@ struct MethodTraits {
   bool accepts_forcing;       ///< discretizes [[forcing]] (set_forcing)
   bool needs_principal_axes;  ///< every body's inertia must be diagonal in its body axes
   bool free_body_only;        ///< one body, no potential, no interaction (an exact flow)
+  /// Takes linear bodies and points (a zero principal moment, rigid_body.hpp).
+  bool linear_bodies;
 
   /// Whether a symmetric composition (composition.hpp) raises the method to
   /// order 4, 6 or 8: symmetric one-step methods of order 2 only.

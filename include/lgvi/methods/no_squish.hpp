@@ -61,7 +61,7 @@ class NoSquishIntegrator<I> : public detail::ExplicitStepperBase<I> {
   static constexpr MethodTraits traits{"no-squish", "the NO_SQUISH splitting of Miller et al. (2002)", 2,
                                       /*symmetric=*/true, /*two_step=*/false, /*implicit=*/false,
                                       /*accepts_forcing=*/false, /*needs_principal_axes=*/true,
-                                      /*free_body_only=*/false};
+                                      /*free_body_only=*/false, /*linear_bodies=*/false};
 
   NoSquishIntegrator(System system, I potential, SolverOptions = {}, Parallelism par = {})
       : detail::ExplicitStepperBase<I>(std::move(system), std::move(potential), par, "the no-squish integrator") {

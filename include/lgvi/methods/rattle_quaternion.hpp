@@ -133,7 +133,7 @@ class RattleQuaternionIntegrator<I> : public detail::ImplicitStepperBase<I, Rota
   static constexpr MethodTraits traits{"rattle-quaternion", "RATTLE on quaternions (Wendlandt & Marsden): unit length by a multiplier", 2,
                                       /*symmetric=*/true, /*two_step=*/false, /*implicit=*/true,
                                       /*accepts_forcing=*/false, /*needs_principal_axes=*/false,
-                                      /*free_body_only=*/false};
+                                      /*free_body_only=*/false, /*linear_bodies=*/false};
 
   /// `solver.tolerance`, `max_iterations` and `predictor_order` apply;
   /// `solver.kind` does not (always Newton on the 5 x 5 system).

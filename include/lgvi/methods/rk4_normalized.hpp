@@ -41,7 +41,7 @@ class Rk4NormalizedIntegrator<I> : public detail::ExplicitStepperBase<I> {
   static constexpr MethodTraits traits{"rk4-normalized", "classical Runge-Kutta 4, q normalized after each step", 4,
                                       /*symmetric=*/false, /*two_step=*/false, /*implicit=*/false,
                                       /*accepts_forcing=*/false, /*needs_principal_axes=*/false,
-                                      /*free_body_only=*/false};
+                                      /*free_body_only=*/false, /*linear_bodies=*/false};
 
   Rk4NormalizedIntegrator(System system, I potential, SolverOptions = {}, Parallelism par = {})
       : detail::ExplicitStepperBase<I>(std::move(system), std::move(potential), par, "the RK4 integrator") {

@@ -137,7 +137,7 @@ class So3LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I
   static constexpr MethodTraits traits{"so3-lgvi", "the rotation-matrix LGVI of Lee, Leok & McClamroch", 2,
                                       /*symmetric=*/true, /*two_step=*/false, /*implicit=*/true,
                                       /*accepts_forcing=*/true, /*needs_principal_axes=*/false,
-                                      /*free_body_only=*/false};
+                                      /*free_body_only=*/false, /*linear_bodies=*/false};
 
   /// `solver.tolerance`, `max_iterations` and `predictor_order` apply;
   /// `solver.kind` does not: this method always uses Newton in the Cayley

@@ -55,7 +55,7 @@ class SplittingDlmIntegrator<I> : public detail::ExplicitStepperBase<I> {
   static constexpr MethodTraits traits{"splitting-dlm", "the splitting of Dullweber, Leimkuhler & McLachlan (1997)", 2,
                                       /*symmetric=*/true, /*two_step=*/false, /*implicit=*/false,
                                       /*accepts_forcing=*/false, /*needs_principal_axes=*/true,
-                                      /*free_body_only=*/false};
+                                      /*free_body_only=*/false, /*linear_bodies=*/false};
 
   SplittingDlmIntegrator(System system, I potential, SolverOptions = {}, Parallelism par = {})
       : detail::ExplicitStepperBase<I>(std::move(system), std::move(potential), par, "the splitting-dlm integrator") {
