@@ -46,7 +46,7 @@ DESCRIPTIONS = {
     ".import": "table: the bodies, initial state and box of a LAMMPS data file, in place of [[bodies]] and [box]",
     # [body]
     "body.mass": "number > 0: total mass (with inertia, or with shape)",
-    "body.inertia": "3x3 array: the inertia J about the centre of mass, body axes (symmetric positive definite)",
+    "body.inertia": "3x3 array: the inertia J about the centre of mass, body axes (symmetric positive semi-definite; a zero moment: a linear body)",
     "body.ball": "array of tables [[body.ball]]: uniform balls making up the body (mass and inertia from them)",
     "body.physical": "boolean, default true: false waives the triangle inequality J1 + J2 >= J3",
     "body.radius": "number: with mass + inertia, a bounding sphere's radius (contact checks); with shape = \"sphere\", its radius",

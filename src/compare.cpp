@@ -29,11 +29,13 @@ namespace fs = std::filesystem;
 
 namespace {
 
-/// The reference state at time T: for a free body the exact flow; otherwise
+/// The reference state at time T: for a free body (three moments) the exact flow; otherwise
 /// RK4 of the continuous equations with step h_ref (its error C h_ref^4 is
 /// then far below every method's).
 RigidBodyState reference_state(const Scenario& sc, double T, double h_ref) {
-  if (sc.potential.kind == PotentialKind::None) return ExactFreeRigidBody(sc.body(), sc.initial()).at(T);
+  // (A linear body's free flow is RK4's too: the exact flow is for three moments.)
+  if (sc.potential.kind == PotentialKind::None && sc.body().rotational_dof() == 3)
+    return ExactFreeRigidBody(sc.body(), sc.initial()).at(T);
   const auto n = static_cast<long>(std::ceil(T / h_ref - 1e-9));
   const double h = T / static_cast<double>(n);
   // The scenario's own potential, as the runs compared against it use.
@@ -328,6 +330,11 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
     if (!system && m.method.traits().free_body_only && base.potential.kind != PotentialKind::None)
       throw InvalidInput("--methods: \"" + std::string(m.method.name()) +
                          "\" is the free body's flow; the scenario's potential is not \"none\"");
+    if (!system && !m.method.traits().linear_bodies && base.body().rotational_dof() != 3)
+      throw InvalidInput("--methods: \"" + std::string(m.method.name()) +
+                         "\" needs three principal moments > 0; the body is " +
+                         (base.body().rotational_dof() == 2 ? "linear" : "a point mass") +
+                         "; name lgvi or lgvi-lagrangian");
     std::string why = system ? not_applicable(base, m.method) : std::string();
     if (why.empty())
       runnable.push_back(m);

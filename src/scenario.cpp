@@ -1087,6 +1087,19 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   if (bodies.size() > 1 && potential.kind == PotentialKind::HeavyTop)
     r.fail("potential.kind", "\"heavy-top\" is a single body on a pivot; this scenario has " +
                                  std::to_string(bodies.size()) + " bodies");
+  if (potential.kind == PotentialKind::HeavyTop && bodies[0].rotational_dof() != 3) {
+    // A linear body pivoted off its line (or a point off its pivot) is no
+    // body: J about the pivot would then have three moments.
+    const RigidBody& top = bodies[0];
+    const Vector3<double>& chi = potential.pivot_to_com;
+    const Vector3<double> off = top.rotational_dof() == 2 ? chi - chi.dot(top.linear_axis()) * top.linear_axis() : chi;
+    if (off.norm() > 1e-12 * std::max(chi.norm(), 1e-300))
+      r.fail("potential.pivot_to_com", top.rotational_dof() == 2
+                                           ? "must lie on the linear body's axis (the inertia about a pivot off "
+                                             "its line has three moments)"
+                                           : "must be zero for a point mass (its inertia about the pivot would "
+                                             "not be zero)");
+  }
   const MethodTraits& method = integrator.method.traits();
   if (method.free_body_only && potential.kind != PotentialKind::None)
     r.fail("integrator.method", "\"" + std::string(method.name) +

@@ -210,7 +210,9 @@ struct Recorder {
   /// W the pair forces' molecular virial (PairInteraction::virial), V the box's volume.
   std::pair<double, double> thermodynamics(const SystemState& s, double kinetic) {
     const System& sys = scenario.system;
-    const double temperature = 2.0 * kinetic / static_cast<double>(degrees_of_freedom(scenario));
+    // No degrees of freedom left (one point body): 0, as LAMMPS's compute temp.
+    const std::int64_t dof = degrees_of_freedom(scenario);
+    const double temperature = dof > 0 ? 2.0 * kinetic / static_cast<double>(dof) : 0.0;
     double pressure = std::numeric_limits<double>::quiet_NaN();
     if (thermo == ThermoColumns::temperature_and_pressure) {
       double translational = 0.0;

@@ -9,9 +9,11 @@
 //   one evaluation of the system at (x_1, q_1);
 //   per body a: p_a1 = p_a0 + (h/2)(F_a0 + F_a1); w_a1 = pi(f_a)^T (w_a0 + h M_a0) + h M_a1.
 // Linear bodies and points (rigid_body.hpp) take the same step: their
-// rotation equation is solved in closed form (rotation_solver.hpp) and w_a1
-// loses the component along the axis that round-off gives it
-// (RigidBody::admissible_momentum), so that it stays what the body can have.
+// rotation equation is solved in closed form (rotation_solver.hpp), which
+// sees only the part of w_a0 + h M_a0 across the axis; w_a1 is formed from
+// that part (the axial part of a torque does nothing to a body without
+// inertia about its axis; rotated by f it would leak across the axis, an
+// O(h) error) and keeps no axial component (RigidBody::admissible_momentum).
 // A single body is N = 1 (single_body.hpp gives it the RigidBodyState API).
 //
 // Discrete Lagrangian (paper eq. "discrtelag", from Wendlandt & Marsden):
@@ -146,7 +148,8 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
     const bool checked = this->forcing().empty();
     this->end_step(s, t + h, h, [&](std::size_t a) {
       this->kick(s, a, h);
-      s.w[a] = sys.body(a).admissible_momentum(f_[a].inverse().act(w_half_[a]) + h * this->torque(a));
+      const RigidBody& body = sys.body(a);
+      s.w[a] = body.admissible_momentum(f_[a].inverse().act(body.admissible_momentum(w_half_[a])) + h * this->torque(a));
       if (checked) this->note_finite(s, a);
     });
     this->finish_step(s, checked);

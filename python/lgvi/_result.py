@@ -155,11 +155,16 @@ class Result(_RunSummary, _Attitude):
 
     @property
     def omega(self):
-        """Body angular velocity Omega = J^-1 w / 2, shape (N, 3) (needs the body's inertia in the summary)."""
-        inertia = body_of(self.summary).get("inertia")
+        """Body angular velocity Omega = J^-1 w / 2, shape (N, 3) (needs the body's inertia in the summary; J's
+        pseudo-inverse for a linear body or a point, which has no rotation about its axis)."""
+        body = body_of(self.summary)
+        inertia = body.get("inertia")
         if inertia is None:
             raise ValueError("omega: the summary has no body inertia (setup.body.inertia)")
-        return 0.5 * np.linalg.solve(np.asarray(inertia, dtype=float), self.w.T).T
+        inertia = np.asarray(inertia, dtype=float)
+        if body.get("rotational_dof", 3) != 3:
+            return 0.5 * (np.linalg.pinv(inertia) @ self.w.T).T
+        return 0.5 * np.linalg.solve(inertia, self.w.T).T
 
     def __repr__(self):
         name = self.summary.get("scenario", "?")

@@ -432,7 +432,18 @@ class PyStepper {
     if (!x.is_none()) s.x = vec3(x, "position");
     if (!q.is_none()) s.q = unit_quaternion(q, "quaternion");
     if (!p.is_none()) s.p = vec3(p, "momentum");
-    if (!w.is_none()) s.w = vec3(w, "w");
+    if (!w.is_none()) {
+      s.w = vec3(w, "w");
+      // As the scenario reader: a linear body has no momentum about its axis
+      // (a point none), beyond round-off, which is removed.
+      const RigidBody& body = sc_.body();
+      const Vector3<double> kept = body.admissible_momentum(s.w);
+      if ((s.w - kept).norm() > 1e-12 * s.w.norm())
+        throw py::value_error(std::string("w: the body is ") +
+                              (body.rotational_dof() == 2 ? "linear: it has no angular momentum about its axis"
+                                                          : "a point mass: it has no angular momentum; give w = 0"));
+      s.w = kept;
+    }
     initialize_at(s, "state");
     state_ = s;
   }

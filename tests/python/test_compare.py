@@ -287,6 +287,26 @@ radius = 0.0
         rows = {r["method"]: r for r in csv.DictReader(f)}
     assert rows["rk4-normalized"]["not_applicable"] == "needs three principal moments > 0; bodies[0] is linear"
     assert float(rows["lgvi"]["error_at_h"]) > 0 and float(rows["lgvi-lagrangian"]["error_at_h"]) > 0
+    # One free rod: its reference is RK4 (the exact flow is for three moments); other methods are refused.
+    single = tmp_path / "single.toml"
+    single.write_text(scenario.read_text().split("[[bodies]]\nmass = 0.1")[0].replace("[[bodies]]", "[body]")
+                      .replace("[[bodies.ball]]", "[[body.ball]]")
+                      .replace("position = [0.0, 0.0, 0.0]\nquaternion = [1.0, 0.0, 0.0, 0.0]\nmomentum = [0.0, -0.1, 0.0]\n"
+                               "omega = [0.0, 0.3, 0.5]\n", "")
+                      + "[initial]\nposition = [0.0, 0.0, 0.0]\nquaternion = [1.0, 0.0, 0.0, 0.0]\n"
+                        "momentum = [0.0, -0.1, 0.0]\nomega = [0.0, 0.3, 0.5]\n"
+                        "[potential]\nkind = \"none\"\n[integrator]\nstep = 0.1\nduration = 4.0\n")
+    args = [BINARY, "compare", str(single), "--ladder", "3", "--long-steps", "10", "--timing-budget", "0",
+            "--no-figures", "-q", "--out", str(tmp_path / "s")]
+    proc = subprocess.run(args + ["--methods", "lgvi,rk4-normalized"], capture_output=True, text=True)
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1
+    assert '"rk4-normalized" needs three principal moments > 0; the body is linear' in proc.stderr
+    proc = subprocess.run(args + ["--methods", "lgvi,lgvi-lagrangian"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    with open(tmp_path / "s" / "comparison.csv", newline="") as f:
+        rows = {r["method"]: r for r in csv.DictReader(f)}
+    # Second order against the RK4 reference (log2 of the error ratio per halving).
+    assert float(rows["lgvi"]["observed_order"]) == pytest.approx(2.0, abs=0.1)
 
 
 def test_single_body_reference_is_unchanged(comparison):

@@ -410,6 +410,16 @@ def test_point_masses_on_a_line_are_a_linear_body():
     point = lgvi.Body.from_balls([((1, 2, 3), 2.0, 0.0)])
     assert point.rotational_dof == 0 and not point.inertia.any() and not point.linear_axis.any()
     assert lgvi.Body.sphere(1.0, 0.5).rotational_dof == 3
+    # Its state has no momentum about the axis: set_state refuses one, in one line, as a scenario file does.
+    sc = lgvi.Scenario(body=rod, step=0.01, duration=1.0, position=(0, 0, 0), quaternion=(1, 0, 0, 0),
+                       momentum=(0, 0, 0), omega=(0.3, 0.0, 0.2))
+    stepper = lgvi.Stepper(sc)
+    with pytest.raises(ValueError, match="no angular momentum about its axis") as info:
+        stepper.set_state(w=(0.2, 0.1, 0.0))
+    assert "\n" not in str(info.value)
+    stepper.set_state(w=(0.2, 0.0, 0.1))
+    stepper.step(10)
+    assert stepper.w[1] == 0.0
 
 
 @pytest.mark.parametrize("make, argument", BAD_ARGUMENTS, ids=[f"{i}-{a}" for i, (_, a) in enumerate(BAD_ARGUMENTS)])
