@@ -570,8 +570,8 @@ def test_the_bent_fluid_starts_as_in_lammps(tmp_path):
 
 
 def test_the_particle_exports_keep_the_atom_types(tmp_path):
-    # The LAMMPS dump's type column and the extended XYZ's species are the data file's atom types (so OVITO colours
-    # the sites by species), where a [[bodies]] scenario of one type numbers the radii instead (test_exports.py).
+    # The LAMMPS dump's type column and the extended XYZ's species are the data file's atom types, site by site (so
+    # OVITO colours the sites by species), where a [[bodies]] scenario of one type numbers the radii instead (test_exports.py).
     atoms, velocities = mixed_molecules()
     data = write_data(tmp_path / "mixed.data", atoms, velocities)
     types = {}
@@ -593,7 +593,8 @@ def test_the_particle_exports_keep_the_atom_types(tmp_path):
             assert set(species) == {"type1", "type2"}
             assert sorted(species) == sorted(f"type{t}" for _, t, _ in atoms)
             continue
-        assert {m: sorted(t) for m, t in written.items()} == {m: sorted(t) for m, t in types.items()}
+        # Each molecule's sites in increasing atom ID (the IDs are the atoms' places in `atoms`).
+        assert written == types
 
 
 def test_overlapping_molecules_are_named(tmp_path):
