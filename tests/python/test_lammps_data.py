@@ -66,25 +66,24 @@ def random_rotation(rng):
                      [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
+def lattice_places():
+    """(molecule ID from 1, corner) of the 14 even places (i + j + k even) of a 3 x 3 x 3 lattice of spacing 4."""
+    places = [(i, j, k) for i in range(3) for j in range(3) for k in range(3) if (i + j + k) % 2 == 0]
+    return [(mol, np.array(p) * 4.0 + 0.6) for mol, p in enumerate(places, start=1)]
+
+
 def mixed_molecules(seed=3):
     rng = np.random.default_rng(seed)
     shapes = [np.array([[0, 0, 0], [1, 0, 0], [0.5, 0.866, 0]]),
               np.array([[0, 0, 0], [1.1, 0, 0], [0, 1.05, 0], [0.2, 0.3, 0.95]])]
     atoms = []  # (molecule, type, unwrapped position)
-    mol = 0
-    for i in range(3):
-        for j in range(3):
-            for k in range(3):
-                if (i + j + k) % 2:
-                    continue
-                mol += 1
-                shape = shapes[mol % 2]
-                r = random_rotation(rng)
-                corner = np.array([i, j, k]) * 4.0 + 0.6
-                if mol == 1:
-                    corner = np.array([LOWER + 0.3, 5.0, 5.0])  # straddles the x faces
-                for a, rho in enumerate(shape):
-                    atoms.append((mol, 1 + (a + mol) % 2, corner + r @ rho))
+    for mol, corner in lattice_places():
+        shape = shapes[mol % 2]
+        r = random_rotation(rng)
+        if mol == 1:
+            corner = np.array([LOWER + 0.3, 5.0, 5.0])  # straddles the x faces
+        for a, rho in enumerate(shape):
+            atoms.append((mol, 1 + (a + mol) % 2, corner + r @ rho))
     n = len(atoms)
     velocities = rng.normal(scale=0.7, size=(n, 3))
     return atoms, velocities
@@ -298,18 +297,11 @@ def linear_molecules(seed=5):
               (np.array([[-1.16, 0, 0], [0, 0, 0], [1.16, 0, 0]]), (2, 1, 2)),
               (np.array([[0, 0, 0], [1.1, 0, 0]]), (1, 1))]
     atoms = []
-    mol = 0
-    for i in range(3):
-        for j in range(3):
-            for k in range(3):
-                if (i + j + k) % 2:
-                    continue
-                mol += 1
-                shape, types = shapes[mol % 3]
-                r = random_rotation(rng)
-                corner = np.array([i, j, k]) * 4.0 + 0.6
-                for rho, t in zip(shape, types):
-                    atoms.append((mol, t, corner + r @ rho))
+    for mol, corner in lattice_places():
+        shape, types = shapes[mol % 3]
+        r = random_rotation(rng)
+        for rho, t in zip(shape, types):
+            atoms.append((mol, t, corner + r @ rho))
     atoms += [(0, 1, np.array([2.6, 0.6, 0.6])), (0, 2, np.array([2.6, 4.6, 4.6]))]
     return atoms, rng.normal(scale=0.7, size=(len(atoms), 3))
 
