@@ -495,9 +495,8 @@ std::string run_member_scenario(std::int64_t i, const std::vector<double>& varie
                                 (fs::path(trajectory_dir) / trajectory_file_name(sc.output_format)).string(),
                                 scenario_layout(sc));
     r = simulate(sc, *sink, so);
-    const std::string summary = summary_json(sc, r);
-    sink->close(sc.source_text, summary);
-    write_file_atomically((fs::path(trajectory_dir) / "summary.json").string(), summary);
+    sink->close(sc.source_text, sink->stores_summary() ? summary_json(sc, r) : std::string());
+    write_summary_file((fs::path(trajectory_dir) / "summary.json").string(), sc, r);
   }
   if (r.interrupted) return {};  // not a result: --resume runs it again
   const RunStatistics& st = r.stats;

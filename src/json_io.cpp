@@ -46,9 +46,21 @@ void append_one_line(std::string& out, const Json& j) {
   }
 }
 
+/// Where the text goes: appended to `out`, which is emptied into `file` (if
+/// any) once it is longer than a buffer, between a generated array's elements.
+struct Drain {
+  std::FILE* file = nullptr;
+  bool ok = true;
+  void operator()(std::string& out) {
+    if (file == nullptr || out.size() < (std::size_t{1} << 16)) return;
+    ok = ok && std::fwrite(out.data(), 1, out.size(), file) == out.size();
+    out.clear();
+  }
+};
+
 /// `j` at nesting `depth` (0: the document), laid out by `layout`: an object
 /// one member a line, its members indented by 2 (depth + 1) spaces.
-void append(std::string& out, const Json& j, int depth, const JsonLayout& layout) {
+void append(std::string& out, const Json& j, int depth, const JsonLayout& layout, Drain& drain) {
   if (!j.is_object()) {
     append_one_line(out, j);
     return;
@@ -68,12 +80,13 @@ void append(std::string& out, const Json& j, int depth, const JsonLayout& layout
         out += i > 0 ? ",\n" : "\n";
         out += member_pad + "  ";
         append_one_line(out, generated->element(i));
+        drain(out);
       }
       out += "\n" + member_pad + ']';
     } else if (generated != layout.generated.end()) {
       out += "[]";
     } else if (value.is_object() && !named(layout.one_line, it.key())) {
-      append(out, value, depth + 1, layout);
+      append(out, value, depth + 1, layout, drain);
     } else if (value.is_array() && !value.empty() && named(layout.one_element_a_line, it.key())) {
       out += '[';
       for (std::size_t i = 0; i < value.size(); ++i) {
@@ -94,8 +107,16 @@ void append(std::string& out, const Json& j, int depth, const JsonLayout& layout
 
 std::string json_text(const Json& doc, const JsonLayout& layout) {
   std::string out;
-  append(out, doc, 0, layout);
+  Drain none;
+  append(out, doc, 0, layout, none);
   return out;
+}
+
+bool write_json(std::FILE* file, const Json& doc, const JsonLayout& layout) {
+  std::string out;
+  Drain drain{file};
+  append(out, doc, 0, layout, drain);
+  return drain.ok && std::fwrite(out.data(), 1, out.size(), file) == out.size();
 }
 
 Json parse_json_file_text(const std::string& text, const std::string& file) {

@@ -3,6 +3,7 @@
 // read back with one-line errors.
 #pragma once
 
+#include <cstdio>
 #include <functional>
 #include <string>
 #include <string_view>
@@ -41,6 +42,11 @@ struct JsonLayout {
 /// a file reads back to the same doubles; integers, booleans and strings are
 /// nlohmann's (UTF-8 written as it is, invalid UTF-8 replaced by U+FFFD).
 std::string json_text(const Json& doc, const JsonLayout& layout = {});
+
+/// The same text written to `file` as it is made (a generated array's
+/// elements a buffer at a time, not the whole text in memory); false if a
+/// write failed.
+bool write_json(std::FILE* file, const Json& doc, const JsonLayout& layout = {});
 
 /// Parses the JSON text read from `file`; throws InvalidInput "FILE: not
 /// valid JSON (parse error at line L, column C: WHAT)", on one line, if it is

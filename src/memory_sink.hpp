@@ -31,6 +31,7 @@ class MemorySink final : public TrajectorySink {
   }
 
   /// Keeps the scenario and summary texts, like the npz and HDF5 files do.
+  bool stores_summary() const override { return true; }
   void close(const std::string& scenario_toml, const std::string& summary_json) override {
     scenario_ = scenario_toml;
     summary_ = summary_json;

@@ -17,10 +17,21 @@ std::string json_number(double v) {
 }
 
 void write_file_atomically(const std::string& path, const std::string& text) {
+  write_file_atomically(path, [&](std::FILE* f) { return std::fwrite(text.data(), 1, text.size(), f) == text.size(); });
+}
+
+void write_file_atomically(const std::string& path, const std::function<bool(std::FILE*)>& write) {
   const std::string tmp = path + ".tmp";
   std::FILE* f = std::fopen(tmp.c_str(), "wb");
   if (!f) throw std::runtime_error("cannot write " + tmp + ": " + std::strerror(errno));
-  const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+  bool ok = false;
+  try {
+    ok = write(f);
+  } catch (...) {
+    std::fclose(f);
+    std::remove(tmp.c_str());
+    throw;
+  }
   if (std::fclose(f) != 0 || !ok) {
     std::remove(tmp.c_str());
     throw std::runtime_error("writing " + path + " failed: " + std::strerror(errno));

@@ -2,6 +2,8 @@
 // replacement.
 #pragma once
 
+#include <cstdio>
+#include <functional>
 #include <string>
 
 namespace lgvi::app {
@@ -14,5 +16,10 @@ std::string json_number(double v);
 /// Writes `text` to `path` atomically: a temporary file in the same folder,
 /// then a rename, so a reader never sees a half-written file.
 void write_file_atomically(const std::string& path, const std::string& text);
+
+/// The same for text written by `write` into the open temporary file, as it
+/// is made (a large summary is not held in memory whole); `write` returns
+/// false on a write error.
+void write_file_atomically(const std::string& path, const std::function<bool(std::FILE*)>& write);
 
 }  // namespace lgvi::app

@@ -125,15 +125,14 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
                      " at t = " + fmt::format("{}", result.stats.last_t) +
                      (opt.checkpoint_every > 0 ? "; continue with: lgvi run --resume " + dir : "");
   }
-  const std::string summary = summary_json(sc, result);
   try {
-    sink->close(sc.source_text, summary);
+    sink->close(sc.source_text, sink->stores_summary() ? summary_json(sc, result) : std::string());
   } catch (const std::exception& e) {
     if (result.error.empty()) result.error = e.what();
     result.completed = false;
   }
   try {
-    write_file_atomically(summary_path.string(), result.completed ? summary : summary_json(sc, result));
+    write_summary_file(summary_path.string(), sc, result);
   } catch (const std::exception& e) {
     std::cerr << "lgvi: error: " << e.what() << "\n";
     return kRunFailed;

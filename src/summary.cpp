@@ -2,6 +2,7 @@
 
 #include "interactions/registry.hpp"
 #include "json_io.hpp"
+#include "output.hpp"
 
 #include <cmath>
 #include <string>
@@ -168,9 +169,10 @@ Json rotation_json(const RunStatistics& st) {
            st.max_rot_energy > 0.0 ? st.max_energy_error / st.max_rot_energy : std::nan("")}};
 }
 
-}  // namespace
-
-std::string summary_json(const Scenario& sc, const SimulationResult& r) {
+/// The summary's document and its layout, given to `use` (which writes it:
+/// the lists of bodies are made one body at a time as they are written).
+template <class Use>
+auto with_summary(const Scenario& sc, const SimulationResult& r, Use&& use) {
   const RunStatistics& st = r.stats;
   const double l0 = st.momentum0.norm();
   Json s;
@@ -255,7 +257,21 @@ std::string summary_json(const Scenario& sc, const SimulationResult& r) {
   if (sc.bodies_format)
     layout.generated.push_back(
         {&s["setup"]["bodies"], sc.bodies(), [&](std::size_t a) { return setup_body_json(sc, a); }});
-  return json_text(s, layout) + "\n";
+  return use(s, layout);
+}
+
+}  // namespace
+
+std::string summary_json(const Scenario& sc, const SimulationResult& r) {
+  return with_summary(sc, r, [](const Json& doc, const JsonLayout& layout) { return json_text(doc, layout) + "\n"; });
+}
+
+void write_summary_file(const std::string& path, const Scenario& sc, const SimulationResult& r) {
+  write_file_atomically(path, [&](std::FILE* file) {
+    return with_summary(sc, r, [&](const Json& doc, const JsonLayout& layout) {
+      return write_json(file, doc, layout) && std::fputc('\n', file) != EOF;
+    });
+  });
 }
 
 }  // namespace lgvi::app

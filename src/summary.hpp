@@ -13,4 +13,8 @@ namespace lgvi::app {
 /// The summary of a run as JSON text (the CLI's summary.json).
 std::string summary_json(const Scenario& scenario, const SimulationResult& result);
 
+/// The same text written to `path` atomically as it is made: a system's
+/// lists of bodies are not held in memory whole (summary.json of a run).
+void write_summary_file(const std::string& path, const Scenario& scenario, const SimulationResult& result);
+
 }  // namespace lgvi::app

@@ -132,6 +132,9 @@ class TrajectorySink {
   /// HDF5 attributes); CSV has them as side files (scenario.toml,
   /// summary.json). Throws std::runtime_error on a write error.
   virtual void close(const std::string& scenario_toml, const std::string& summary_json) = 0;
+  /// Whether close() stores the summary (else it is given "": a large
+  /// system's summary need not be made in memory for it).
+  virtual bool stores_summary() const { return false; }
 };
 
 }  // namespace lgvi::app

@@ -4,6 +4,7 @@
 // escapes read as UTF-8, and one error naming the file for a file that is
 // not JSON.
 #include "json_io.hpp"
+#include "output.hpp"
 #include "scenario.hpp"
 #include "show.hpp"
 #include "simulation.hpp"
@@ -226,6 +227,31 @@ TEST(Json, GeneratedArraysAreWrittenAsTheArraysTheyStandFor) {
   layout.generated.push_back({&lazy["none"], 0, element});
   EXPECT_EQ(json_text(lazy, layout), expected);
   EXPECT_NE(expected.find("\"final_bodies\": [\n    {\"name\": \"b0\", \"x\": 0},"), std::string::npos);
+}
+
+TEST(Json, TextWrittenToAFileAsItIsMadeIsTheSameText) {
+  // write_json empties its buffer into the file between a generated array's
+  // elements once it holds 64 kB: 5000 elements of ~30 bytes cross that
+  // boundary about twice, and the file must still be json_text's bytes.
+  auto element = [](std::size_t i) { return Json{{"name", "body" + std::to_string(i)}, {"x", 0.1 * static_cast<double>(i)}}; };
+  Json doc;
+  doc["n"] = 5000;
+  doc["setup"] = {{"bodies", Json::array()}};
+  doc["final_bodies"] = Json::array();
+  JsonLayout layout{{}, {}};
+  layout.generated.push_back({&doc["final_bodies"], 5000, element});
+  layout.generated.push_back({&doc["setup"]["bodies"], 5000, [&](std::size_t i) { return element(i + 7); }});
+  const fs::path dir = fresh_dir("streamed");
+  const std::string path = (dir / "doc.json").string();
+  lgvi::app::write_file_atomically(path, [&](std::FILE* f) { return lgvi::app::write_json(f, doc, layout); });
+  const std::string expected = json_text(doc, layout);
+  ASSERT_GT(expected.size(), std::size_t{2} << 16);
+  EXPECT_EQ(file_text(path), expected);
+  // The summary written to its file as it is made, and held whole (npz, HDF5, Python).
+  const lgvi::app::Scenario sc = parse_scenario(two_bodies_toml, "two-bodies");
+  lgvi::app::write_summary_file((dir / "summary.json").string(), sc, fixed_result(sc));
+  EXPECT_EQ(file_text(dir / "summary.json"), lgvi::app::summary_json(sc, fixed_result(sc)));
+  fs::remove_all(dir);
 }
 
 TEST(Json, UnicodeEscapesReadAsUtf8) {

@@ -1,9 +1,10 @@
 #!/usr/bin/python3
 """The periodic Lennard-Jones gas of rigid triangle molecules at growing N, in
 lgvi and in LAMMPS (fix rigid/nve/small) from the same initial state: set-up
-time, time per step and peak memory of each, one thread, one process each:
+time, time per step, peak memory and energy error of each, on T threads (lgvi)
+and T MPI ranks (LAMMPS):
 
-    /usr/bin/python3 benchmarks/lammps/scale_lammps.py LGVI_BINARY LMP_BINARY [--sizes 22 46 100] [--steps 100]
+    /usr/bin/python3 benchmarks/lammps/scale_lammps.py LGVI_BINARY LMP_BINARY [--sizes 22 46 100] [--steps 100] [--threads 1 2]
 
 A size n is n^3 molecules on a cubic lattice of spacing 2.2 filling a periodic
 cube of side 2.2 n (scenarios/lj-gas.toml's molecules, kT = 0.5, point masses
@@ -12,10 +13,15 @@ Each program runs `--steps` steps of h = 0.002 writing the first and last
 only, under /usr/bin/time -v: its wall time and maximum resident set size. The
 time per step is the run loop's (lgvi's summary wall_seconds; LAMMPS's "Loop
 time"), the set-up time the rest of the wall time (reading, building the
-bodies, the first neighbour lists, writing the outputs). Prints a Markdown table.
+bodies, the first neighbour lists, writing the outputs). The peak memory is
+lgvi's process's, and the sum of LAMMPS's ranks' (each rank under
+/usr/bin/time). The energy error is the largest |E - E0| over the run: lgvi's
+over every step (its summary), LAMMPS's over every step too (thermo 1).
+Prints a Markdown table.
 """
 import argparse
 import json
+import os
 import pathlib
 import re
 import subprocess
@@ -38,15 +44,22 @@ def scenario(n, steps, step):
     return text + f"\n[box]\nlower = [{lo!r}, {lo!r}, {lo!r}]\nupper = [{hi!r}, {hi!r}, {hi!r}]\n", (lo, hi)
 
 
-def timed(command):
-    """Runs command under /usr/bin/time -v: (wall seconds, peak RSS in MB)."""
-    out = subprocess.run(["/usr/bin/time", "-v", *map(str, command)], capture_output=True, text=True)
+def timed(command, ranks=1):
+    """Runs command under /usr/bin/time, as `ranks` MPI ranks if more than one:
+    (wall seconds, peak RSS in MB summed over the ranks)."""
+    timer = ["/usr/bin/time", "-f", "lgvi-bench %e %M"]
+    if ranks > 1:
+        env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+        command = timer + ["mpirun", "-n", str(ranks), "--oversubscribe", *timer, *map(str, command)]
+    else:
+        env, command = None, timer + list(map(str, command))
+    out = subprocess.run(command, capture_output=True, text=True, env=env)
     if out.returncode != 0:
-        sys.exit(f"{command[0]} failed: {out.stderr[-2000:]}")
-    wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (\S+)", out.stderr).group(1)
-    seconds = sum(float(x) * 60 ** i for i, x in enumerate(reversed(wall.split(":"))))
-    rss = int(re.search(r"Maximum resident set size \(kbytes\): (\d+)", out.stderr).group(1)) / 1024
-    return seconds, rss
+        sys.exit(f"{command} failed: {out.stderr[-2000:]}")
+    measured = [line.split() for line in out.stderr.splitlines() if line.startswith("lgvi-bench ")]
+    # (With ranks, the first lines are the ranks' and the last mpirun's, whose wall time is the run's.)
+    ranks_rss = measured[:-1] if ranks > 1 else measured
+    return float(measured[-1][1]), sum(int(m[2]) for m in ranks_rss) / 1024
 
 
 def data_file(lgvi, work, n, box):
@@ -84,30 +97,38 @@ def main():
     ap.add_argument("--sizes", type=int, nargs="+", default=[22, 46, 100])
     ap.add_argument("--steps", type=int, default=100)
     ap.add_argument("--step", type=float, default=0.002)
+    ap.add_argument("--threads", type=int, nargs="+", default=[1],
+                    help="lgvi's threads and LAMMPS's MPI ranks (default 1)")
     args = ap.parse_args()
-    print(f"Periodic Lennard-Jones gas of rigid triangle molecules, {args.steps} steps of h = {args.step}, "
-          "one thread each:\n")
-    print("| molecules | lgvi set-up s | LAMMPS set-up s | lgvi ms/step | LAMMPS ms/step | / LAMMPS "
-          "| lgvi MB | LAMMPS MB | / LAMMPS |")
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    print(f"Periodic Lennard-Jones gas of rigid triangle molecules, {args.steps} steps of h = {args.step}:\n")
+    print("| molecules | threads / ranks | lgvi set-up s | LAMMPS set-up s | lgvi ms/step | LAMMPS ms/step | / LAMMPS "
+          "| lgvi MB | LAMMPS MB | / LAMMPS | lgvi max abs dE | LAMMPS max abs dE |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for n in args.sizes:
         with tempfile.TemporaryDirectory() as tmp:
             work = pathlib.Path(tmp)
             text, box = scenario(n, args.steps, args.step)
             data_file(args.lgvi, work, n, box)
             (work / "gas.toml").write_text(text)
-            lgvi_wall, lgvi_rss = timed([args.lgvi, "run", work / "gas.toml", "--out", work / "lgvi", "--force",
-                                         "--no-figures", "-q", "--threads", "1"])
-            with open(work / "lgvi" / "summary.json") as f:
-                lgvi_loop = json.load(f)["wall_seconds"]
-            lmp_wall, lmp_rss = timed([args.lmp, "-in", HERE / "in.lj-triangles", "-log", "none", "-screen", "none",
-                                       "-var", "boundary", "p", "-var", "data", work / "lj-triangles.data",
-                                       "-var", "steps", args.steps, "-var", "dt", repr(args.step),
-                                       "-var", "thermo", args.steps, "-var", "log", work / "lammps.log"])
-            lmp_loop = float(re.search(r"Loop time of ([0-9.eE+-]+)", (work / "lammps.log").read_text()).group(1))
-            t_lgvi, t_lmp = lgvi_loop / args.steps * 1e3, lmp_loop / args.steps * 1e3
-            print(f"| {n ** 3} | {lgvi_wall - lgvi_loop:.2f} | {lmp_wall - lmp_loop:.2f} | {t_lgvi:.2f} | {t_lmp:.2f} "
-                  f"| {t_lgvi / t_lmp:.2f} | {lgvi_rss:.0f} | {lmp_rss:.0f} | {lgvi_rss / lmp_rss:.2f} |", flush=True)
+            for threads in args.threads:
+                lgvi_wall, lgvi_rss = timed([args.lgvi, "run", work / "gas.toml", "--out", work / "lgvi", "--force",
+                                             "--no-figures", "-q", "--threads", threads])
+                with open(work / "lgvi" / "summary.json") as f:
+                    summary = json.load(f)
+                lgvi_loop, lgvi_de = summary["wall_seconds"], summary["max_abs_energy_error"]
+                lmp_wall, lmp_rss = timed([args.lmp, "-in", HERE / "in.lj-triangles", "-log", "none", "-screen",
+                                           "none", "-var", "boundary", "p", "-var", "data", work / "lj-triangles.data",
+                                           "-var", "steps", args.steps, "-var", "dt", repr(args.step),
+                                           "-var", "thermo", 1, "-var", "log", work / "lammps.log"], ranks=threads)
+                log = (work / "lammps.log").read_text()
+                lmp_loop = float(re.search(r"Loop time of ([0-9.eE+-]+)", log).group(1))
+                # The thermo rows: step, total energy, pe, ke (in.lj-triangles's thermo_style).
+                energy = [float(m.group(1)) for m in re.finditer(r"^\s*\d+\s+(\S+)\s+\S+\s+\S+\s*$", log, re.M)]
+                lmp_de = max(abs(e - energy[0]) for e in energy)
+                t_lgvi, t_lmp = lgvi_loop / args.steps * 1e3, lmp_loop / args.steps * 1e3
+                print(f"| {n ** 3} | {threads} | {lgvi_wall - lgvi_loop:.2f} | {lmp_wall - lmp_loop:.2f} "
+                      f"| {t_lgvi:.2f} | {t_lmp:.2f} | {t_lgvi / t_lmp:.2f} | {lgvi_rss:.0f} | {lmp_rss:.0f} "
+                      f"| {lgvi_rss / lmp_rss:.2f} | {lgvi_de:.2e} | {lmp_de:.2e} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -131,31 +131,56 @@ class Coupled {
 /// [begin(a), begin(a + 1)), each with its body-frame position rho (relative
 /// to the centre of mass), mass, radius and type. A body made of balls has one site
 /// per ball; a body given by mass and inertia has one site at its centre of
-/// mass with the whole mass (radius 0).
+/// mass with the whole mass (radius 0). The sites' positions rho and radii
+/// are stored once per kind of body (System::kind), their types, masses and
+/// bodies per site (read per pair).
 class InteractionSites {
  public:
   InteractionSites() = default;
-  explicit InteractionSites(const System& sys) {
+  explicit InteractionSites(const System& sys) : kind_(sys.size()) {
+    kind_first_.push_back(0);
+    for (std::size_t k = 0; k < sys.kinds(); ++k) {
+      const RigidBody& b = sys.kind_body(k);
+      if (b.balls().empty()) {
+        kind_rho_.emplace_back(Vector3<double>::Zero());
+        kind_radius_.push_back(0.0);
+      } else {
+        for (const Ball& ball : b.balls()) {
+          kind_rho_.push_back(ball.position);
+          kind_radius_.push_back(ball.radius);
+        }
+      }
+      kind_first_.push_back(kind_rho_.size());
+    }
+    std::size_t sites = 0;
+    for (std::size_t a = 0; a < sys.size(); ++a) {
+      kind_[a] = static_cast<std::uint32_t>(sys.kind(a));
+      sites += kind_first_[kind_[a] + 1] - kind_first_[kind_[a]];
+    }
+    mass_.reserve(sites);
+    type_.reserve(sites);
+    body_.reserve(sites);
+    offset_.reserve(sys.size() + 1);
     offset_.push_back(0);
     for (std::size_t a = 0; a < sys.size(); ++a) {
       const RigidBody& b = sys.body(a);
       if (b.balls().empty()) {
-        add(a, Vector3<double>::Zero(), b.mass(), 0.0, 1);
+        add(a, b.mass(), 1);
       } else {
-        for (const Ball& ball : b.balls()) add(a, ball.position, ball.mass, ball.radius, ball.type);
+        for (const Ball& ball : b.balls()) add(a, ball.mass, ball.type);
       }
-      offset_.push_back(rho_.size());
+      offset_.push_back(mass_.size());
     }
   }
 
   std::size_t bodies() const { return offset_.empty() ? 0 : offset_.size() - 1; }
-  std::size_t size() const { return rho_.size(); }
+  std::size_t size() const { return mass_.size(); }
   std::size_t begin(std::size_t a) const { return offset_[a]; }
   std::size_t end(std::size_t a) const { return offset_[a + 1]; }
   std::size_t body_of(std::size_t i) const { return body_[i]; }
-  const Vector3<double>& rho(std::size_t i) const { return rho_[i]; }
+  const Vector3<double>& rho(std::size_t i) const { return kind_rho_[kind_site(i)]; }
   double mass(std::size_t i) const { return mass_[i]; }
-  double radius(std::size_t i) const { return radius_[i]; }
+  double radius(std::size_t i) const { return kind_radius_[kind_site(i)]; }
   /// The site's type, 0-based (Ball::type - 1; 0 for a body given by mass and inertia).
   std::uint32_t type(std::size_t i) const { return type_[i]; }
   /// The ball's index within its body (for messages).
@@ -172,15 +197,18 @@ class InteractionSites {
     arm.resize(size());
     // (Through local pointers: `after` may store chars, which could alias
     // anything, and the vectors' data would be reloaded for every site.)
-    const Vector3<double>* const rho = rho_.data();
+    const Vector3<double>* const rho = kind_rho_.data();
+    const std::size_t* const kind_first = kind_first_.data();
+    const std::uint32_t* const kind = kind_.data();
     const std::size_t* const offset = offset_.data();
     Vector3<double>* const positions = position.data();
     Vector3<double>* const arms = arm.data();
     parallel_for(bodies(), par, [&](std::size_t a) {
       const Matrix3<double> r = s.q[a].matrix();
       const Vector3<double> x = s.x[a];
+      const Vector3<double>* const rho_a = rho + kind_first[kind[a]];  // the kind's sites
       for (std::size_t i = offset[a]; i < offset[a + 1]; ++i) {
-        const Vector3<double> arm_i = r * rho[i];
+        const Vector3<double> arm_i = r * rho_a[i - offset[a]];
         arms[i] = arm_i;
         positions[i] = x + arm_i;
       }
@@ -189,17 +217,20 @@ class InteractionSites {
   }
 
  private:
-  void add(std::size_t body, const Vector3<double>& rho, double mass, double radius, int type) {
-    rho_.push_back(rho);
+  void add(std::size_t body, double mass, int type) {
     mass_.push_back(mass);
-    radius_.push_back(radius);
     type_.push_back(static_cast<std::uint32_t>(type - 1));
-    body_.push_back(body);
+    body_.push_back(static_cast<std::uint32_t>(body));
   }
-  std::vector<Vector3<double>> rho_;
-  std::vector<double> mass_, radius_;
-  std::vector<std::uint32_t> type_;
-  std::vector<std::size_t> body_, offset_;
+  /// Site i's index among its kind's sites (kind_rho_, kind_radius_).
+  std::size_t kind_site(std::size_t i) const { return kind_first_[kind_[body_[i]]] + local_index(i); }
+  std::vector<Vector3<double>> kind_rho_;  ///< per kind k: its sites [kind_first_[k], kind_first_[k + 1])
+  std::vector<double> kind_radius_;
+  std::vector<std::size_t> kind_first_;
+  std::vector<std::uint32_t> kind_;  ///< per body
+  std::vector<double> mass_;
+  std::vector<std::uint32_t> type_, body_;  ///< (a body's index in 4 bytes: PairInteraction's limit on sites bounds it)
+  std::vector<std::size_t> offset_;
 };
 
 /// The one reduction of forces at interaction sites to a body's force and

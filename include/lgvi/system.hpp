@@ -81,6 +81,14 @@ class System {
     const Data& d = data();
     return d.kinds[d.kind.empty() ? a : d.kind[a]];
   }
+  /// The bodies' kinds: body a is kind_body(kind(a)), one of kinds() (per-kind
+  /// data, such as a rotation solver or a body's sites, is kept once per kind).
+  std::size_t kinds() const { return data().kinds.size(); }
+  std::size_t kind(std::size_t a) const {
+    const Data& d = data();
+    return d.kind.empty() ? a : d.kind[a];
+  }
+  const RigidBody& kind_body(std::size_t k) const { return data().kinds[k]; }
   const std::string& name(std::size_t a) const { return data().names[a]; }
   const std::vector<std::string>& names() const { return data().names; }
   const Box& box() const { return data().box; }

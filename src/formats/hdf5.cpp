@@ -138,6 +138,7 @@ class Hdf5Trajectory final : public TrajectorySink {
     return p;
   }
 
+  bool stores_summary() const override { return true; }
   void close(const std::string& scenario_toml, const std::string& summary_json) override {
     if (file_.get() < 0) throw std::runtime_error("close of an already closed " + path_);
     flush_rows();

@@ -133,6 +133,7 @@ class NpzTrajectory final : public TrajectorySink {
     return p;
   }
 
+  bool stores_summary() const override { return true; }
   void close(const std::string& scenario_toml, const std::string& summary_json) override {
     if (!file_) throw std::runtime_error("close of an already closed " + path_);
     flush_rows();

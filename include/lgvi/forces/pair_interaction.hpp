@@ -167,6 +167,10 @@ class PairInteraction {
   PairInteraction(const System& sys, const Kernel& kernel, Parallelism par, double skin)
       : sys_(sys), sites_(sys), kernel_(kernel), cutoff_(kernel.cutoff()), skin_(skin),
         prune_margin_(prune_fraction * skin_), par_(par), box_(sys.box()) {
+    if (sites_.size() > max_sites)
+      throw InvalidInput("interaction: " + std::to_string(sites_.size()) +
+                         " interaction sites; the neighbour lists index at most " + std::to_string(max_sites) +
+                         " (2^31 - 1); split the system");
     if constexpr (TypedPairKernel<Kernel>) {
       for (std::size_t i = 0; i < sites_.size(); ++i)
         if (sites_.type(i) >= kernel.types())
@@ -594,13 +598,13 @@ class PairInteraction {
     cell_start_.assign(cells + 1, 0);
     for (std::size_t i = 0; i < m; ++i) {
       const std::array<std::int64_t, 3> c = cell_of(position_[i]);
-      cell_index_[i] = static_cast<std::size_t>((c[2] * dims_[1] + c[1]) * dims_[0] + c[0]);
+      cell_index_[i] = static_cast<SiteIndex>((c[2] * dims_[1] + c[1]) * dims_[0] + c[0]);
       ++cell_start_[cell_index_[i] + 1];
     }
     for (std::size_t c = 0; c < cells; ++c) cell_start_[c + 1] += cell_start_[c];
     fill_.assign(cell_start_.begin(), cell_start_.end() - 1);
     sorted_.resize(m);
-    for (std::size_t i = 0; i < m; ++i) sorted_[fill_[cell_index_[i]]++] = i;
+    for (std::size_t i = 0; i < m; ++i) sorted_[fill_[cell_index_[i]]++] = static_cast<SiteIndex>(i);
     // The sites' positions and bodies in cell order: a row of neighbouring
     // cells along x is one contiguous run of these arrays.
     cell_x_.resize(m);
@@ -612,7 +616,7 @@ class PairInteraction {
       cell_x_[k] = x(0);
       cell_y_[k] = x(1);
       cell_z_[k] = x(2);
-      cell_body_[k] = sites_.body_of(sorted_[k]);
+      cell_body_[k] = static_cast<SiteIndex>(sites_.body_of(sorted_[k]));
     }
     // The lists, one body after the other. Each site's list is its own: the
     // sites of higher bodies within r_c + skin, by index. Per body (per site
@@ -630,19 +634,19 @@ class PairInteraction {
     const std::size_t n = sys_.size();
     const double reach2 = reach * reach;
     const std::size_t chunks = std::min<std::size_t>(n, list_chunks);
-    chunk_lists_.resize(chunks);
+    outer_lists_.resize(chunks);
     chunk_used_.resize(chunks);
     outer_start_.assign(m + 1, 0);
     built_at_.resize(m);
     parallel_for(chunks, par_, [&](std::size_t chunk) {
-      std::vector<std::size_t>& out = chunk_lists_[chunk];
+      std::vector<SiteIndex>& out = outer_lists_[chunk];
       std::size_t& used = chunk_used_[chunk];  // out's entries in use (out only grows: no zero fill per site)
       used = 0;
       // Where the chunk's sites are now (the skin's reference).
       std::copy(position_.begin() + static_cast<std::ptrdiff_t>(sites_.begin(chunk * n / chunks)),
                 position_.begin() + static_cast<std::ptrdiff_t>(sites_.begin((chunk + 1) * n / chunks)),
                 built_at_.begin() + static_cast<std::ptrdiff_t>(sites_.begin(chunk * n / chunks)));
-      thread_local std::vector<std::size_t> near;
+      thread_local std::vector<SiteIndex> near;
       for (std::size_t a = chunk * n / chunks; a < (chunk + 1) * n / chunks; ++a) {
         // A body of many sites (a wall, a long chain) goes site by site: its
         // box would hold candidates for all of them, each site scanning all.
@@ -673,7 +677,7 @@ class PairInteraction {
                     const std::size_t run_first = cell_start_[row + static_cast<std::size_t>(xs.run[xr][0])],
                                       run_end = cell_start_[row + static_cast<std::size_t>(xs.run[xr][1]) + 1];
                     if (near.size() < kept + (run_end - run_first)) near.resize(2 * (kept + (run_end - run_first)));
-                    std::size_t* const list = near.data();
+                    SiteIndex* const list = near.data();
                     // Every candidate written, the count advanced only for those kept:
                     // no branch to mispredict on the distance test.
                     for (std::size_t k = run_first; k < run_end; ++k) {
@@ -691,7 +695,7 @@ class PairInteraction {
             std::sort(near.begin(), near.begin() + static_cast<std::ptrdiff_t>(kept));
           } else {
             for (std::size_t k = 1; k < kept; ++k) {
-              const std::size_t j = near[k];
+              const SiteIndex j = near[k];
               std::size_t slot = k;
               for (; slot > 0 && near[slot - 1] > j; --slot) near[slot] = near[slot - 1];
               near[slot] = j;
@@ -700,11 +704,16 @@ class PairInteraction {
           for (std::size_t i = g0; i < g1; ++i) {
             const double xi = position_[i](0), yi = position_[i](1), zi = position_[i](2);
             const std::size_t first = used;
-            if (out.size() < first + kept) out.resize(2 * (first + kept));
-            std::size_t* const list = out.data() + first;
+            if (out.size() < first + kept) {
+              // Grown by a quarter (a vector's resize would double it): the
+              // chunks' buffers are the outer lists, kept between builds.
+              out.reserve(first + kept + (first + kept) / 4);
+              out.resize(out.capacity());
+            }
+            SiteIndex* const list = out.data() + first;
             std::size_t count = 0;
             for (std::size_t k = 0; k < kept; ++k) {
-              const std::size_t j = near[k];
+              const SiteIndex j = near[k];
               const double dx = separation<Periodic>(position_[j](0) - xi, 0),
                            dy = separation<Periodic>(position_[j](1) - yi, 1),
                            dz = separation<Periodic>(position_[j](2) - zi, 2);
@@ -717,7 +726,9 @@ class PairInteraction {
         }
       }
     });
-    join_chunk_lists(outer_start_, outer_neighbours_);
+    for (std::size_t i = 0; i < m; ++i) outer_start_[i + 1] += outer_start_[i];
+    // Room for the pruned lists in place of the outer ones (prune_lists).
+    neighbours_.resize(outer_start_[m]);
     prune_lists<Periodic>(true);
   }
 
@@ -734,25 +745,26 @@ class PairInteraction {
     // margin is lost to the rounding of r^2.
     const double reach = (cutoff_ + prune_margin_) * (1.0 + 1e-9), reach2 = reach * reach;
     const std::size_t chunks = std::min<std::size_t>(n, list_chunks);
-    chunk_lists_.resize(chunks);
     chunk_used_.resize(chunks);
     list_start_.assign(m + 1, 0);
     pruned_at_.resize(m);
+    // Each chunk's pruned lists first where its outer lists' entries would
+    // be in one array (neighbours_[outer_start_[i0] ...), then moved down in
+    // chunk order to follow the previous chunk's.
     parallel_for(chunks, par_, [&](std::size_t chunk) {
-      std::vector<std::size_t>& out = chunk_lists_[chunk];
       const std::size_t i0 = sites_.begin(chunk * n / chunks), i1 = sites_.begin((chunk + 1) * n / chunks);
       std::copy(position_.begin() + static_cast<std::ptrdiff_t>(i0), position_.begin() + static_cast<std::ptrdiff_t>(i1),
                 pruned_at_.begin() + static_cast<std::ptrdiff_t>(i0));  // the margin's reference
-      if (out.size() < outer_start_[i1] - outer_start_[i0]) out.resize(outer_start_[i1] - outer_start_[i0]);  // room for all
       const Vector3<double>* const position = position_.data();
-      const std::size_t* const outer = outer_neighbours_.data();
-      std::size_t* const list = out.data();
+      const SiteIndex* const outer = outer_lists_[chunk].data();  // site i's: outer[outer_start_[i] - base ...]
+      const std::size_t base = outer_start_[i0];
+      SiteIndex* const list = neighbours_.data() + base;
       std::size_t count = 0;
       for (std::size_t i = i0; i < i1; ++i) {
         const double xi = position[i](0), yi = position[i](1), zi = position[i](2);
-        const std::size_t first = count, k1 = outer_start_[i + 1];
-        for (std::size_t k = outer_start_[i]; k < k1; ++k) {
-          const std::size_t j = outer[k];
+        const std::size_t first = count, k1 = outer_start_[i + 1] - base;
+        for (std::size_t k = outer_start_[i] - base; k < k1; ++k) {
+          const SiteIndex j = outer[k];
           const double dx = separation<Periodic>(position[j](0) - xi, 0),
                        dy = separation<Periodic>(position[j](1) - yi, 1),
                        dz = separation<Periodic>(position[j](2) - zi, 2);
@@ -763,7 +775,13 @@ class PairInteraction {
       }
       chunk_used_[chunk] = count;
     });
-    join_chunk_lists(list_start_, neighbours_);
+    for (std::size_t i = 0; i < m; ++i) list_start_[i + 1] += list_start_[i];
+    for (std::size_t chunk = 0; chunk < chunks; ++chunk) {  // (to lower or equal offsets: in order, nothing unread is overwritten)
+      const std::size_t i0 = sites_.begin(chunk * n / chunks);
+      const auto from = neighbours_.begin() + static_cast<std::ptrdiff_t>(outer_start_[i0]);
+      std::copy(from, from + static_cast<std::ptrdiff_t>(chunk_used_[chunk]),
+                neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[i0]));
+    }
     // How the evaluation splits its work between threads (results do not
     // depend on it): the bodies into consecutive ranges of about equal pairs
     // (a gas that clusters makes halves by count uneven), the bodies with
@@ -864,19 +882,6 @@ class PairInteraction {
     for_each_crossing_pair([&](std::size_t j, std::size_t k) { incoming_pair_[fill_[j]++] = k; });
   }
 
-  /// Joins the chunks' lists (chunk_lists_, chunk_used_ entries each; per
-  /// site counts in start[i + 1]) into one list in site order: start
-  /// becomes the sites' offsets.
-  void join_chunk_lists(std::vector<std::size_t>& start, std::vector<std::size_t>& list) const {
-    const std::size_t n = sys_.size(), m = position_.size(), chunks = chunk_lists_.size();
-    for (std::size_t i = 0; i < m; ++i) start[i + 1] += start[i];
-    list.resize(start[m]);
-    parallel_for(chunks, par_, [&](std::size_t chunk) {
-      std::copy(chunk_lists_[chunk].begin(), chunk_lists_[chunk].begin() + static_cast<std::ptrdiff_t>(chunk_used_[chunk]),
-                list.begin() + static_cast<std::ptrdiff_t>(start[sites_.begin(chunk * n / chunks)]));
-    });
-  }
-
   System sys_;
   InteractionSites sites_;
   Kernel kernel_;
@@ -901,10 +906,18 @@ class PairInteraction {
   /// extended by reach, a volume closer to that box's than with cells of
   /// side reach (docs/tuning.md).
   static constexpr double cells_per_reach = 2.0;
-  mutable std::vector<std::size_t> cell_index_, cell_start_, fill_, sorted_, list_start_, neighbours_;
+  /// A site's index in the lists (4 bytes: the lists are most of the
+  /// interaction's memory); at most max_sites sites.
+  using SiteIndex = std::uint32_t;
+  static constexpr std::size_t max_sites = 0x7fffffff;
+  mutable std::vector<std::size_t> cell_start_, fill_, list_start_;
+  mutable std::vector<SiteIndex> cell_index_, sorted_;
   mutable std::vector<double> cell_x_, cell_y_, cell_z_;  ///< the sites' positions in cell order
-  mutable std::vector<std::size_t> cell_body_;            ///< and their bodies
-  mutable std::vector<std::vector<std::size_t>> chunk_lists_;
+  mutable std::vector<SiteIndex> cell_body_;              ///< and their bodies
+  /// The pruned lists: site i's partners neighbours_[list_start_[i] ...
+  /// list_start_[i + 1]) (the array as long as the outer lists, which it
+  /// holds while they are pruned).
+  mutable std::vector<SiteIndex> neighbours_;
   mutable std::vector<std::size_t> chunk_used_;  ///< per chunk: its list's entries in use
   /// ranged_pass: each site's running force sum (x, y, z and a pad: one
   /// cache line holds two sites, a partner's three components are one access).
@@ -931,10 +944,14 @@ class PairInteraction {
   mutable std::vector<std::size_t> incoming_start_, incoming_pair_;
   /// Per site: where it was at the last build and at the last pruning.
   mutable std::vector<Vector3<double>> built_at_, pruned_at_;
-  /// The outer lists: per site, the sites of higher bodies within r_c + skin
-  /// at the last build, by index (outer_neighbours_[outer_start_[i] ...
-  /// outer_start_[i + 1])); neighbours_ and list_start_ are their pruned form.
-  mutable std::vector<std::size_t> outer_start_, outer_neighbours_;
+  /// The outer lists: per site i, the sites of higher bodies within r_c +
+  /// skin at the last build, by index, in its chunk c's buffer:
+  /// outer_lists_[c][outer_start_[i] - outer_start_[i0] ... outer_start_[i +
+  /// 1] - outer_start_[i0]), i0 the chunk's first site (not joined into one
+  /// array: only the pruning reads them, chunk by chunk); neighbours_ and
+  /// list_start_ are their pruned form.
+  mutable std::vector<std::size_t> outer_start_;
+  mutable std::vector<std::vector<SiteIndex>> outer_lists_;
   mutable std::int64_t builds_ = 0, prunes_ = 0;
   /// moved_: how far a body's sites moved.
   static constexpr char no_move = 0, beyond_margin = 1, beyond_skin = 2;
