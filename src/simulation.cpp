@@ -202,6 +202,8 @@ struct Recorder {
   /// pressure column; empty when the layout has none.
   std::function<double(const SystemState&)> virial = {};
   ThermoColumns thermo = ThermoColumns::none;
+  /// The temperature's degrees of freedom (counted once: O(N)).
+  std::int64_t dof = degrees_of_freedom(scenario);
 
   /// The kinetic temperature and the pressure of a written frame (thermo_columns),
   /// into the statistics: T = 2 K / (k_B n_f), n_f = 6 N - 3 (LAMMPS's count for
@@ -211,7 +213,6 @@ struct Recorder {
   std::pair<double, double> thermodynamics(const SystemState& s, double kinetic) {
     const System& sys = scenario.system;
     // No degrees of freedom left (one point body): 0, as LAMMPS's compute temp.
-    const std::int64_t dof = degrees_of_freedom(scenario);
     const double temperature = dof > 0 ? 2.0 * kinetic / static_cast<double>(dof) : 0.0;
     double pressure = std::numeric_limits<double>::quiet_NaN();
     if (thermo == ThermoColumns::temperature_and_pressure) {

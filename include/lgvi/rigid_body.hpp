@@ -171,6 +171,13 @@ class RigidBody {
     if (rotational_dof_ == 0) return Vector3<double>::Zero();
     return w - w.dot(axis_) * axis_;
   }
+  /// Whether w is a momentum this body can have up to round-off: what
+  /// admissible_momentum removes is at most 1e-12 |w| (a linear body's w
+  /// computed from rounded data, or written in a file with 17 digits, keeps
+  /// about 1e-16 |w| along the axis; more than 1e-12 is a mistake, not rounding).
+  bool admits_momentum(const Vector3<double>& w) const {
+    return (w - admissible_momentum(w)).norm() <= 1e-12 * w.norm();
+  }
   /// Whether the body frame is a principal frame: J diagonal, its
   /// off-diagonal entries within 8 eps of the largest moment (the round-off of
   /// a sum of ball inertias; user input must be diagonal as written). The

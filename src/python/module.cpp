@@ -437,12 +437,11 @@ class PyStepper {
       // As the scenario reader: a linear body has no momentum about its axis
       // (a point none), beyond round-off, which is removed.
       const RigidBody& body = sc_.body();
-      const Vector3<double> kept = body.admissible_momentum(s.w);
-      if ((s.w - kept).norm() > 1e-12 * s.w.norm())
+      if (!body.admits_momentum(s.w))
         throw py::value_error(std::string("w: the body is ") +
                               (body.rotational_dof() == 2 ? "linear: it has no angular momentum about its axis"
                                                           : "a point mass: it has no angular momentum; give w = 0"));
-      s.w = kept;
+      s.w = body.admissible_momentum(s.w);
     }
     initialize_at(s, "state");
     state_ = s;
