@@ -342,7 +342,9 @@ LammpsDataBodies read_lammps_data(const std::string& path, const std::vector<dou
     for (std::size_t k = first; k < last; ++k) {
       const Atom& a = atom[order[k]];
       balls.push_back({a.x, mass[static_cast<std::size_t>(a.type)], radius_of(a.type), a.type});
+      out.ids.atom.push_back(a.id);
     }
+    out.ids.molecule.push_back(head.molecule);
     const std::string name = head.molecule != 0 ? fmt::format("mol{}", head.molecule) : fmt::format("atom{}", head.id);
     std::optional<RigidBody> body;
     try {

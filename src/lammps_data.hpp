@@ -16,6 +16,8 @@
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/state.hpp>
 
+#include "trajectory_sink.hpp"
+
 #include <array>
 #include <cstdint>
 #include <string>
@@ -29,6 +31,9 @@ struct LammpsDataBodies {
   std::vector<RigidBody> bodies;
   std::vector<std::string> names;  ///< "mol<ID>" or, for molecule ID 0, "atom<ID>"
   std::vector<RigidBodyState> states;
+  /// The file's IDs: per body its molecule ID (0 for a body made of an atom
+  /// of molecule 0), per site (the bodies' balls in order) its atom ID.
+  FileIds ids;
   Vector3<double> lower = Vector3<double>::Zero(), upper = Vector3<double>::Zero();  ///< xlo ylo zlo, xhi yhi zhi
   std::int64_t atoms = 0;
   int atom_types = 0;

@@ -654,7 +654,7 @@ std::array<bool, 3> read_periodic(const Reader& r, const toml::table& t, const s
 /// lammps_data is then absolute: a resume refuses a changed file). `root`'s
 /// table is rewritten so.
 Box read_import(const Reader& r, toml::table& root, const std::string& scenario_name, BodyList& bodies,
-                std::vector<std::string>& names, SystemState& state, int& site_types) {
+                std::vector<std::string>& names, SystemState& state, int& site_types, FileIds& ids) {
   for (const char* other : {"bodies", "body", "initial", "box"})
     if (root.contains(other))
       r.fail(other, std::string("an [import] gives the bodies, their initial state and the box; remove [") + other +
@@ -696,6 +696,7 @@ Box read_import(const Reader& r, toml::table& root, const std::string& scenario_
     bodies.kind.push_back(static_cast<std::uint32_t>(bodies.kinds.size() - 1));
   }
   names = std::move(data.names);
+  ids = std::move(data.ids);
   state = SystemState(data.states.size());
   for (std::size_t a = 0; a < data.states.size(); ++a) state.set_body(a, data.states[a]);
   t.insert_or_assign("lammps_data", std::filesystem::absolute(file).lexically_normal().string());
@@ -1059,8 +1060,9 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   SystemState initial;
   Box box;
   int site_types = 1;  // the data file's atom types (declared, used or not), or the balls' largest type
+  FileIds file_ids;
   if (imported) {
-    box = read_import(r, root, name, bodies, names, initial, site_types);
+    box = read_import(r, root, name, bodies, names, initial, site_types, file_ids);
   } else if (bodies_format) {
     read_bodies(r, root, bodies, names, initial);
   } else {
@@ -1214,6 +1216,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   sc.output_format = format;
   sc.source_text = text;
   sc.imported = imported;
+  sc.file_ids = std::move(file_ids);
   if (inlined || !converted.empty() || imported) {
     // File tables were read into the document, [initial] orbit / attitude
     // converted into plain keys, or an [import]'s file made absolute with its

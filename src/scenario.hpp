@@ -13,6 +13,7 @@
 
 #include "method.hpp"
 #include "formats/registry.hpp"
+#include "trajectory_sink.hpp"
 
 #include <cstdint>
 #include <functional>
@@ -109,6 +110,7 @@ struct Scenario {
   TrajectoryFormat output_format;  ///< [output] format (default csv)
   std::string source_text;  ///< the TOML text it was read from
   bool imported = false;    ///< its bodies come from a data file ([import])
+  FileIds file_ids;         ///< an [import]'s (empty without one)
 
   /// Body 0 and its initial state: the body of a single-body scenario.
   const RigidBody& body() const { return system.body(0); }

@@ -92,7 +92,10 @@ TrajectoryLayout scenario_layout(const Scenario& s) {
   TrajectoryLayout layout =
       s.bodies_format ? TrajectoryLayout::long_format(static_cast<std::int64_t>(s.bodies()), forced, thermo_columns(s))
                       : TrajectoryLayout::single_body(forced);
-  if (!holds_columns(s.output_format)) layout.shapes = body_shapes(s.system);
+  if (!holds_columns(s.output_format)) {
+    layout.shapes = body_shapes(s.system);
+    layout.ids = s.file_ids;
+  }
   layout.step = s.integrator.step;
   layout.box = s.system.box();
   return layout;

@@ -73,6 +73,15 @@ struct BodyShape {
 /// one output step (1 for a single-body scenario; N, one per body, for a
 /// [[bodies]] scenario, whose npz and HDF5 arrays are then shaped
 /// (steps, N, columns)).
+/// The IDs a data file gave the bodies and their sites (an [import]'s:
+/// lammps_data.hpp), which the LAMMPS dump writes in place of its own
+/// numbering.
+struct FileIds {
+  std::vector<std::int64_t> molecule;  ///< per body
+  std::vector<std::int64_t> atom;      ///< per site, the bodies' balls in order
+  bool empty() const { return molecule.empty(); }
+};
+
 struct TrajectoryLayout {
   std::string header = trajectory_header;
   int columns = trajectory_columns;
@@ -87,6 +96,8 @@ struct TrajectoryLayout {
   /// its periodic axes (with image counts) and draw it; the other formats
   /// write the centres of mass unwrapped.
   Box box = {};
+  /// The bodies' and sites' IDs in the data file they were read from (empty: none).
+  FileIds ids = {};
 
   static TrajectoryLayout single_body(bool forced = false) {
     if (forced) return {forced_trajectory_header, trajectory_columns + 1, 0};

@@ -16,7 +16,9 @@
 //   <id> <mol> <type> <x> <y> <z> <ix> <iy> <iz>    one line per site
 //
 // id numbers the sites of a frame from 1, mol the bodies from 1 (the bodies'
-// order in the scenario), and type the site's type (Ball::type, a data
+// order in the scenario); for bodies read from a LAMMPS data file ([import]),
+// id and mol are the file's atom and molecule IDs (mol 0 for its atoms of
+// molecule 0, as there). type the site's type (Ball::type, a data
 // file's atom type) where the scenario gives any; else the site radii from 1
 // in order of first appearance, so that a viewer's per-type radius draws
 // every site at its size (one type for a gas of identical molecules). Coordinates
@@ -31,6 +33,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -41,7 +44,12 @@ namespace {
 class LammpsDump final : public ParticleTextFile {
  public:
   LammpsDump(const std::string& path, const TrajectoryLayout& layout, const SinkPosition* resume)
-      : ParticleTextFile("lammps-dump", path, layout, resume), step_(layout.step) {}
+      : ParticleTextFile("lammps-dump", path, layout, resume), step_(layout.step), ids_(layout.ids) {
+    std::size_t sites = 0;
+    for (const BodyShape& shape : layout.shapes) sites += shape.sites.size();
+    if (!ids_.empty() && (ids_.molecule.size() != layout.shapes.size() || ids_.atom.size() != sites))
+      throw std::logic_error("lammps-dump: the data file's IDs do not match the bodies and sites");
+  }
 
  private:
   void format_frame(const ParticleFrame& f, std::string& text) override {
@@ -76,8 +84,10 @@ class LammpsDump final : public ParticleTextFile {
     }
     text += "ITEM: ATOMS id mol type x y z ix iy iz\n";
     for (const Particle& p : f.particles) {
-      text += std::to_string(p.site + 1) + ' ' + std::to_string(p.body + 1) + ' ' +
-              std::to_string(site_types()[static_cast<std::size_t>(p.site)]);
+      const auto site = static_cast<std::size_t>(p.site), body = static_cast<std::size_t>(p.body);
+      text += ids_.empty() ? std::to_string(p.site + 1) + ' ' + std::to_string(p.body + 1)
+                           : std::to_string(ids_.atom[site]) + ' ' + std::to_string(ids_.molecule[body]);
+      text += ' ' + std::to_string(site_types()[site]);
       for (const double c : p.position) {
         text.push_back(' ');
         append_number(text, c);
@@ -91,6 +101,7 @@ class LammpsDump final : public ParticleTextFile {
   }
 
   double step_;
+  FileIds ids_;  ///< a data file's atom and molecule IDs (empty: sites and bodies numbered from 1)
 };
 
 std::unique_ptr<TrajectorySink> open_lammps_dump(const std::string& path, const TrajectoryLayout& layout,

@@ -89,9 +89,11 @@ def mixed_molecules(seed=3):
     return atoms, velocities
 
 
-def write_data(path, atoms, velocities, style="molecular", masses=(1.0, 3.0), extra_header="", other_sections=True):
+def write_data(path, atoms, velocities, style="molecular", masses=(1.0, 3.0), extra_header="", other_sections=True,
+               ids=None):
     """The data file; other_sections: with a bond and Pair Coeffs, which lgvi skips (LAMMPS needs their styles
-    defined first)."""
+    defined first); ids: the atoms' IDs (default 1, 2, ... in the order of `atoms`)."""
+    ids = np.arange(1, len(atoms) + 1) if ids is None else ids
     length = UPPER - LOWER
     order = np.random.default_rng(7).permutation(len(atoms))  # atom IDs in file order: shuffled
     bonds = ["1 bonds", "1 bond types"] if other_sections else ["", ""]
@@ -106,9 +108,9 @@ def write_data(path, atoms, velocities, style="molecular", masses=(1.0, 3.0), ex
         image = np.floor((x - LOWER) / length).astype(int)
         wrapped = x - image * length
         charge = " 0.0" if style == "full" else ""
-        lines.append(f"{i + 1} {mol} {typ}{charge} {wrapped[0]!r} {wrapped[1]!r} {wrapped[2]!r} "
+        lines.append(f"{ids[i]} {mol} {typ}{charge} {wrapped[0]!r} {wrapped[1]!r} {wrapped[2]!r} "
                      f"{image[0]} {image[1]} {image[2]}")
-    lines += ["", "Velocities", ""] + [f"{i + 1} {v[0]!r} {v[1]!r} {v[2]!r}" for i, v in enumerate(velocities)]
+    lines += ["", "Velocities", ""] + [f"{ids[i]} {v[0]!r} {v[1]!r} {v[2]!r}" for i, v in enumerate(velocities)]
     if other_sections:
         lines += ["", "Bonds", "", "1 1 1 2", ""]
     path.write_text("\n".join(lines) + "\n")
@@ -587,6 +589,33 @@ def test_the_particle_exports_keep_the_atom_types(tmp_path):
             continue
         # Each molecule's sites in increasing atom ID (the IDs are the atoms' places in `atoms`).
         assert written == types
+
+
+def test_the_lammps_dump_keeps_the_data_files_atom_and_molecule_ids(tmp_path):
+    # The dump's id and mol columns are the data file's atom and molecule IDs, whatever their numbering (molecule 0
+    # for free atoms, as in the file), so that an analysis of the dump meets the file's atoms: each atom's unwrapped
+    # position at step 0 is the file's, to the round-off of turning each molecule into its principal axes and back
+    # (a few ulps of coordinates below 13: 1e-12).
+    atoms, velocities = mixed_molecules()
+    atoms = [(7 * mol + 3, t, x) for mol, t, x in atoms]  # molecule IDs 10, 17, 24, ...
+    atoms += [(0, 1, np.array([4.6, 0.6, 0.6])), (0, 2, np.array([0.6, 4.6, 0.6]))]  # two free atoms, at odd places
+    velocities = np.vstack([velocities, [[0.1, 0.2, 0.3], [-0.3, 0.0, 0.1]]])
+    ids = 5 + 3 * np.random.default_rng(11).permutation(len(atoms))  # atom IDs 5, 8, 11, ... in no order
+    data = write_data(tmp_path / "ids.data", atoms, velocities, ids=ids)
+    text = scenario(tmp_path, data.name).read_text().replace("[output]\n", '[output]\nformat = "lammps-dump"\n')
+    (tmp_path / "s.toml").write_text(text)
+    out = run(tmp_path / "s.toml", "--out", tmp_path / "dump")
+    assert out.returncode == 0, out.stderr
+    lines = (tmp_path / "dump" / "trajectory.lammpstrj").read_text().splitlines()
+    assert lines[8] == "ITEM: ATOMS id mol type x y z ix iy iz"
+    rows = [line.split() for line in lines[9:9 + int(lines[3])]]
+    assert sorted(int(r[0]) for r in rows) == sorted(ids.tolist())
+    by_id = {atom_id: atom for atom_id, atom in zip(ids.tolist(), atoms)}
+    for r in rows:
+        mol, typ, x = by_id[int(r[0])]
+        assert (int(r[1]), int(r[2])) == (mol, typ)
+        unwrapped = np.array([float(c) for c in r[3:6]]) + (UPPER - LOWER) * np.array([int(c) for c in r[6:9]])
+        np.testing.assert_allclose(unwrapped, x, rtol=0, atol=1e-12)
 
 
 def test_overlapping_molecules_are_named(tmp_path):
