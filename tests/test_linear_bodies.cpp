@@ -5,7 +5,15 @@
 
 #include <lgvi/integrate.hpp>
 #include <lgvi/lennard_jones.hpp>
+#include <lgvi/exact_free_body.hpp>
+#include <lgvi/forcing.hpp>
 #include <lgvi/lgvi.hpp>
+#include <lgvi/methods/euler_exp.hpp>
+#include <lgvi/methods/no_squish.hpp>
+#include <lgvi/methods/rattle_quaternion.hpp>
+#include <lgvi/methods/rk4_normalized.hpp>
+#include <lgvi/methods/so3_lgvi.hpp>
+#include <lgvi/methods/splitting_dlm.hpp>
 #include <lgvi/system.hpp>
 
 #include <gtest/gtest.h>
@@ -179,6 +187,58 @@ TEST(LinearBodies, APointMassDoesNotRotate) {
   EXPECT_EQ(std::memcmp(s.q.scalar_first().data(), start.q.scalar_first().data(), 4 * sizeof(double)), 0);
   EXPECT_EQ(s.w, V3::Zero());
   EXPECT_MAT_NEAR(s.x, (10.0 * start.p / 2.0).eval(), 64 * eps);
+}
+
+/// Constructing Method on `body` is one InvalidInput whose message holds `what`.
+template <template <class> class Method>
+void expect_refused(const RigidBody& body, const std::string& what) {
+  try {
+    const Method<lgvi::NoPotential> stepper(body, {}, 0.01);
+    ADD_FAILURE() << "no error for a body of " << body.rotational_dof() << " rotational degrees of freedom";
+  } catch (const lgvi::InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+  }
+}
+
+TEST(LinearBodies, TheOtherMethodsRefuseThemInTheLibraryToo) {
+  // As the scenario reader does, the library's steppers other than the LGVI's two forms refuse a linear body or a
+  // point on construction: their equations divide by the principal moments, and would give infinities or a wrong
+  // motion, not an error.
+  const RigidBody rod = RigidBody::from_balls({{V3(-0.5, 0.0, 0.0), 1.0, 0.0}, {V3(0.5, 0.0, 0.0), 1.0, 0.0}});
+  const RigidBody point = RigidBody::from_balls({{V3::Zero(), 2.0, 0.0}});
+  for (const auto& [body, what] : {std::pair{rod, std::string("a linear body")}, std::pair{point, std::string("a point mass")}}) {
+    ASSERT_NE(body.rotational_dof(), 3);
+    expect_refused<lgvi::So3LieGroupVariationalIntegrator>(body, what);
+    expect_refused<lgvi::RattleQuaternionIntegrator>(body, what);
+    expect_refused<lgvi::Rk4NormalizedIntegrator>(body, what);
+    expect_refused<lgvi::EulerExpIntegrator>(body, what);
+    expect_refused<lgvi::NoSquishIntegrator>(body, what);
+    expect_refused<lgvi::SplittingDlmIntegrator>(body, what);
+    expect_refused<lgvi::ExactFreeBodyStepper>(body, what);
+  }
+}
+
+TEST(LinearBodies, AttitudeControlSpendsItsTorqueAcrossTheAxis) {
+  // A rod (axis x) an attitude error about an axis that mixes x and y: the PD law's torque has a part along the
+  // rod, which cannot turn it; the controller gives the rest, and max_torque limits only that (the whole budget
+  // goes where it acts). Unclipped, the part across the axis is the three-moment law's, bit for bit but the
+  // removed component.
+  const RigidBody rod = RigidBody::from_balls({{V3(-0.5, 0.0, 0.0), 1.0, 0.0}, {V3(0.5, 0.0, 0.0), 1.0, 0.0}});
+  ASSERT_EQ(rod.linear_axis(), V3(1.0, 0.0, 0.0));
+  RigidBodyState s;
+  s.q = S3d::exp(V3(0.3, 0.2, 0.0));
+  s.w = rod.admissible_momentum(V3(0.5, 0.1, -0.2));
+  lgvi::AttitudeControl control{S3d(), 2.0, 0.5};
+  const V3 free = control(0.0, s, rod).torque;
+  EXPECT_EQ(free.x(), 0.0);
+  const V3 whole = (-2.0) * (S3d().inverse() * s.q).vec() - 0.25 * (rod.inertia_inverse() * s.w);
+  EXPECT_EQ(free.y(), whole.y());
+  EXPECT_EQ(free.z(), whole.z());
+  ASSERT_GT(std::abs(whole.x()), 0.1);  // the part removed is not small
+  control.max_torque = 0.5 * free.norm();
+  const V3 clipped = control(0.0, s, rod).torque;
+  EXPECT_EQ(clipped.x(), 0.0);
+  EXPECT_NEAR(clipped.norm(), control.max_torque, 4 * eps * control.max_torque);  // (one scaling's round-off)
 }
 
 using LjSystem = lgvi::Coupled<lgvi::ExternalField<lgvi::NoPotential>, lgvi::LennardJones>;

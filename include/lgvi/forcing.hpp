@@ -143,7 +143,8 @@ struct Damping {
 
 /// A proportional-derivative attitude controller on the quaternion error
 /// e = q_target^* q (body frame):
-///   M = -k_p sgn(e_s) e_v - k_d Omega,  scaled down to |M| = max_torque if larger.
+///   M = -k_p sgn(e_s) e_v - k_d Omega,  scaled down to |M| = max_torque if larger
+/// (for a linear body, M's part across its axis: RigidBody::admissible_momentum).
 /// sgn(e_s) picks the shorter of the two rotations that q and -q represent.
 /// For a spherical body (J = j I) and small errors the error angle obeys
 /// j theta'' + k_d theta' + (k_p/2) theta = 0 (e_v ~ theta/2 about the axis).
@@ -160,7 +161,11 @@ struct AttitudeControl {
   Wrench operator()(double, const RigidBodyState& s, const RigidBody& body) const {
     const S3d e = target.inverse() * s.q;
     const double sign = e.w() < 0.0 ? -1.0 : 1.0;
-    Vector3<double> m = (-k_p * sign) * e.vec() - (0.5 * k_d) * (body.inertia_inverse() * s.w);
+    // A linear body turns only across its axis (a point not at all): the
+    // torque's part along the axis would do nothing, and must not count
+    // toward max_torque. (m itself for a body with three moments.)
+    Vector3<double> m =
+        body.admissible_momentum((-k_p * sign) * e.vec() - (0.5 * k_d) * (body.inertia_inverse() * s.w));
     const double n = m.norm();
     if (n > max_torque) m *= max_torque / n;
     return {Vector3<double>::Zero(), m};

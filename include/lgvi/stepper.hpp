@@ -55,6 +55,22 @@ concept SystemStepper = requires(S& s, const S& cs, SystemState& state, double t
 
 namespace detail {
 
+/// Throws InvalidInput unless every body has three principal moments > 0.
+/// The methods whose equations divide by the moments (all but the LGVI's two
+/// forms, MethodTraits::linear_bodies) call it on construction: a linear body
+/// or a point (RigidBody::rotational_dof) would give them no error, only
+/// infinities or a wrong motion.
+inline void require_three_moments(const System& system, const char* method) {
+  for (std::size_t a = 0; a < system.size(); ++a) {
+    const int dof = system.body(a).rotational_dof();
+    if (dof == 3) continue;
+    throw InvalidInput(std::string(method) + " needs three principal moments > 0; body " + std::to_string(a) +
+                       " (\"" + system.name(a) + "\") is " +
+                       (dof == 2 ? "a linear body (a zero principal moment)" : "a point mass (no inertia)") +
+                       "; integrate it with the LGVI (lgvi or lgvi-lagrangian)");
+  }
+}
+
 inline void require_valid_step(double h) {
   if (!(std::isfinite(h) && h > 0.0))
     throw InvalidInput("integrator.step: must be a finite number > 0, got " + std::to_string(h));

@@ -49,7 +49,9 @@ class ExplicitStepperBase : public StepperBase<I> {
 
  protected:
   ExplicitStepperBase(System system, I potential, Parallelism par, const char* name)
-      : StepperBase<I>(std::move(system), std::move(potential), par), name_(name) {}
+      : StepperBase<I>(std::move(system), std::move(potential), par), name_(name) {
+    require_three_moments(this->system_, name);
+  }
 
   /// Checks the state and the evaluation after a step.
   void finish_step(const SystemState& s) { require_finite(this->system_, s, this->eval_); }

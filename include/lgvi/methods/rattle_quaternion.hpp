@@ -139,6 +139,7 @@ class RattleQuaternionIntegrator<I> : public detail::ImplicitStepperBase<I, Rota
   /// `solver.kind` does not (always Newton on the 5 x 5 system).
   RattleQuaternionIntegrator(System system, I potential, SolverOptions solver = {}, Parallelism par = {})
       : Base(std::move(system), std::move(potential), solver, par) {
+    detail::require_three_moments(this->system_, "the RATTLE integrator");
     const std::size_t n = this->system_.size();
     for (const RigidBody& b : system_bodies(this->system_)) J_norm_.push_back(b.inertia().norm());
     q0_.resize(n);

@@ -144,6 +144,7 @@ class So3LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I
   /// chart (Lee et al.'s choice).
   So3LieGroupVariationalIntegrator(System system, I potential, SolverOptions solver = {}, Parallelism par = {})
       : Base(std::move(system), std::move(potential), solver, par) {
+    detail::require_three_moments(this->system_, "the SO(3) LGVI");
     const std::size_t n = this->system_.size();
     for (const RigidBody& b : system_bodies(this->system_)) {
       equations_.emplace_back(b.inertia());
