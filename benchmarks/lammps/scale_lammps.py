@@ -47,19 +47,21 @@ def scenario(n, steps, step):
 def timed(command, ranks=1):
     """Runs command under /usr/bin/time, as `ranks` MPI ranks if more than one:
     (wall seconds, peak RSS in MB summed over the ranks)."""
-    timer = ["/usr/bin/time", "-f", "lgvi-bench %e %M"]
-    if ranks > 1:
-        env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-        command = timer + ["mpirun", "-n", str(ranks), "--oversubscribe", *timer, *map(str, command)]
-    else:
-        env, command = None, timer + list(map(str, command))
-    out = subprocess.run(command, capture_output=True, text=True, env=env)
-    if out.returncode != 0:
-        sys.exit(f"{command} failed: {out.stderr[-2000:]}")
-    measured = [line.split() for line in out.stderr.splitlines() if line.startswith("lgvi-bench ")]
-    # (With ranks, the first lines are the ranks' and the last mpirun's, whose wall time is the run's.)
-    ranks_rss = measured[:-1] if ranks > 1 else measured
-    return float(measured[-1][1]), sum(int(m[2]) for m in ranks_rss) / 1024
+    with tempfile.TemporaryDirectory() as tmp:
+        report = pathlib.Path(tmp) / "time"
+        timer = ["/usr/bin/time", "-f", "%e %M", "-o"]
+        if ranks > 1:  # each rank timed into its own file (Open MPI sets OMPI_COMM_WORLD_RANK)
+            env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+            rank_timer = ["sh", "-c", 'exec /usr/bin/time -f "%e %M" -o "$0.$OMPI_COMM_WORLD_RANK" "$@"', report]
+            command = timer + [report, "mpirun", "-n", str(ranks), "--oversubscribe", *rank_timer, *command]
+        else:
+            env, command = None, timer + [report, *command]
+        out = subprocess.run(list(map(str, command)), capture_output=True, text=True, env=env)
+        if out.returncode != 0:
+            sys.exit(f"{command} failed: {out.stderr[-2000:]}")
+        wall = float(report.read_text().split()[-2])
+        files = [pathlib.Path(f"{report}.{r}") for r in range(ranks)] if ranks > 1 else [report]
+        return wall, sum(int(f.read_text().split()[-1]) for f in files) / 1024
 
 
 def data_file(lgvi, work, n, box):
