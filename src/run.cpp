@@ -125,8 +125,9 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
                      " at t = " + fmt::format("{}", result.stats.last_t) +
                      (opt.checkpoint_every > 0 ? "; continue with: lgvi run --resume " + dir : "");
   }
+  const std::string stored_summary = sink->stores_summary() ? summary_json(sc, result) : std::string();
   try {
-    sink->close(sc.source_text, sink->stores_summary() ? summary_json(sc, result) : std::string());
+    sink->close(sc.source_text, stored_summary);
   } catch (const std::exception& e) {
     if (result.error.empty()) result.error = e.what();
     result.completed = false;

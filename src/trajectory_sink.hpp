@@ -69,10 +69,6 @@ struct BodyShape {
   std::vector<Site> sites;
 };
 
-/// What a trajectory file holds: the column names, and how many rows make
-/// one output step (1 for a single-body scenario; N, one per body, for a
-/// [[bodies]] scenario, whose npz and HDF5 arrays are then shaped
-/// (steps, N, columns)).
 /// The IDs a data file gave the bodies and their sites (an [import]'s:
 /// lammps_data.hpp), which the LAMMPS dump writes in place of its own
 /// numbering.
@@ -82,6 +78,10 @@ struct FileIds {
   bool empty() const { return molecule.empty(); }
 };
 
+/// What a trajectory file holds: the column names, and how many rows make
+/// one output step (1 for a single-body scenario; N, one per body, for a
+/// [[bodies]] scenario, whose npz and HDF5 arrays are then shaped
+/// (steps, N, columns)).
 struct TrajectoryLayout {
   std::string header = trajectory_header;
   int columns = trajectory_columns;

@@ -233,7 +233,13 @@ TEST(Json, TextWrittenToAFileAsItIsMadeIsTheSameText) {
   // write_json empties its buffer into the file between a generated array's
   // elements once it holds 64 kB: 5000 elements of ~30 bytes cross that
   // boundary about twice, and the file must still be json_text's bytes.
-  auto element = [](std::size_t i) { return Json{{"name", "body" + std::to_string(i)}, {"x", 0.1 * static_cast<double>(i)}}; };
+  // And the text is in the file before the document ends: at element 4000 (of 10000) the file holds some of it.
+  std::FILE* file = nullptr;
+  long written_by_element_4000 = -1;
+  auto element = [&](std::size_t i) {
+    if (i == 4000 && file != nullptr) written_by_element_4000 = std::ftell(file);
+    return Json{{"name", "body" + std::to_string(i)}, {"x", 0.1 * static_cast<double>(i)}};
+  };
   Json doc;
   doc["n"] = 5000;
   doc["setup"] = {{"bodies", Json::array()}};
@@ -243,7 +249,13 @@ TEST(Json, TextWrittenToAFileAsItIsMadeIsTheSameText) {
   layout.generated.push_back({&doc["setup"]["bodies"], 5000, [&](std::size_t i) { return element(i + 7); }});
   const fs::path dir = fresh_dir("streamed");
   const std::string path = (dir / "doc.json").string();
-  lgvi::app::write_file_atomically(path, [&](std::FILE* f) { return lgvi::app::write_json(f, doc, layout); });
+  lgvi::app::write_file_atomically(path, [&](std::FILE* f) {
+    file = f;
+    const bool ok = lgvi::app::write_json(f, doc, layout);
+    file = nullptr;
+    return ok;
+  });
+  EXPECT_GT(written_by_element_4000, 0);
   const std::string expected = json_text(doc, layout);
   ASSERT_GT(expected.size(), std::size_t{2} << 16);
   EXPECT_EQ(file_text(path), expected);

@@ -248,7 +248,7 @@ class PairInteraction {
     // built (then no pair can have crossed into r_c unseen), or else more
     // than delta/2 since they were pruned, per body on the thread that
     // placed it.
-    const bool have_lists = built_at_.size() == sites_.size();
+    const bool have_lists = lists_ready_ && built_at_.size() == sites_.size();
     const double limit = 0.25 * skin_ * skin_, prune_limit = 0.25 * prune_margin_ * prune_margin_;
     moved_.resize(n);
     sites_.place(s, par_, position_, arm_, [&](std::size_t a) {
@@ -629,8 +629,9 @@ class PairInteraction {
     // surroundings, so each cell is visited and each candidate is sorted
     // once for all of them.) So the lists do not depend on who
     // builds them: the bodies are cut into fixed chunks, each chunk's lists
-    // built on some thread into the chunk's buffer, and the buffers joined
-    // in site order.
+    // built on some thread into the chunk's buffer (where they stay: the
+    // outer lists, outer_lists_).
+    lists_ready_ = false;  // (until the pruning below completes: a build cut short by an exception is redone)
     const std::size_t n = sys_.size();
     const double reach2 = reach * reach;
     const std::size_t chunks = std::min<std::size_t>(n, list_chunks);
@@ -740,6 +741,7 @@ class PairInteraction {
   template <bool Periodic>
   void prune_lists(bool new_ranges) const {
     ++prunes_;
+    lists_ready_ = false;
     const std::size_t n = sys_.size(), m = position_.size();
     // Generous by a relative 1e-9, as the build's filter: no pair within the
     // margin is lost to the rounding of r^2.
@@ -778,6 +780,7 @@ class PairInteraction {
     for (std::size_t i = 0; i < m; ++i) list_start_[i + 1] += list_start_[i];
     for (std::size_t chunk = 0; chunk < chunks; ++chunk) {  // (to lower or equal offsets: in order, nothing unread is overwritten)
       const std::size_t i0 = sites_.begin(chunk * n / chunks);
+      if (list_start_[i0] == outer_start_[i0]) continue;  // (in place already)
       const auto from = neighbours_.begin() + static_cast<std::ptrdiff_t>(outer_start_[i0]);
       std::copy(from, from + static_cast<std::ptrdiff_t>(chunk_used_[chunk]),
                 neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[i0]));
@@ -880,6 +883,7 @@ class PairInteraction {
     fill_.assign(incoming_start_.begin(), incoming_start_.end() - 1);
     incoming_pair_.resize(incoming_start_[m]);
     for_each_crossing_pair([&](std::size_t j, std::size_t k) { incoming_pair_[fill_[j]++] = k; });
+    lists_ready_ = true;
   }
 
   System sys_;
@@ -953,6 +957,7 @@ class PairInteraction {
   mutable std::vector<std::size_t> outer_start_;
   mutable std::vector<std::vector<SiteIndex>> outer_lists_;
   mutable std::int64_t builds_ = 0, prunes_ = 0;
+  mutable bool lists_ready_ = false;  ///< the lists are whole (a build and its pruning completed)
   /// moved_: how far a body's sites moved.
   static constexpr char no_move = 0, beyond_margin = 1, beyond_skin = 2;
 };
