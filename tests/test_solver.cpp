@@ -8,6 +8,7 @@
 
 #include <gmock/gmock.h>
 
+#include <cmath>
 #include <map>
 
 namespace {
@@ -277,3 +278,46 @@ TEST(Solvers, BatchedNewtonLeavesFailuresToTheScalarSolve) {
 }
 
 }  // namespace
+
+namespace {
+
+/// `solver`'s root of g(f) = b from the first-order guess J^+ b.
+S3d solve_from_first_order(const RotationSolver& solver, const V3& b, const V3& moments) {
+  V3 u;
+  for (int k = 0; k < 3; ++k) u(k) = moments(k) > 0.0 ? b(k) / moments(k) : 0.0;
+  S3d f = S3d(1.0, u.x(), u.y(), u.z()).normalized();
+  lgvi::SolveReport report;
+  solver.solve(b, f, report);
+  return f;
+}
+
+}  // namespace
+
+// RotationSolver::for_principal_moments, what fix rigid/nve/lgvi (lammps/) builds per body from LAMMPS's
+// principal moments: the solver of the same body as RigidBody makes it, so the same root.
+TEST(Solvers, PrincipalMomentsGiveTheBodysOwnSolver) {
+  const lgvi::SolverOptions opt;
+  const V3 b(0.02, -0.05, 0.03);
+  // Three moments: J = diag(moments), bit for bit the solver of that matrix.
+  const V3 three(1.0, 2.0, 2.5);
+  const S3d full = solve_from_first_order(RotationSolver::for_principal_moments(three, opt), b, three);
+  const S3d direct = solve_from_first_order(RotationSolver(M3(three.asDiagonal()), opt), b, three);
+  EXPECT_EQ(full.scalar_first(), direct.scalar_first());
+  // One zero moment: a linear body along that axis, I the mean of the two others (equal to round-off, as from
+  // LAMMPS's eigen-solver), the closed-form root without turn about the axis, as RigidBody's linear body.
+  const V3 linear(1.5 * (1 + eps), 0.0, 1.5);
+  const S3d rod = solve_from_first_order(RotationSolver::for_principal_moments(linear, opt), b, linear);
+  const lgvi::RigidBody body(1.0, M3(V3(1.5, 0.0, 1.5).asDiagonal()));
+  ASSERT_EQ(body.rotational_dof(), 2);
+  const S3d reference = solve_from_first_order(RotationSolver(body, opt), b, V3(1.5, 0.0, 1.5));
+  EXPECT_MAT_NEAR(rod.scalar_first(), reference.scalar_first(), 4 * eps);
+  EXPECT_EQ(rod.vec()(1), 0.0);  // no turn about the axis
+  // g(f) = b across the axis: f_s I f_v = b_perp.
+  EXPECT_MAT_NEAR((rod.w() * 1.5 * rod.vec()).eval(), V3(b(0), 0.0, b(2)), 8 * eps * b.norm());
+  // All zero: a point, f = e.
+  const S3d point = solve_from_first_order(RotationSolver::for_principal_moments(V3::Zero(), opt), b, V3::Zero());
+  EXPECT_EQ(point.scalar_first(), S3d().scalar_first());
+  // What no collection of masses has.
+  for (const V3& bad : {V3(0.0, 0.0, 1.0), V3(-1.0, 1.0, 1.0), V3(1.0, std::nan(""), 1.0)})
+    EXPECT_THROW(RotationSolver::for_principal_moments(bad, opt), lgvi::InvalidInput);
+}

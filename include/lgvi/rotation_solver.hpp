@@ -439,6 +439,35 @@ class RotationSolver {
       : eq_(body.inertia()), opt_(options), rotational_dof_(body.rotational_dof()), axis_(body.linear_axis()),
         moment_(body.rotational_dof() == 2 ? 0.5 * body.inertia().trace() : 0.0) {}
 
+  /// The solver of a body stored as molecular-dynamics codes store it: its
+  /// principal moments, the body frame being the principal frame (LAMMPS's
+  /// fix rigid/small, which sets a moment below 1e-7 of the largest to
+  /// exactly 0). Three moments > 0: the body's J = diag(moments). One moment
+  /// 0: a linear body along that axis, with I the mean of the other two
+  /// (equal to round-off for point masses on a line), as RigidBody stores it.
+  /// All three 0: a point. Throws InvalidInput for anything else (negative,
+  /// not finite, two zeros), which no collection of masses has.
+  static RotationSolver for_principal_moments(const Vector3<double>& moments, SolverOptions options) {
+    if (!moments.allFinite() || (moments.array() < 0.0).any())
+      throw InvalidInput("principal moments must be finite and >= 0");
+    const auto zeros = (moments.array() == 0.0).count();
+    RotationSolver solver(Matrix3<double>(moments.asDiagonal()), options);
+    if (zeros == 0) return solver;
+    if (zeros == 1) {
+      Eigen::Index k = 0;
+      moments.minCoeff(&k);
+      solver.rotational_dof_ = 2;
+      solver.axis_ = Vector3<double>::Unit(k);
+      solver.moment_ = 0.5 * moments.sum();
+      return solver;
+    }
+    if (zeros == 3) {
+      solver.rotational_dof_ = 0;
+      return solver;
+    }
+    throw InvalidInput("principal moments with exactly two zeros belong to no body of point masses");
+  }
+
   void solve(const Vector3<double>& b, S3d& f, SolveReport& report) const {
     report = {};
     if (rotational_dof_ == 0) {
