@@ -92,7 +92,7 @@ def figures(a, out, scan):
     name = "water" if a.water else "gas"
     unit = " (kcal/mol)" if a.water else ""
     fig, ax = plt.subplots(figsize=(7, 3.6))
-    for s in STYLES:
+    for s in a.styles:
         if (s, 1, a.step) in run.series:
             t, de = run.series[(s, 1, a.step)]
             ax.plot(t, de, label=s, lw=1)
@@ -105,8 +105,8 @@ def figures(a, out, scan):
     plt.close(fig)
     if scan:
         fig, ax = plt.subplots(figsize=(7, 3.6))
-        steps = sorted({h for _, h in scan} | ({a.step} if (STYLES[0], 1, a.step) in run.series else set()))
-        for s in STYLES:
+        steps = sorted({h for _, h in scan} | ({a.step} if (a.styles[0], 1, a.step) in run.series else set()))
+        for s in a.styles:
             xs, ys = [], []
             for h in steps:
                 if (s, 1, h) in run.series:
@@ -159,6 +159,8 @@ def main():
     parser.add_argument("--scan", type=float, nargs="*", default=[])
     parser.add_argument("--scan-only", action="store_true", help="only the --scan table")
     parser.add_argument("--figures", type=pathlib.Path, help="write the energy figures into this folder")
+    parser.add_argument("--styles", nargs="+", default=list(STYLES), choices=STYLES,
+                        help="the fixes to run (default all three; rigid/nve/small is the reference of the ratios)")
     parser.add_argument("--water", action="store_true", help="the SPC/E water case (units real: steps in fs)")
     parser.add_argument("--equilibrate", type=int, default=5000, help="water: steps of rigid/nvt/small at 300 K first")
     parser.add_argument("--sizes", type=int, nargs="*", default=[], help="the gas of n^3 molecules: time and memory")
@@ -182,17 +184,17 @@ def main():
                 sys.exit(f"equilibration failed: {out.stdout[-2000:]}")
         else:
             data = compare_lammps.lammps_data(a.lgvi, work, periodic=True)
-        times = {(s, r): [] for s in STYLES for r in a.ranks}
+        times = {(s, r): [] for s in a.styles for r in a.ranks}
         errors = {}
         for _ in range(0 if a.scan_only else a.repeat):  # interleaved, so that a slow spell of the machine hits every style alike
             for r in a.ranks:
-                for s in STYLES:
+                for s in a.styles:
                     t, e, d = run(a.lmp_lgvi, work, case, data, s, r, a.steps, a.step)
                     times[(s, r)].append(t)
                     errors[(s, r)] = (e, d)
         scan = {(s, h): run(a.lmp_lgvi, work, case, data, s, 1, round(a.steps * a.step / h), h,
                                   allow_failure=True)
-                for h in a.scan for s in STYLES}
+                for h in a.scan for s in a.styles}
     what = (f"SPC/E water, 1000 rigid molecules (PPPM 1e-5, cutoff 9 A), from {a.equilibrate} steps at 300 K"
             if a.water else "Periodic LJ gas of 1000 rigid triangle molecules")
     print(f"{what}, {a.steps} steps of {a.step}, median of {a.repeat}:\n")
@@ -201,18 +203,18 @@ def main():
         print("|---|---:|---:|---:|---:|---:|")
     for r in [] if a.scan_only else a.ranks:
         base = statistics.median(times[("rigid/nve/small", r)])
-        for s in STYLES:
+        for s in a.styles:
             m = statistics.median(times[(s, r)])
             e, d = errors[(s, r)]
             print(f"| {s} | {r} | {1e3 * m:.3f} | {m / base:.3f} | {e:.3g} | {d:.3g} |")
     if a.scan:
         print(f"\nThe same system over t = {a.steps * a.step:g} at other steps, one rank: max abs(E - E0) (drift per 10^5 "
               "steps)\n")
-        print("| step | " + " | ".join(STYLES) + " |")
-        print("|---:|" + "---:|" * len(STYLES))
+        print("| step | " + " | ".join(a.styles) + " |")
+        print("|---:|" + "---:|" * len(a.styles))
         for h in a.scan:
             cells = []
-            for s in STYLES:
+            for s in a.styles:
                 _, e, d = scan[(s, h)]
                 cells.append(e if d is None else f"{e:.3g} ({d:.2g})")
             print(f"| {h:g} | " + " | ".join(cells) + " |")
