@@ -1,6 +1,8 @@
 // The integrate loop, kept apart from the system (potential), the stepper
 // and the observer, in the manner of Boost.Odeint. Time is t0 + k h, never
-// accumulated.
+// accumulated; a stepper with a clock of its own (a time-transformed one,
+// time_transformed.hpp, whose h is a fictitious step) reports the physical
+// time through time(), and the observer sees that.
 #pragma once
 
 #include <lgvi/error.hpp>
@@ -71,6 +73,13 @@ double forcing_work(const S& s) {
   if constexpr (requires { s.forcing_work(); }) return s.forcing_work();
   else return 0.0;
 }
+/// The time the observer sees after a step: the stepper's own physical
+/// time where it keeps one (time_transformed.hpp), else t0 + k h.
+template <class S>
+double physical_time(const S& s, double t) {
+  if constexpr (requires { { s.time() } -> std::convertible_to<double>; }) return s.time();
+  else return t;
+}
 template <class State>
 using StepInfoOf = std::conditional_t<std::is_same_v<State, SystemState>, SystemStepInfo, StepInfo>;
 }  // namespace detail
@@ -91,12 +100,12 @@ std::int64_t integrate_range(S& stepper, State& state, double t0, double h, std:
     try {
       detail::advance(stepper, next, t, h);
     } catch (const StepFailure& f) {
-      throw IntegrationFailure(k, t, f);
+      throw IntegrationFailure(k, detail::physical_time(stepper, t), f);
     }
     std::swap(state, next);
     if constexpr (std::is_same_v<State, SystemState>)
-      observer(SystemStepInfo{k + 1, t0 + static_cast<double>(k + 1) * h, state, stepper.evaluation(),
-                              stepper.last_solve(), detail::forcing_work(stepper)});
+      observer(SystemStepInfo{k + 1, detail::physical_time(stepper, t0 + static_cast<double>(k + 1) * h), state,
+                              stepper.evaluation(), stepper.last_solve(), detail::forcing_work(stepper)});
     else
       observer(StepInfo{k + 1, t0 + static_cast<double>(k + 1) * h, state, stepper.evaluation(), stepper.last_solve()});
   }
