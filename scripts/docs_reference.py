@@ -113,12 +113,20 @@ DESCRIPTIONS = {
     "integrator.method": "one of the methods below (default \"lgvi\")",
     "integrator.solver": "one of the solvers below (default \"newton\")",
     "integrator.step": "number > 0: the step h",
-    "integrator.duration": "number >= 0: runs ceil(duration/step) steps",
+    "integrator.duration": "number >= 0: runs ceil(duration/step) steps (adaptive: until the first step that reaches it)",
     "integrator.tolerance": "the solver's relative tolerance (default 4 eps)",
     "integrator.max_iterations": "the solver's iteration limit (default 50)",
     "integrator.predictor_order": "0 ... 3: initial guess, 0 = previous step's f, 3 = cubic extrapolation (default)",
     "integrator.order": "2 (default) | 4 | 6 | 8: the method composed to higher order",
     "integrator.composition": "[gamma_1, ..., gamma_s]: your own symmetric composition (sums to 1, palindromic)",
+    "integrator.time_transform": "\"none\" (default) | \"potential\": the adaptive LGVI, its step shrinking in close "
+                                 "encounters under gravity (guide: Close encounters)",
+    "integrator.epsilon": "number > 0: with time_transform, the fictitious-time step, in place of step (the physical "
+                          "step is epsilon g(-V) <= epsilon)",
+    "integrator.monitor_scale": "number > 0: with time_transform, c in g(u) = (1 + (u/c)^4)^(-3/8) (default |V| at the "
+                                "start)",
+    "integrator.max_steps": "integer >= 1: with time_transform, the most steps short of duration (default 100 "
+                            "duration / epsilon); reaching it fails the run, naming it",
     # [output]
     "output.every": "integer >= 1: write every n-th step, plus the first and last (default 1)",
     "output.format": "one of the formats below (default \"csv\")",
@@ -400,6 +408,7 @@ def outputs(core, binary):
         "a single body (`scenarios/paper-orbit.toml`)": ("run", ROOT / "scenarios" / "paper-orbit.toml"),
         "a forced single body (`scenarios/attitude-slew.toml`)": ("run", ROOT / "scenarios" / "attitude-slew.toml"),
         "many bodies (`scenarios/binary-asteroid.toml`)": ("run", ROOT / "scenarios" / "binary-asteroid.toml"),
+        "an adaptive step (`scenarios/paper-close-pass.toml`)": ("run", ROOT / "scenarios" / "paper-close-pass.toml"),
         "a periodic molecular gas (`tests/cli/good/periodic-gas.toml`)":
             ("run", ROOT / "tests" / "cli" / "good" / "periodic-gas.toml"),
     }

@@ -41,6 +41,10 @@ def variants(path, every_format=False):
     text = path.read_text()
     free = 'kind = "none"' in text
     formats = ("csv", "npz", "hdf5", "xyz", "vtk", "lammps-dump") if every_format else ("csv", "npz", "hdf5")
+    if re.search(r'^time_transform = "potential"', text, re.M):  # the adaptive step: lgvi's Hamiltonian form only
+        for fmt in formats:
+            yield "lgvi", None, fmt
+        return
     for method in METHODS:
         if method == "exact" and not free:
             continue
@@ -53,7 +57,12 @@ def variants(path, every_format=False):
 
 
 def scenario_text(text, method, solver, fmt):
-    step = float(re.search(r"^step = ([0-9.eE+-]+)", text, re.M).group(1))
+    # (An adaptive scenario's fictitious step epsilon, under [integrator]: 2000 of them, or more steps where
+    # they shrink. Not [interaction]'s epsilon, which Lennard-Jones scenarios have.)
+    adaptive = re.search(r'^time_transform = "potential"', text, re.M)
+    key = "epsilon" if adaptive else "step"
+    integrator = text[text.index("[integrator]"):]
+    step = float(re.search(rf"^{key} = ([0-9.eE+-]+)", integrator, re.M).group(1))
     # Every variant names its method: replaced where the scenario has a method line, added to
     # [integrator] where it has none (the default, lgvi, would otherwise run under every name).
     if re.search(r'^method = "[^"]*"', text, flags=re.M):

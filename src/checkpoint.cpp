@@ -97,6 +97,7 @@ CheckpointFields run_fields(const Checkpoint& c) {
                                     t.pressure_sum});
     f.put_i64("statistics.thermo_frames", {t.frames});
   }
+  if (s.max_time_step > 0.0) f.put_f64("statistics.time_steps", {s.min_time_step, s.max_time_step});  // adaptive runs
   f.put_i64("sink.position", {c.sink.rows, c.sink.bytes, static_cast<std::int64_t>(c.sink.crc32)});
   return f;
 }
@@ -154,6 +155,11 @@ void take_run_fields(CheckpointFields& f, Checkpoint& c) {
   if (f.has("statistics.thermo")) {
     const std::vector<double>& t = f.f64("statistics.thermo", 6);
     s.thermo = {t[0], t[1], t[2], t[3], t[4], t[5], f.i64_value("statistics.thermo_frames")};
+  }
+  if (f.has("statistics.time_steps")) {
+    const std::vector<double>& t = f.f64("statistics.time_steps", 2);
+    s.min_time_step = t[0];
+    s.max_time_step = t[1];
   }
   const std::vector<std::int64_t>& sink = f.i64("sink.position", 3);
   c.sink.rows = sink[0];

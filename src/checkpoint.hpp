@@ -60,6 +60,9 @@ struct RunStatistics {
   Vector3<double> spin0 = Vector3<double>::Zero();
   double min_spin = 0.0, max_spin = 0.0, max_spin_change = 0.0;
   double work = 0.0;  ///< [[forcing]]: the work done up to last_k (not checkpointed: the stepper keeps it)
+  /// An adaptive run's (time_transform): the smallest and largest physical
+  /// step, as differences of consecutive steps' t; 0 for a fixed step.
+  double min_time_step = 0.0, max_time_step = 0.0;
   /// Contact episodes (on_contact "warn", or the one that stopped a run), in
   /// the order they began; at most max_listed_contacts of them,
   /// contact_episodes counts them all.

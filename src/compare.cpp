@@ -317,6 +317,10 @@ std::string fmt_timing(const Timing& t, double unit, const char* spec) {
 
 int compare_methods(const Scenario& base, const CompareOptions& opt) {
   if (opt.methods.empty()) throw InvalidInput("--methods: name at least one method");
+  if (base.integrator.adaptive())
+    throw InvalidInput("integrator.time_transform: lgvi compare measures methods at fixed steps and does not take "
+                       "the adaptive step yet; compare a copy with time_transform = \"none\" and a step, and run "
+                       "this scenario with lgvi run");
   if (opt.ladder < 2 || opt.ladder > 12) throw InvalidInput("--ladder: must be between 2 and 12");
   if (opt.long_steps < 1) throw InvalidInput("--long-steps: must be >= 1");
   if (!(opt.timing_budget >= 0) || opt.timing_budget > 1e4)

@@ -419,6 +419,7 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
   }
   // Every member's scenario, read as `lgvi run` reads it, before any runs.
   std::size_t bodies = 0;
+  bool adaptive = false;  // member 0's time_transform (not a number: every member has the same)
   std::vector<std::string> state_cols;
   for (std::int64_t m = 0; m < (check_members ? members : 1); ++m) {
     Scenario sc;
@@ -441,6 +442,7 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
     if (!laws.linear_momentum) change("max_linear_momentum_error");
     if (m == 0) {
       plan.output_format = sc.output_format;
+      adaptive = sc.integrator.adaptive();
       bodies = sc.bodies();
       state_cols = state_columns(sc);
     } else if (sc.bodies() != bodies) {
@@ -450,8 +452,9 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
   }
   std::string header = "index";
   for (const std::string& c : plan.varied_columns) header += "," + c;
-  header += ",completed,error,steps,max_abs_energy_error,max_abs_quat_norm_error,max_momentum_error,"
-            "max_linear_momentum_error";
+  // An adaptive run (time_transform) ends past its duration, each member at its own time: last_time says where.
+  header += adaptive ? ",completed,error,steps,last_time" : ",completed,error,steps";
+  header += ",max_abs_energy_error,max_abs_quat_norm_error,max_momentum_error,max_linear_momentum_error";
   for (const std::string& c : state_cols) header += "," + c;
   plan.header = header;
   return plan;
@@ -504,6 +507,7 @@ std::string run_member_scenario(std::int64_t i, const std::vector<double>& varie
   for (double v : varied) append_number(row, v);
   fmt::format_to(std::back_inserter(row), ",{},{},{}", r.completed ? 1 : 0, csv_field(r.error), st.last_k);
   const double nan = std::nan("");
+  if (sc.integrator.adaptive()) append_number(row, st.observed ? st.last_t : nan);
   for (double v : {st.observed ? st.max_energy_error : nan, st.observed ? st.max_quat_error : nan,
                    st.observed ? st.max_momentum_error : nan, st.observed ? st.max_linear_momentum_error : nan})
     append_number(row, v);

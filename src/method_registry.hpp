@@ -19,6 +19,7 @@
 #include <lgvi/methods/rk4_normalized.hpp>
 #include <lgvi/methods/so3_lgvi.hpp>
 #include <lgvi/methods/splitting_dlm.hpp>
+#include <lgvi/time_transformed.hpp>
 
 #include <array>
 #include <cstddef>
@@ -65,12 +66,20 @@ inline constexpr auto registered_method_traits = detail::traits_of(RegisteredMet
 
 /// Builds the N-body stepper of `sc.integrator.method` for the system
 /// potential `pot` (on `par` threads), composed if [integrator] asks for it,
-/// and returns f(stepper). The reader refuses what a method's traits exclude
-/// (forcing, composition, a free-body-only method on another system); this
-/// says so again for other callers.
+/// or the adaptive LGVI if it asks for a time transformation, and returns
+/// f(stepper). The reader refuses what a method's traits exclude (forcing,
+/// composition, a free-body-only method on another system) and what the
+/// time transformation does not take; this says so again for other callers.
 template <class F>
 decltype(auto) with_stepper(const Scenario& sc, const ScenarioSystemPotential& pot, const Parallelism& par, F&& f) {
   const IntegratorSpec& i = sc.integrator;
+  if (i.adaptive()) {
+    if (!sc.forcing.empty() || i.method.index() != 0)
+      throw InvalidInput("integrator.time_transform: the adaptive LGVI takes no forcing and is method \"lgvi\"");
+    TimeTransformedLieGroupVariationalIntegrator<ScenarioSystemPotential> stepper(
+        sc.system, pot, TimeTransformOptions{i.monitor_scale}, i.solver, par, i.composition);
+    return f(stepper);
+  }
   auto make = [&]<template <class> class S>() -> decltype(auto) {
     using Stepper = S<ScenarioSystemPotential>;
     constexpr MethodTraits traits = Stepper::traits;

@@ -41,27 +41,40 @@ std::string python_dir() {
 
 /// The run's progress line (progress_line.hpp), only when standard error is a
 /// terminal: step k of N, t, steps per second and the time left, at most
-/// every 0.25 s and at the last step.
+/// every 0.25 s and at the last step. An adaptive run (duration > 0 given)
+/// has no N: t of the duration, and the time left from the rate of t.
 class Progress {
  public:
-  Progress(bool enabled, std::int64_t total) : line_(enabled && isatty(STDERR_FILENO)), total_(total) {}
+  Progress(bool enabled, std::int64_t total, double duration = 0.0)
+      : line_(enabled && isatty(STDERR_FILENO)), total_(total), duration_(duration) {}
   void operator()(std::int64_t k, double t) {
     if (!line_.enabled()) return;
     const double elapsed = line_.elapsed();
-    if (elapsed - last_ < 0.25 && k < total_) return;
+    const bool last = duration_ > 0.0 ? t >= duration_ : k >= total_;
+    if (elapsed - last_ < 0.25 && !last) return;
     last_ = elapsed;
     const double rate = static_cast<double>(k - k_start_) / std::max(elapsed, 1e-9);
+    if (duration_ > 0.0) {
+      const double time_rate = (t - t_start_) / std::max(elapsed, 1e-9);
+      const double eta = time_rate > 0 ? std::max(0.0, duration_ - t) / time_rate : 0.0;
+      line_.show(fmt::sprintf("lgvi: step %lld (t = %.6g of %.6g), %.3g steps/s, ETA %.0f s",
+                              static_cast<long long>(k), t, duration_, rate, eta));
+      return;
+    }
     const double eta = rate > 0 ? static_cast<double>(total_ - k) / rate : 0.0;
     line_.show(fmt::sprintf("lgvi: step %lld/%lld (t = %.6g), %.3g steps/s, ETA %.0f s", static_cast<long long>(k),
                             static_cast<long long>(total_), t, rate, eta));
   }
-  void start_at(std::int64_t k) { k_start_ = k; }
+  void start_at(std::int64_t k, double t) {
+    k_start_ = k;
+    t_start_ = t;
+  }
   bool enabled() const { return line_.enabled(); }
 
  private:
   ProgressLine line_;
   std::int64_t total_, k_start_ = 0;
-  double last_ = -1.0;
+  double duration_, t_start_ = 0.0, last_ = -1.0;
 };
 
 /// The shared part of a fresh and a resumed run.
@@ -92,14 +105,14 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
     return *sink;
   };
 
-  Progress progress(!opt.quiet, sc.integrator.steps);
+  Progress progress(!opt.quiet, sc.integrator.steps, sc.integrator.adaptive() ? sc.integrator.duration : 0.0);
   SimulationOptions so;
   so.checkpoint_every = opt.checkpoint_every;
   so.checkpoint_path = checkpoint_path.string();
   so.resume = resume;
   so.stop_flag = stop_flag();
   if (progress.enabled()) {
-    progress.start_at(resume ? resume->k : 0);
+    progress.start_at(resume ? resume->k : 0, resume ? resume->stats.last_t : 0.0);
     so.progress = [&](std::int64_t k, double t) { progress(k, t); };
     so.progress_every = 4096;
   }

@@ -936,10 +936,68 @@ void read_composition(const Reader& r, const toml::table& t, IntegratorSpec& s) 
   }
 }
 
+/// The adaptive LGVI's monitor reads U = -V as a measure of closeness: it
+/// needs an attraction (a central field, mutual gravity) and nothing whose V
+/// can be positive or that does work outside the Hamiltonian.
+void require_attraction(const Reader& r, const PotentialSpec& potential, const InteractionSpec& interaction,
+                        bool forced) {
+  const std::string why = "time_transform = \"potential\" adapts the step to U = -V, which measures closeness "
+                          "only under gravity";
+  if (potential.kind == PotentialKind::Uniform || potential.kind == PotentialKind::HeavyTop)
+    r.fail("potential.kind", fmt::format("\"{}\" is not taken: {} (a central field or mutual gravity); use "
+                                         "time_transform = \"none\"", to_string(potential.kind), why));
+  if (!interaction.none() && !interaction.descriptor->attractive)
+    r.fail("interaction.kind", fmt::format("\"{}\" is not taken: {}, and {}'s V can be positive; use "
+                                           "time_transform = \"none\"", interaction_kind(interaction), why,
+                                           interaction.descriptor->title));
+  if (potential.kind == PotentialKind::None && interaction.none())
+    r.fail("integrator.time_transform", why + "; this scenario has no potential: use time_transform = \"none\"");
+  if (forced)
+    r.fail("forcing", "is not taken with time_transform = \"potential\" (the forcing's work has no place in the "
+                      "time-transformed Hamiltonian); use time_transform = \"none\"");
+}
+
+/// [integrator] with time_transform = "potential" (time_transformed.hpp):
+/// epsilon, the fictitious-time step, in place of step (order / composition
+/// compose the step in epsilon, read before); monitor_scale, c
+/// (default |V| at the start); max_steps, the most steps the run may take
+/// before it reaches duration (default 100 duration / epsilon: the physical
+/// step 100 times below epsilon on average, a run that is stuck).
+void read_time_transform(const Reader& r, const toml::table& t, IntegratorSpec& s) {
+  s.time_transform = TimeTransform::Potential;
+  if (t.contains("step"))
+    r.fail("integrator.step", "with time_transform = \"potential\" the physical step adapts; give epsilon, the "
+                              "fictitious-time step, instead (e.g. epsilon = 0.02)");
+  if (s.method.traits().name != std::string_view("lgvi"))
+    r.fail("integrator.method", "time_transform = \"potential\" is built from the LGVI's Hamiltonian form: use "
+                                "method = \"lgvi\" (the default), or time_transform = \"none\"");
+  s.step = r.number(t, "integrator", "epsilon");
+  if (!(s.step > 0.0 && std::isfinite(s.step)))
+    r.fail("integrator.epsilon", "must be a finite number > 0, got " + std::to_string(s.step));
+  if (t.contains("monitor_scale")) {
+    s.monitor_scale = r.number(t, "integrator", "monitor_scale");
+    if (!(s.monitor_scale > 0.0 && std::isfinite(s.monitor_scale)))
+      r.fail("integrator.monitor_scale", "must be a finite number > 0 (the size of -V where steps start to shrink), "
+                                         "got " + std::to_string(s.monitor_scale));
+  }
+  s.duration = r.number(t, "integrator", "duration");
+  if (!(s.duration >= 0.0 && std::isfinite(s.duration)))
+    r.fail("integrator.duration", "must be a finite number >= 0, got " + std::to_string(s.duration));
+  const double planned = std::ceil(100.0 * s.duration / s.step);
+  if (t.contains("max_steps")) {
+    s.steps = r.integer(t, "integrator", "max_steps");
+    if (s.steps < 1) r.fail("integrator.max_steps", "must be an integer >= 1");
+  } else if (!(planned <= 9007199254740992.0)) {
+    r.fail("integrator.epsilon", "gives a default max_steps (100 duration / epsilon) beyond 2^53; enlarge epsilon");
+  } else {
+    s.steps = std::max<std::int64_t>(1, static_cast<std::int64_t>(planned));
+  }
+}
+
 IntegratorSpec read_integrator(const Reader& r, const toml::table& root) {
   const toml::table& t = r.table(root, "", "integrator");
   r.only_keys(t, "integrator", {"method", "solver", "step", "duration", "tolerance", "max_iterations", "predictor_order",
-                                "order", "composition"});
+                                "order", "composition", "time_transform", "epsilon", "monitor_scale", "max_steps"});
   IntegratorSpec s;
   if (t.contains("method")) {
     const toml::node* n = t.get("method");
@@ -970,6 +1028,15 @@ IntegratorSpec read_integrator(const Reader& r, const toml::table& root) {
     s.solver.predictor_order = static_cast<int>(o);
   }
   read_composition(r, t, s);
+  if (t.contains("time_transform") &&
+      r.string(t, "integrator", "time_transform", {"none", "potential"}) == "potential") {
+    read_time_transform(r, t, s);
+    return s;
+  }
+  for (const char* key : {"epsilon", "monitor_scale", "max_steps"})
+    if (t.contains(key))
+      r.fail(std::string("integrator.") + key, "belongs to the adaptive step; set time_transform = \"potential\" "
+                                               "or remove it");
   s.step = r.number(t, "integrator", "step");
   if (!(s.step > 0.0)) r.fail("integrator.step", "must be > 0, got " + std::to_string(s.step));
   s.duration = r.number(t, "integrator", "duration");
@@ -1198,7 +1265,9 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
                                           ? OnContact::Ignore
                                           : OnContact::Stop);
   bool inlined = false;
-  sc.forcing = read_forcing(r, root, sc.system, static_cast<double>(integrator.steps) * integrator.step,
+  sc.forcing = read_forcing(r, root, sc.system,
+                            integrator.adaptive() ? integrator.duration
+                                                  : static_cast<double>(integrator.steps) * integrator.step,
                             std::filesystem::path(name).parent_path(), inlined);
   if (!sc.forcing.empty() && !integrator.method.traits().accepts_forcing)
     r.fail("forcing", std::string("integrator.method \"") + to_string(integrator.method) +
@@ -1206,6 +1275,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
                           method_names_where([](const MethodTraits& m) { return m.accepts_forcing; }, ", ", " and ",
                                              true) +
                           " (composed to any order or not)");
+  if (integrator.adaptive()) require_attraction(r, potential, interaction, !sc.forcing.empty());
   sc.potential = potential;
   sc.interaction = interaction;
   sc.initial_state = std::move(initial);

@@ -81,15 +81,27 @@ enum class OnContact {
   Ignore  ///< "ignore": no check during the run (the default for Lennard-Jones systems and single bodies)
 };
 
+/// [integrator] time_transform: "none" (a fixed step) or "potential" (the
+/// adaptive LGVI, time_transformed.hpp).
+enum class TimeTransform { None, Potential };
+
 struct IntegratorSpec {
   Method method;  ///< default: "lgvi"
   SolverOptions solver;
   /// [integrator] order / composition: the sub-steps of a composed step
   /// (one stage, gamma = 1, by default: the method's own step).
   CompositionTable composition;
+  /// The step h; with a time transformation, the fictitious-time step
+  /// epsilon (the physical step adapts).
   double step = 0.0;
   double duration = 0.0;
-  std::int64_t steps = 0;  ///< ceil(duration / step), computed on reading
+  /// ceil(duration / step), computed on reading; with a time transformation
+  /// the most steps the run may take (max_steps): it ends with the first step
+  /// that reaches `duration`.
+  std::int64_t steps = 0;
+  TimeTransform time_transform = TimeTransform::None;
+  double monitor_scale = 0.0;  ///< time_transform: c of the monitor; 0: |V| at the start
+  bool adaptive() const { return time_transform != TimeTransform::None; }
 };
 
 struct Scenario {

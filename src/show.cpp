@@ -56,13 +56,20 @@ void show_run(const std::string& dir, std::ostream& out) {
   auto row = [&](const std::string& name, const std::string& value) { out << fmt::format("{:<22} {}\n", name, value); };
   row("run", text(field("scenario")) + (completed ? "  (completed)" : "  (NOT completed)"));
   if (!completed) row("stopped because", text(field("error")));
-  row("steps", fmt::format("{} of {}, t = {}", text(field("steps")), text(field("steps_planned")),
-                           text(field("last_time"))));
+  const Json* epsilon = path(summary, {"setup", "integrator", "epsilon"});  // adaptive runs only
+  if (epsilon)
+    row("steps", fmt::format("{}, t = {} of {} (adaptive: step {:.3e} to {:.3e})", text(field("steps")),
+                             text(field("last_time")), text(field("duration")), number(field("min_step")),
+                             number(field("max_step"))));
+  else
+    row("steps", fmt::format("{} of {}, t = {}", text(field("steps")), text(field("steps_planned")),
+                             text(field("last_time"))));
   const Json* order = path(summary, {"setup", "integrator", "order"});  // composed runs only
-  row("method", fmt::format("{}{}, solver {}, step {}", text(path(summary, {"setup", "integrator", "method"})),
+  row("method", fmt::format("{}{}, solver {}, {} {}", text(path(summary, {"setup", "integrator", "method"})),
                             order ? " composed to order " + text(order) : std::string(),
                             text(path(summary, {"setup", "integrator", "solver"})),
-                            text(path(summary, {"setup", "integrator", "step"}))));
+                            epsilon ? "time_transform \"potential\", epsilon" : "step",
+                            epsilon ? text(epsilon) : text(path(summary, {"setup", "integrator", "step"}))));
   row("wall time", fmt::format("{:.4g} s ({:.0f} ns/step)", number(field("wall_seconds")),
                                number(field("ns_per_step"))));
   row("energy", fmt::format("E0 = {}, max |E - E0| = {:.3e}", text(field("initial_energy")),

@@ -96,7 +96,8 @@ TrajectoryLayout scenario_layout(const Scenario& s) {
     layout.shapes = body_shapes(s.system);
     layout.ids = s.file_ids;
   }
-  layout.step = s.integrator.step;
+  // An adaptive run's rows are not at multiples of a step: 0 (the dump numbers its frames).
+  layout.step = s.integrator.adaptive() ? 0.0 : s.integrator.step;
   layout.box = s.system.box();
   return layout;
 }
@@ -252,7 +253,9 @@ struct Recorder {
                             "rescale the scenario's units (lengths, masses, times) so that positions, momenta and "
                             "energies stay well below 1e150");
     const std::int64_t step = std::max<std::int64_t>(0, i.k - 1);
-    throw IntegrationFailure(step, static_cast<double>(step) * scenario.integrator.step, cause);
+    // The failing step began at the last observed t (an adaptive run's own clock) or at step h.
+    const double t = scenario.integrator.adaptive() ? stats.last_t : static_cast<double>(step) * scenario.integrator.step;
+    throw IntegrationFailure(step, t, cause);
   }
 
   void operator()(const SystemStepInfo& i) {
@@ -322,10 +325,18 @@ struct Recorder {
     stats.min_spin = std::min(stats.min_spin, spin.norm());
     stats.max_spin = std::max(stats.max_spin, spin.norm());
     stats.max_spin_change = std::max(stats.max_spin_change, (spin - stats.spin0).norm());
+    if (scenario.integrator.adaptive() && i.k > 0) {
+      const double dt = i.t - stats.last_t;
+      stats.min_time_step = stats.max_time_step > 0.0 ? std::min(stats.min_time_step, dt) : dt;
+      stats.max_time_step = std::max(stats.max_time_step, dt);
+    }
     stats.last_t = i.t;
     stats.last_k = i.k;
     stats.observed = true;
-    if (i.k % scenario.output_every != 0 && i.k != scenario.integrator.steps && !contact_stop) return;
+    // The last row: the last step's, or an adaptive run's first step that reached the duration.
+    const bool last = scenario.integrator.adaptive() ? i.t >= scenario.integrator.duration
+                                                     : i.k == scenario.integrator.steps;
+    if (i.k % scenario.output_every != 0 && !last && !contact_stop) return;
     if (!scenario.bodies_format) {
       const SingleBodyRow row(i.t, s.body(0), energy, de, dq, L, dl, forced ? std::optional(i.work) : std::nullopt);
       sink.row(row.values);  // the layout's columns: the work only when forced
@@ -369,9 +380,11 @@ void load_checkpoint(Stepper& stepper, const Scenario& sc, const Checkpoint& c, 
   }
 }
 
+/// `evaluations`: the potential's count in this leg of the run (added to the
+/// statistics' by the caller at the end, and to a checkpoint's here).
 template <class Stepper>
 SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener& open_sink,
-                          const SimulationOptions& opt) {
+                          const SimulationOptions& opt, const std::int64_t& evaluations) {
   SimulationResult result;
   RunStatistics& stats = result.stats;
   SystemState state = sc.initial_state;
@@ -418,6 +431,7 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
     stepper.save(c.stepper);
     c.stats = stats;
     c.stats.wall_seconds_before += elapsed();
+    c.stats.potential_evaluations += evaluations;  // this leg's so far: a resumed run's total counts them
     c.sink = sink.sync();
     c.checkpoint_every = opt.checkpoint_every;
     c.scenario_name = sc.name;
@@ -426,7 +440,7 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
   std::int64_t reached = k0;
   try {
     if (load_failure) {
-      throw IntegrationFailure(k0, static_cast<double>(k0) * h, *load_failure);
+      throw IntegrationFailure(k0, sc.integrator.adaptive() ? stats.last_t : static_cast<double>(k0) * h, *load_failure);
     } else if (!opt.resume) {
       try {
         stepper.initialize(state, 0.0);
@@ -445,23 +459,37 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
       return e;
     };
     auto stop_requested = [&] { return (opt.stop_flag && *opt.stop_flag != 0) || !contact.stopped().empty(); };
-    while (reached < n) {
+    // An adaptive run (time_transform) ends with the first step that reaches
+    // the duration, at most n = max_steps steps; a fixed step after n steps.
+    const bool adaptive = sc.integrator.adaptive();
+    auto time_now = [&] { return lgvi::detail::physical_time(stepper, static_cast<double>(reached) * h); };
+    auto arrived = [&] { return adaptive ? time_now() >= sc.integrator.duration : reached >= n; };
+    auto stop_here = [&] { return stop_requested() || (adaptive && time_now() >= sc.integrator.duration); };
+    while (reached < n && !arrived()) {
       const std::int64_t end = next_stop(reached);
-      reached = integrate_range(stepper, state, 0.0, h, reached, end, recorder, stop_requested);
+      reached = integrate_range(stepper, state, 0.0, h, reached, end, recorder, stop_here);
       if (stop_requested()) break;
-      if (opt.checkpoint_every > 0 && reached % opt.checkpoint_every == 0 && reached < n) checkpoint(reached);
-      if (opt.progress) opt.progress(reached, static_cast<double>(reached) * h);
+      if (opt.checkpoint_every > 0 && reached % opt.checkpoint_every == 0 && reached < n && !arrived())
+        checkpoint(reached);
+      if (opt.progress) opt.progress(reached, time_now());
     }
     if (!contact.stopped().empty()) {
       // Stopped at the step of a contact (the last row written): as a failed
       // run, with a checkpoint there when checkpointing.
       result.error = contact.stopped();
       if (opt.checkpoint_every > 0) checkpoint(reached);
+    } else if (arrived()) {
+      result.completed = true;
     } else if (reached < n) {
       result.interrupted = true;
       if (opt.checkpoint_every > 0) checkpoint(reached);
     } else {
-      result.completed = true;
+      // An adaptive run that took max_steps steps short of the duration.
+      result.error = fmt::format("integrator.max_steps: {} steps reached t = {:.9g} of duration {:.9g} (the smallest "
+                                 "step was {:.3g}); a close encounter or a collision holds the step down: raise "
+                                 "max_steps, or look at the trajectory's last rows",
+                                 n, time_now(), sc.integrator.duration, stats.min_time_step);
+      if (opt.checkpoint_every > 0) checkpoint(reached);
     }
   } catch (const IntegrationFailure& e) {
     result.error = e.what();
@@ -482,7 +510,7 @@ SimulationResult simulate_with(const Scenario& sc, const CallablePotential* fiel
   std::int64_t count = 0;
   const ScenarioSystemPotential potential = scenario_system_potential(sc, field, &count);
   SimulationResult r = with_stepper(sc, potential, scenario_parallelism(sc),
-                                    [&](auto& stepper) { return run_with(stepper, sc, open_sink, opt); });
+                                    [&](auto& stepper) { return run_with(stepper, sc, open_sink, opt, count); });
   r.stats.potential_evaluations += count;
   return r;
 }

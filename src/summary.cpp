@@ -83,7 +83,15 @@ Json setup_json(const Scenario& s) {
   Json integ;
   integ["method"] = to_string(s.integrator.method);
   integ["solver"] = to_string(s.integrator.solver.kind);
-  integ["step"] = s.integrator.step;
+  if (s.integrator.adaptive()) {
+    integ["time_transform"] = "potential";
+    integ["epsilon"] = s.integrator.step;
+    // null: |V| at the start (time_transformed.hpp)
+    integ["monitor_scale"] = s.integrator.monitor_scale > 0.0 ? Json(s.integrator.monitor_scale) : Json();
+    integ["max_steps"] = s.integrator.steps;
+  } else {
+    integ["step"] = s.integrator.step;
+  }
   integ["tolerance"] = s.integrator.solver.tolerance;
   integ["max_iterations"] = s.integrator.solver.max_iterations;
   integ["predictor_order"] = s.integrator.solver.predictor_order;
@@ -180,8 +188,16 @@ auto with_summary(const Scenario& sc, const SimulationResult& r, Use&& use) {
   s["completed"] = r.completed;
   s["error"] = r.error;
   s["steps"] = st.last_k;
-  s["steps_planned"] = sc.integrator.steps;
-  s["duration"] = sc.integrator.step * static_cast<double>(sc.integrator.steps);
+  if (sc.integrator.adaptive()) {
+    // The step adapts: the run ends with the first step that reaches the duration (last_time).
+    s["steps_planned"] = Json();
+    s["duration"] = sc.integrator.duration;
+    s["min_step"] = st.min_time_step;
+    s["max_step"] = st.max_time_step;
+  } else {
+    s["steps_planned"] = sc.integrator.steps;
+    s["duration"] = sc.integrator.step * static_cast<double>(sc.integrator.steps);
+  }
   s["last_time"] = st.last_t;
   s["wall_seconds"] = r.wall_seconds;
   s["ns_per_step"] = st.last_k > 0 ? r.wall_seconds * 1e9 / static_cast<double>(st.last_k) : 0.0;

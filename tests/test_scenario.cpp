@@ -195,6 +195,29 @@ TEST(ScenarioFiles, PaperParsesWithItsStatedValues) {
   EXPECT_EQ(s.initial().p, lgvi::Vector3<double>(1.0, 0.0, 0.0));  // the paper's radial p0
 }
 
+TEST(ScenarioFiles, PaperClosePassParsesAsTheAdaptiveStep) {
+  // paper.toml's body, field and state with [integrator] time_transform: the
+  // fictitious step in `step`, the monitor's c, the composition to order 4,
+  // and max_steps by default 100 duration / epsilon = 100 * 1000 / 0.1.
+  const Scenario s = read_scenario(scenario_dir + "/paper-close-pass.toml");
+  EXPECT_TRUE(s.integrator.adaptive());
+  EXPECT_EQ(s.integrator.step, 0.1);
+  EXPECT_EQ(s.integrator.monitor_scale, 0.4);
+  EXPECT_EQ(s.integrator.composition.order(), 4);
+  EXPECT_EQ(s.integrator.duration, 1000.0);
+  EXPECT_EQ(s.integrator.steps, 1000000);
+  EXPECT_EQ(s.initial().p, lgvi::Vector3<double>(1.0, 0.0, 0.0));
+}
+
+TEST(ScenarioInput, AdaptiveStepRefusesAPairPotentialWhoseEnergyCanBePositive) {
+  // Lennard-Jones: U = -V does not measure closeness (V > 0 inside sigma).
+  std::ifstream in(scenario_dir + "/lj-gas.toml");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string message =
+      parse_error(replace(text, "step = 0.002", "time_transform = \"potential\"\nepsilon = 0.002"), "dir/bad.toml");
+  EXPECT_TRUE(is_good_message(message, "dir/bad.toml", {"interaction.kind", "lennard-jones", "can be positive"}));
+}
+
 TEST(ScenarioFiles, PaperOrbitParsesWithItsStatedValues) {
   const Scenario s = read_scenario(scenario_dir + "/paper-orbit.toml");
   EXPECT_EQ(s.name, "paper-orbit");
@@ -402,6 +425,40 @@ std::vector<BadCase> bad_cases() {
       {"MuNegative", "mu = -1", mutate("mu = 1.0", "mu = -1.0"), {"potential.mu", "> 0"}},
       {"UniformWithoutG", "uniform without g", mutate("kind = \"central\"\nmu = 1.0", "kind = \"uniform\""),
        {"potential.g", "missing"}},
+
+      // The adaptive step ([integrator] time_transform, time_transformed.hpp).
+      {"AdaptiveWithStep", "time_transform with step", mutate("step = 0.01", "time_transform = \"potential\"\nstep = 0.01"),
+       {"integrator.step", "adapts", "epsilon"}},
+      {"AdaptiveWithoutEpsilon", "time_transform without epsilon",
+       mutate("step = 0.01", "time_transform = \"potential\""), {"integrator.epsilon", "missing"}},
+      {"AdaptiveUnknownKind", "time_transform = \"log\"", mutate("step = 0.01", "time_transform = \"log\"\nstep = 0.01"),
+       {"integrator.time_transform", "log", "potential"}},
+      {"AdaptiveEpsilonZero", "epsilon = 0", mutate("step = 0.01", "time_transform = \"potential\"\nepsilon = 0"),
+       {"integrator.epsilon", "> 0"}},
+      {"AdaptiveMonitorScaleNegative", "monitor_scale = -1",
+       mutate("step = 0.01", "time_transform = \"potential\"\nepsilon = 0.02\nmonitor_scale = -1.0"),
+       {"integrator.monitor_scale", "> 0"}},
+      {"AdaptiveMaxStepsZero", "max_steps = 0",
+       mutate("step = 0.01", "time_transform = \"potential\"\nepsilon = 0.02\nmax_steps = 0"),
+       {"integrator.max_steps", ">= 1"}},
+      {"EpsilonWithoutTimeTransform", "epsilon with a fixed step", mutate("step = 0.01", "step = 0.01\nepsilon = 0.02"),
+       {"integrator.epsilon", "time_transform"}},
+      {"AdaptiveOtherMethod", "time_transform with rattle-quaternion",
+       replace(mutate("step = 0.01", "time_transform = \"potential\"\nepsilon = 0.02"), "method = \"lgvi\"",
+               "method = \"rattle-quaternion\""),
+       {"integrator.method", "\"lgvi\""}},
+      {"AdaptiveUniformField", "time_transform in a uniform field",
+       replace(mutate("step = 0.01", "time_transform = \"potential\"\nepsilon = 0.02"), "kind = \"central\"\nmu = 1.0",
+               "kind = \"uniform\"\ng = [0.0, 0.0, -1.0]"),
+       {"potential.kind", "uniform", "gravity", "time_transform = \"none\""}},
+      {"AdaptiveNoPotential", "time_transform with no potential",
+       replace(mutate("step = 0.01", "time_transform = \"potential\"\nepsilon = 0.02"), "kind = \"central\"\nmu = 1.0",
+               "kind = \"none\""),
+       {"integrator.time_transform", "no potential"}},
+      {"AdaptiveForcing", "time_transform with a forcing",
+       mutate("step = 0.01", "time_transform = \"potential\"\nepsilon = 0.02") +
+           "[[forcing]]\nkind = \"torque\"\nvalue = [0.0, 0.0, 1.0]\n",
+       {"forcing", "time_transform = \"none\""}},
 
       // Types and values of numbers and arrays.
       {"StepIsString", "step = \"0.01\"", mutate("step = 0.01", "step = \"0.01\""),

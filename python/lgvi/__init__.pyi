@@ -90,7 +90,7 @@ class Body:
 
 class Scenario:
     """One run: body, potential, initial state (quaternion scalar-first (w, x, y, z)), integrator, output."""
-    def __init__(self, *, body: Body, step: float, duration: float, potential: PotentialSpec = ...,
+    def __init__(self, *, body: Body, step: Optional[float] = ..., duration: float, potential: PotentialSpec = ...,
                  position: Optional[Vector3] = ..., quaternion: Optional[Quaternion] = ...,
                  momentum: Optional[Vector3] = ...,
                  velocity: Optional[Vector3] = ..., w: Optional[Vector3] = ..., omega: Optional[Vector3] = ...,
@@ -99,7 +99,9 @@ class Scenario:
                  order: Optional[int] = ..., composition: Optional[Sequence[float]] = ..., every: int = ...,
                  output_format: OutputFormat = ..., name: str = ...,
                  orbit: Optional[Mapping[str, float]] = ...,
-                 attitude: Optional[Mapping[str, Union[str, float]]] = ...) -> None: ...
+                 attitude: Optional[Mapping[str, Union[str, float]]] = ...,
+                 time_transform: Optional[Literal["none", "potential"]] = ..., epsilon: Optional[float] = ...,
+                 monitor_scale: Optional[float] = ..., max_steps: Optional[int] = ...) -> None: ...
     @classmethod
     def from_toml(cls, path: PathLike) -> Scenario:
         """Read a scenario file exactly as `lgvi run` does."""
@@ -110,13 +112,15 @@ class Scenario:
         ...
     @classmethod
     def from_arrays(cls, *, bodies: Union[Body, Sequence[Body]], positions: npt.ArrayLike, quaternions: npt.ArrayLike,
-                    step: float, duration: float, momenta: Optional[npt.ArrayLike] = ...,
+                    step: Optional[float] = ..., duration: float, momenta: Optional[npt.ArrayLike] = ...,
                     velocities: Optional[npt.ArrayLike] = ..., w: Optional[npt.ArrayLike] = ...,
                     omegas: Optional[npt.ArrayLike] = ..., names: Optional[Sequence[str]] = ...,
                     potential: PotentialSpec = ..., interaction: Optional[Dict[str, Any]] = ...,
                     method: Method = ..., order: Optional[int] = ..., every: int = ..., threads: Optional[int] = ...,
                     on_contact: Optional[Literal["stop", "warn", "ignore"]] = ...,
-                    box: Optional[Dict[str, Any]] = ..., name: str = ...) -> Scenario:
+                    box: Optional[Dict[str, Any]] = ..., name: str = ...,
+                    time_transform: Optional[Literal["none", "potential"]] = ..., epsilon: Optional[float] = ...,
+                    monitor_scale: Optional[float] = ..., max_steps: Optional[int] = ...) -> Scenario:
         """A scenario of N bodies from (N, 3) / (N, 4) arrays, validated by the reader of `lgvi run`."""
         ...
     @classmethod
@@ -136,7 +140,9 @@ class Scenario:
                 duration: float = ..., tolerance: Optional[float] = ..., max_iterations: Optional[int] = ...,
                 predictor_order: Optional[int] = ..., order: Optional[int] = ...,
                 composition: Optional[Sequence[float]] = ..., every: int = ..., output_format: OutputFormat = ...,
-                name: str = ...) -> Scenario:
+                name: str = ..., time_transform: Optional[Literal["none", "potential"]] = ...,
+                epsilon: Optional[float] = ..., monitor_scale: Optional[float] = ...,
+                max_steps: Optional[int] = ...) -> Scenario:
         """A copy with the given arguments changed."""
         ...
     @property
@@ -165,6 +171,8 @@ class Scenario:
     def omega(self) -> npt.NDArray[np.float64]: ...
     @property
     def step(self) -> float: ...
+    @property
+    def time_transform(self) -> Literal["none", "potential"]: ...
     @property
     def duration(self) -> float: ...
     @property

@@ -237,6 +237,33 @@ class Body:
 _INITIAL_PAIRS = (("momentum", "velocity"), ("w", "omega"))
 _INTEGRATOR_KEYS = ("method", "solver", "step", "duration", "tolerance", "max_iterations", "predictor_order",
                     "order", "composition")
+# The adaptive step's keys ([integrator] time_transform = "potential"; docs/guide/adaptive-step.md).
+_ADAPTIVE_KEYS = ("time_transform", "epsilon", "monitor_scale", "max_steps")
+
+
+def _apply_adaptive(integ, changes):
+    """time_transform, epsilon, monitor_scale and max_steps (keyword arguments) into the [integrator] dict
+    `integ`: "potential" replaces step by epsilon, "none" or None drops the four; None drops one. The reader
+    checks the rest (what the adaptive step does not take)."""
+    if "time_transform" in changes:
+        kind = changes["time_transform"]
+        if kind is None or _check.choice(kind, "time_transform", ("none", "potential")) == "none":
+            for key in _ADAPTIVE_KEYS:
+                integ.pop(key, None)
+        else:
+            if changes.get("step") is not None:
+                raise ValueError('step: with time_transform="potential" the physical step adapts; give epsilon, '
+                                 "the fictitious-time step, instead")
+            integ["time_transform"] = "potential"
+            integ.pop("step", None)
+    for key, check in (("epsilon", lambda v: _check.positive(v, "epsilon")),
+                       ("monitor_scale", lambda v: _check.positive(v, "monitor_scale")),
+                       ("max_steps", lambda v: _check.integer(v, "max_steps", 1))):
+        if key in changes:
+            if changes[key] is None:
+                integ.pop(key, None)
+            else:
+                integ[key] = check(changes[key])
 
 
 def _composition(value):
@@ -284,8 +311,9 @@ def _apply(doc, changes):
         integ["method"] = _check.choice(changes["method"], "method", METHODS)
     if "solver" in changes:
         integ["solver"] = _check.choice(changes["solver"], "solver", SOLVERS)
-    if "step" in changes:
+    if changes.get("step") is not None:
         integ["step"] = _check.positive(changes["step"], "step")
+    _apply_adaptive(integ, changes)
     if "duration" in changes:
         integ["duration"] = _check.non_negative(changes["duration"], "duration")
     for key, check in (("tolerance", lambda v: _check.positive(v, "tolerance")),
@@ -344,7 +372,12 @@ class Scenario:
     ``rate="orbit"``) in place of quaternion (and, with rate, of w);
     converted by the reader, so ``scenario.toml`` holds the plain keys;
     ``step`` h > 0 and ``duration`` >= 0 (required; the
-    run takes ceil(duration / step) steps); ``method`` one of lgvi.METHODS
+    run takes ceil(duration / step) steps); or, for the adaptive LGVI under
+    gravity (docs/guide/adaptive-step.md), ``time_transform="potential"``
+    with ``epsilon`` (the fictitious-time step, in place of step),
+    ``monitor_scale`` (c; None: |V| at the start) and ``max_steps`` (None:
+    100 duration / epsilon): the run ends with the first step that reaches
+    the duration; ``method`` one of lgvi.METHODS
     ("lgvi", the Hamiltonian side, is the default; "lgvi-lagrangian",
     "so3-lgvi", "rattle-quaternion", "rk4-normalized", "euler-exp",
     "no-squish", "splitting-dlm", "exact"); ``solver`` "newton" (default),
@@ -364,15 +397,17 @@ class Scenario:
     arguments raise ValueError naming the argument.
     """
 
-    def __init__(self, *, body, step, duration, potential=None, position=None,
+    def __init__(self, *, body, step=None, duration, potential=None, position=None,
                  quaternion=None, momentum=None, velocity=None, w=None, omega=None,
                  method="lgvi", solver="newton", tolerance=None, max_iterations=None, predictor_order=None,
                  order=None, composition=None, every=1, output_format="csv", name="scenario",
-                 orbit=None, attitude=None):
+                 orbit=None, attitude=None, time_transform=None, epsilon=None, monitor_scale=None, max_steps=None):
         changes = dict(body=body, potential=potential, position=position, quaternion=quaternion,
                        momentum=momentum, velocity=velocity, w=w, omega=omega, method=method, solver=solver,
                        step=step, duration=duration, tolerance=tolerance, max_iterations=max_iterations,
                        predictor_order=predictor_order, every=every, orbit=orbit, attitude=attitude)
+        _require_step(step, time_transform, changes, epsilon=epsilon, monitor_scale=monitor_scale,
+                      max_steps=max_steps)
         if order is not None:
             changes["order"] = order
         if composition is not None:
@@ -430,9 +465,10 @@ class Scenario:
         return cls._wrap(_parse(text, _check_name(name)))
 
     @classmethod
-    def from_arrays(cls, *, bodies, positions, quaternions, step, duration, momenta=None, velocities=None,
+    def from_arrays(cls, *, bodies, positions, quaternions, step=None, duration, momenta=None, velocities=None,
                     w=None, omegas=None, names=None, potential=None, interaction=None, method="lgvi", order=None,
-                    every=1, threads=None, on_contact=None, box=None, name="scenario"):
+                    every=1, threads=None, on_contact=None, box=None, name="scenario", time_transform=None,
+                    epsilon=None, monitor_scale=None, max_steps=None):
         """A scenario of N bodies from numpy arrays (a ``[[bodies]]`` scenario file, written and read).
 
         ``bodies``: one lgvi.Body for every row, or a list of N of them;
@@ -444,7 +480,8 @@ class Scenario:
         Scenario); ``interaction`` None or a dict ``{"kind": "gravity", "G":
         1.0, "model": "balls" | "inertia"}`` or ``{"kind": "lennard-jones",
         "epsilon": .., "sigma": .., "cutoff": .., "skin": ..}``; ``method``,
-        ``order``, ``step``, ``duration``, ``every`` as for Scenario;
+        ``order``, ``step``, ``duration``, ``every`` and the adaptive step's
+        ``time_transform``, ``epsilon``, ``monitor_scale``, ``max_steps`` as for Scenario;
         ``threads`` for the per-body loops (default: all cores);
         ``on_contact`` ([run] on_contact): "stop" (the default; lgvi.simulate
         then raises lgvi.IntegrationError at the first step where two bodies
@@ -462,7 +499,9 @@ class Scenario:
         return _from_arrays(cls, bodies=bodies, positions=positions, quaternions=quaternions, step=step,
                             duration=duration, momenta=momenta, velocities=velocities, w=w, omegas=omegas,
                             names=names, potential=potential, interaction=interaction, method=method, order=order,
-                            every=every, threads=threads, on_contact=on_contact, box=box, name=name)
+                            every=every, threads=threads, on_contact=on_contact, box=box, name=name,
+                            time_transform=time_transform, epsilon=epsilon, monitor_scale=monitor_scale,
+                            max_steps=max_steps)
 
     @classmethod
     def from_lammps_data(cls, path, *, interaction, step, duration, radius=None, periodic=None, atom_style=None,
@@ -522,7 +561,8 @@ class Scenario:
         """
         unknown = set(changes) - {"body", "potential", "position", "quaternion", "momentum", "velocity", "w",
                                   "omega", "method", "solver", "step", "duration", "tolerance", "max_iterations",
-                                  "predictor_order", "order", "composition", "every", "output_format", "name"}
+                                  "predictor_order", "order", "composition", "every", "output_format", "name",
+                                  *_ADAPTIVE_KEYS}
         if unknown:
             raise ValueError(f"{', '.join(sorted(unknown))}: not a scenario argument")
         if "bodies" in self.document or "import" in self.document:
@@ -599,8 +639,13 @@ class Scenario:
 
     @property
     def step(self):
-        """Step size h."""
+        """Step size h (with time_transform="potential": epsilon, the fictitious-time step)."""
         return self._core.step
+
+    @property
+    def time_transform(self):
+        """"none" (a fixed step) or "potential" (the adaptive LGVI: ``step`` is epsilon, ``steps`` max_steps)."""
+        return self.document["integrator"].get("time_transform", "none")
 
     @property
     def duration(self):
@@ -609,7 +654,8 @@ class Scenario:
 
     @property
     def steps(self):
-        """Number of steps, ceil(duration / step) (forgiving round-off: 1000 / 0.01 is 100000)."""
+        """Number of steps, ceil(duration / step) (forgiving round-off: 1000 / 0.01 is 100000); with
+        time_transform="potential", the most it may take (max_steps)."""
         return self._core.steps
 
     @property
@@ -772,7 +818,8 @@ def _system_toml(bodies, rows, names, potential, interaction, integrator, every,
 
 def _from_arrays(cls, *, bodies, positions, quaternions, step, duration, momenta=None, velocities=None, w=None,
                  omegas=None, names=None, potential=None, interaction=None, method="lgvi", order=None,
-                 every=1, threads=None, on_contact=None, box=None, name="scenario"):
+                 every=1, threads=None, on_contact=None, box=None, name="scenario", time_transform=None,
+                 epsilon=None, monitor_scale=None, max_steps=None):
     if isinstance(bodies, dict):
         bodies = Body(**bodies)
     if isinstance(bodies, Body):
@@ -807,16 +854,36 @@ def _from_arrays(cls, *, bodies, positions, quaternions, step, duration, momenta
         names = [str(x) for x in names]
         if len(names) != n:
             raise ValueError(f"names: must have one name per body ({n}), got {len(names)}")
-    integ, run = _integrator_and_run(method, step, duration, order, threads, on_contact)
+    adaptive = {}
+    _require_step(step, time_transform, adaptive, epsilon=epsilon, monitor_scale=monitor_scale, max_steps=max_steps)
+    integ, run = _integrator_and_run(method, step, duration, order, threads, on_contact, adaptive)
     text = _system_toml(bodies, rows, names, _potential.spec(potential), _interaction(interaction), integ,
                         _check.integer(every, "every", 1), run, _box(box))
     return cls._wrap(_parse(text, _check_name(name)))
 
 
-def _integrator_and_run(method, step, duration, order, threads, on_contact):
-    """The [integrator] and [run] tables of a many-body scenario built in Python; ValueError naming the argument."""
-    integ = {"method": _check.choice(method, "method", METHODS), "step": _check.positive(step, "step"),
-             "duration": _check.non_negative(duration, "duration")}
+def _require_step(step, time_transform, changes, **adaptive):
+    """A fixed step needs ``step``; time_transform="potential" needs ``epsilon`` instead. Adds the adaptive
+    step's keyword arguments that were given to `changes` (for _apply_adaptive)."""
+    if time_transform is not None:
+        changes["time_transform"] = time_transform
+    changes.update({k: v for k, v in adaptive.items() if v is not None})
+    if time_transform == "potential":
+        if adaptive.get("epsilon") is None:
+            raise ValueError('epsilon: missing: time_transform="potential" takes epsilon, the fictitious-time '
+                             "step (e.g. 0.02), in place of step")
+    elif step is None:
+        raise ValueError('step: missing: give the step h > 0 (or time_transform="potential" with epsilon)')
+
+
+def _integrator_and_run(method, step, duration, order, threads, on_contact, adaptive=None):
+    """The [integrator] and [run] tables of a many-body scenario built in Python; ValueError naming the argument.
+    `adaptive`: the adaptive step's keyword arguments (_require_step), if any."""
+    integ = {"method": _check.choice(method, "method", METHODS)}
+    if step is not None:
+        integ["step"] = _check.positive(step, "step")
+    _apply_adaptive(integ, dict(adaptive or {}, step=step))
+    integ["duration"] = _check.non_negative(duration, "duration")
     if order is not None:
         integ["order"] = _check.integer(order, "order", 2, 8)
     run = {}

@@ -200,6 +200,25 @@ def _max_abs(values):
     return float(np.max(np.abs(values)))
 
 
+def _step_size(plt, t, energy_error, summary, out_dir, written):
+    """step_size.png for an adaptive run ([integrator] time_transform): the
+    physical step against t (the mean over each interval between written
+    rows, output_every steps; the last interval may hold fewer) above |E - E0|,
+    on log scales, so that the close passes show as dips of both. Nothing for
+    a fixed step."""
+    setup = (summary or {}).get("setup", {})
+    if setup.get("integrator", {}).get("time_transform") is None or len(t) < 3:
+        return
+    every = setup.get("output_every", 1)
+    fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(FIGSIZE[0], FIGSIZE[1] * 1.4))
+    top.semilogy(t[1:-1], np.diff(t[:-1]) / every, lw=0.8)
+    top.set(ylabel="step dt", title=f"Adaptive step (epsilon = {setup['integrator']['epsilon']:g}; "
+            f"dt in [{summary['min_step']:.2e}, {summary['max_step']:.2e}])")
+    bottom.semilogy(t, np.maximum(np.abs(energy_error), 1e-18), lw=0.8)
+    bottom.set(xlabel="t", ylabel="|E - E0| (floor 1e-18)")
+    _save(fig, out_dir, "step_size.png", written)
+
+
 def _columns_and_summary(source):
     """(columns, summary, default out_dir) of a run folder/trajectory file or an in-memory result."""
     if isinstance(source, (str, bytes, os.PathLike)):
@@ -279,6 +298,7 @@ def _draw_system(plt, r, out_dir, written):
     _error_plot(plt, t, r.energy_error, "energy error",
                 f"System energy error (max |.| = {_max_abs(r.energy_error):.3e})", "energy_error.png",
                 out_dir, written)
+    _step_size(plt, t, r.energy_error, r.summary, out_dir, written)
     _error_plot(plt, t, np.max(np.abs(r.quat_norm_error), axis=1), "max over bodies of ||q| - 1|",
                 f"Quaternion norm error, {r.bodies} bodies (max = {_max_abs(r.quat_norm_error):.3e})",
                 "quaternion_error.png", out_dir, written)
@@ -438,7 +458,8 @@ def draw_figures(source, out_dir=None):
     figures: energy_error.png, quaternion_error.png, momentum_error.png (total
     angular and linear momentum), trajectory.png (the bodies' paths), for a molecular run
     thermodynamics.png (temperature, and pressure in a periodic box) and, for
-    two bodies, libration.png. An ensemble (a folder with members.csv, or an
+    two bodies, libration.png. An adaptive run ([integrator] time_transform)
+    also gets step_size.png (the step and |E - E0| against t). An ensemble (a folder with members.csv, or an
     lgvi.EnsembleResult) gets error_distribution.png and error_vs_varied.png.
     """
     ensemble = _ensemble_table(source)
@@ -472,6 +493,7 @@ def draw_figures(source, out_dir=None):
     _error_plot(plt, t, c["energy_error"], "energy error",
                 f"Energy error (max |.| = {_max_abs(c['energy_error']):.3e})",
                 "energy_error.png", out_dir, written)
+    _step_size(plt, t, c["energy_error"], summary, out_dir, written)
     _error_plot(plt, t, c["quat_norm_error"], "|q| - 1",
                 f"Quaternion norm error (max |.| = {_max_abs(c['quat_norm_error']):.3e})",
                 "quaternion_error.png", out_dir, written)

@@ -28,6 +28,7 @@ inline constinit const InteractionDescriptor gravity_interaction{
           out["G"] = spec.number("G");
           out["model"] = spec.word("model");
         },
+    .attractive = true,
 };
 
 }  // namespace lgvi::app

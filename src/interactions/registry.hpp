@@ -78,6 +78,10 @@ struct InteractionDescriptor {
   /// The potential keeps bodies apart (a repulsive core): contact is not
   /// checked during a run unless [run] on_contact says so.
   bool keeps_bodies_apart = false;
+  /// Its energy is negative in every configuration (an attraction, such as
+  /// gravity): U = -V grows as bodies close in, the measure of closeness
+  /// that the adaptive LGVI's time transformation needs (time_transformed.hpp).
+  bool attractive = false;
   /// A short-range pair interaction's reach, cutoff + Verlet skin (spec as
   /// read): a periodic box must be more than twice as long. Null for a
   /// long-range one, which a periodic box refuses.

@@ -315,6 +315,9 @@ std::unique_ptr<AnyStepper> make_stepper(const Scenario& sc, const CallablePoten
   if (sc.bodies() != 1)
     throw py::value_error("scenario: Stepper steps one body; this scenario has " + std::to_string(sc.bodies()) +
                           " bodies (use lgvi.simulate for [[bodies]] scenarios)");
+  if (sc.integrator.adaptive())
+    throw py::value_error("scenario: Stepper takes fixed steps (its t is k h); this scenario has [integrator] "
+                          "time_transform = \"potential\" (use lgvi.simulate, which runs it)");
   auto evaluations = std::make_shared<std::int64_t>(0);
   const lgvi::app::ScenarioSystemPotential pot =
       lgvi::app::scenario_system_potential(sc, field, evaluations.get());
@@ -349,11 +352,20 @@ struct InterruptWatch {
 };
 
 py::tuple run_simulation(const Scenario& scenario, py::object potential, py::object forcing) {
+  // The reader checked that the adaptive step's field is gravity; a Python potential replaces it unchecked.
+  if (scenario.integrator.adaptive() && !potential.is_none())
+    throw py::value_error("potential: a scenario with time_transform = \"potential\" adapts its step to U = -V of "
+                          "its own field (gravity, checked by the reader); run it with that field, or use "
+                          "time_transform = \"none\" with a Python potential");
   const Scenario sc = with_python_forcing(scenario, std::move(forcing));
   const bool python_forcing = sc.forcing.size() != scenario.forcing.size();
   const std::int64_t every = sc.output_every;
   const TrajectoryLayout layout = lgvi::app::scenario_layout(sc);
-  MemorySink sink((sc.integrator.steps / every + 2) * layout.rows_per_step(), layout);
+  // An adaptive run's steps are not known before it ends (steps is its max_steps): room for duration / epsilon.
+  const std::int64_t steps = sc.integrator.adaptive()
+                                 ? static_cast<std::int64_t>(std::ceil(sc.integrator.duration / sc.integrator.step))
+                                 : sc.integrator.steps;
+  MemorySink sink((steps / every + 2) * layout.rows_per_step(), layout);
   SimulationResult r;
   InterruptWatch watch;
   SimulationOptions opt;
