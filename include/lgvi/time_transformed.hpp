@@ -86,18 +86,6 @@ inline double time_transform_monitor(double u, double c) {
   return std::pow(1.0 + r2 * r2, -0.375);
 }
 
-/// The total kinetic energy sum_a |p_a|^2/(2 m_a) + w_a^T J_a^{-1} w_a / 8
-/// (J^{-1} the pseudo-inverse for linear bodies and points, rigid_body.hpp),
-/// summed in body order.
-inline double system_kinetic_energy(const System& sys, const SystemState& s) {
-  double k = 0.0;
-  for (std::size_t a = 0; a < s.size(); ++a) {
-    const RigidBody& b = sys.body(a);
-    k += s.p[a].squaredNorm() / (2.0 * b.mass()) + s.w[a].dot(b.inertia_inverse() * s.w[a]) / 8.0;
-  }
-  return k;
-}
-
 /// The adaptive (time-transformed) LGVI of the file comment on N bodies. A
 /// SystemStepper whose step(state, s, eps) advances the fictitious time by
 /// eps; the physical time is its own (time(), set by initialize(state, t)),
@@ -126,7 +114,7 @@ class TimeTransformedLieGroupVariationalIntegrator : public detail::ImplicitStep
     time_ = t;
     time_carry_ = 0.0;
     last_dt_ = 0.0;
-    reference_energy_ = system_kinetic_energy(this->system_, s) + this->eval_.energy;
+    reference_energy_ = total_energy(s, this->system_, this->eval_);
     scale_ = tt_.monitor_scale > 0.0 ? tt_.monitor_scale : std::abs(this->eval_.energy);
     if (!(scale_ > 0.0 && std::isfinite(scale_)))
       throw InvalidInput("integrator.monitor_scale: the potential energy at the start is " +
@@ -146,12 +134,12 @@ class TimeTransformedLieGroupVariationalIntegrator : public detail::ImplicitStep
     const std::vector<double>& gamma = composition_.gamma();
     for (std::size_t i = 0; i < gamma.size(); ++i) {
       const double e = gamma.size() == 1 ? eps : gamma[i] * eps;
-      const double dt1 = 0.5 * e * monitor(system_kinetic_energy(sys, state) - reference_energy_);
+      const double dt1 = 0.5 * e * monitor(kinetic_energy(state, sys) - reference_energy_);
       drift(state, dt1, 2 * i);
       this->evaluate_at(state);
       const double tau = e * monitor(-this->eval_.energy);
       detail::for_each_body(sys, this->par_, [&](std::size_t a) { kick(state, a, tau); });
-      const double dt2 = 0.5 * e * monitor(system_kinetic_energy(sys, state) - reference_energy_);
+      const double dt2 = 0.5 * e * monitor(kinetic_energy(state, sys) - reference_energy_);
       drift(state, dt2, 2 * i + 1);
       dt += dt1 + dt2;
     }
