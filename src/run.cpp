@@ -41,29 +41,30 @@ std::string python_dir() {
 
 /// The run's progress line (progress_line.hpp), only when standard error is a
 /// terminal: step k of N, t, steps per second and the time left, at most
-/// every 0.25 s and at the last step. An adaptive run (duration > 0 given)
-/// has no N: t of the duration, and the time left from the rate of t.
+/// every 0.25 s and at the last step. An adaptive run has no N: t of the
+/// duration, and the time left from the rate of t.
 class Progress {
  public:
-  Progress(bool enabled, std::int64_t total, double duration = 0.0)
-      : line_(enabled && isatty(STDERR_FILENO)), total_(total), duration_(duration) {}
+  Progress(bool enabled, const IntegratorSpec& integrator)
+      : line_(enabled && isatty(STDERR_FILENO)), integrator_(integrator) {}
   void operator()(std::int64_t k, double t) {
     if (!line_.enabled()) return;
     const double elapsed = line_.elapsed();
-    const bool last = duration_ > 0.0 ? t >= duration_ : k >= total_;
-    if (elapsed - last_ < 0.25 && !last) return;
+    if (elapsed - last_ < 0.25 && !integrator_.ends(k, t)) return;
     last_ = elapsed;
     const double rate = static_cast<double>(k - k_start_) / std::max(elapsed, 1e-9);
-    if (duration_ > 0.0) {
+    if (integrator_.adaptive()) {
+      const double duration = integrator_.duration;
       const double time_rate = (t - t_start_) / std::max(elapsed, 1e-9);
-      const double eta = time_rate > 0 ? std::max(0.0, duration_ - t) / time_rate : 0.0;
+      const double eta = time_rate > 0 ? std::max(0.0, duration - t) / time_rate : 0.0;
       line_.show(fmt::sprintf("lgvi: step %lld (t = %.6g of %.6g), %.3g steps/s, ETA %.0f s",
-                              static_cast<long long>(k), t, duration_, rate, eta));
+                              static_cast<long long>(k), t, duration, rate, eta));
       return;
     }
-    const double eta = rate > 0 ? static_cast<double>(total_ - k) / rate : 0.0;
+    const std::int64_t total = integrator_.steps;
+    const double eta = rate > 0 ? static_cast<double>(total - k) / rate : 0.0;
     line_.show(fmt::sprintf("lgvi: step %lld/%lld (t = %.6g), %.3g steps/s, ETA %.0f s", static_cast<long long>(k),
-                            static_cast<long long>(total_), t, rate, eta));
+                            static_cast<long long>(total), t, rate, eta));
   }
   void start_at(std::int64_t k, double t) {
     k_start_ = k;
@@ -73,8 +74,9 @@ class Progress {
 
  private:
   ProgressLine line_;
-  std::int64_t total_, k_start_ = 0;
-  double duration_, t_start_ = 0.0, last_ = -1.0;
+  const IntegratorSpec& integrator_;
+  std::int64_t k_start_ = 0;
+  double t_start_ = 0.0, last_ = -1.0;
 };
 
 /// The shared part of a fresh and a resumed run.
@@ -105,7 +107,7 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
     return *sink;
   };
 
-  Progress progress(!opt.quiet, sc.integrator.steps, sc.integrator.adaptive() ? sc.integrator.duration : 0.0);
+  Progress progress(!opt.quiet, sc.integrator);
   SimulationOptions so;
   so.checkpoint_every = opt.checkpoint_every;
   so.checkpoint_path = checkpoint_path.string();

@@ -102,6 +102,10 @@ struct IntegratorSpec {
   TimeTransform time_transform = TimeTransform::None;
   double monitor_scale = 0.0;  ///< time_transform: c of the monitor; 0: |V| at the start
   bool adaptive() const { return time_transform != TimeTransform::None; }
+  /// Whether a run that has reached step k at time t is at its end: a fixed
+  /// step's after `steps` steps, an adaptive run's with the first step that
+  /// reaches `duration` (its `steps`, max_steps, then ends it as a failure).
+  bool ends(std::int64_t k, double t) const { return adaptive() ? t >= duration : k >= steps; }
 };
 
 struct Scenario {

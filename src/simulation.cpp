@@ -333,10 +333,7 @@ struct Recorder {
     stats.last_t = i.t;
     stats.last_k = i.k;
     stats.observed = true;
-    // The last row: the last step's, or an adaptive run's first step that reached the duration.
-    const bool last = scenario.integrator.adaptive() ? i.t >= scenario.integrator.duration
-                                                     : i.k == scenario.integrator.steps;
-    if (i.k % scenario.output_every != 0 && !last && !contact_stop) return;
+    if (i.k % scenario.output_every != 0 && !scenario.integrator.ends(i.k, i.t) && !contact_stop) return;
     if (!scenario.bodies_format) {
       const SingleBodyRow row(i.t, s.body(0), energy, de, dq, L, dl, forced ? std::optional(i.work) : std::nullopt);
       sink.row(row.values);  // the layout's columns: the work only when forced
@@ -461,10 +458,12 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
     auto stop_requested = [&] { return (opt.stop_flag && *opt.stop_flag != 0) || !contact.stopped().empty(); };
     // An adaptive run (time_transform) ends with the first step that reaches
     // the duration, at most n = max_steps steps; a fixed step after n steps.
-    const bool adaptive = sc.integrator.adaptive();
+    // Within a leg integrate_range asks stop_here before each step: the
+    // stepper's clock is live there, `reached` is not (a fixed run's legs end
+    // at n by themselves).
     auto time_now = [&] { return lgvi::detail::physical_time(stepper, static_cast<double>(reached) * h); };
-    auto arrived = [&] { return adaptive ? time_now() >= sc.integrator.duration : reached >= n; };
-    auto stop_here = [&] { return stop_requested() || (adaptive && time_now() >= sc.integrator.duration); };
+    auto arrived = [&] { return sc.integrator.ends(reached, time_now()); };
+    auto stop_here = [&] { return stop_requested() || arrived(); };
     while (reached < n && !arrived()) {
       const std::int64_t end = next_stop(reached);
       reached = integrate_range(stepper, state, 0.0, h, reached, end, recorder, stop_here);
