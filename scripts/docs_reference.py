@@ -127,6 +127,8 @@ DESCRIPTIONS = {
                                 "start)",
     "integrator.max_steps": "integer >= 1: with time_transform, the most steps short of duration (default 100 "
                             "duration / epsilon); reaching it fails the run, naming it",
+    "integrator.exact_finish": "true or false: with time_transform, shorten the last step so that the run ends at "
+                               "t = duration exactly (default false: with the first step past it)",
     # [output]
     "output.every": "integer >= 1: write every n-th step, plus the first and last (default 1)",
     "output.format": "one of the formats below (default \"csv\")",

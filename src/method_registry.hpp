@@ -23,6 +23,7 @@
 
 #include <array>
 #include <cstddef>
+#include <limits>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -77,7 +78,9 @@ decltype(auto) with_stepper(const Scenario& sc, const ScenarioSystemPotential& p
     if (!sc.forcing.empty() || i.method.index() != 0)
       throw InvalidInput("integrator.time_transform: the adaptive LGVI takes no forcing and is method \"lgvi\"");
     TimeTransformedLieGroupVariationalIntegrator<ScenarioSystemPotential> stepper(
-        sc.system, pot, TimeTransformOptions{i.monitor_scale}, i.solver, par, i.composition);
+        sc.system, pot,
+        TimeTransformOptions{i.monitor_scale, i.exact_finish ? i.duration : std::numeric_limits<double>::infinity()},
+        i.solver, par, i.composition);
     return f(stepper);
   }
   auto make = [&]<template <class> class S>() -> decltype(auto) {

@@ -936,31 +936,48 @@ void read_composition(const Reader& r, const toml::table& t, IntegratorSpec& s) 
   }
 }
 
-/// The adaptive LGVI's monitor reads U = -V as a measure of closeness: it
-/// needs an attraction (a central field, mutual gravity) and nothing whose V
-/// can be positive or that does work outside the Hamiltonian.
-void require_attraction(const Reader& r, const PotentialSpec& potential, const InteractionSpec& interaction,
-                        bool forced) {
+}  // namespace
+
+std::optional<std::int64_t> default_max_steps(double duration, double epsilon) {
+  const double planned = std::ceil(100.0 * duration / epsilon);
+  if (!(planned <= 9007199254740992.0)) return std::nullopt;  // 2^53
+  return std::max<std::int64_t>(1, static_cast<std::int64_t>(planned));
+}
+
+std::optional<TimeTransformRefusal> time_transform_refusal(const PotentialSpec& potential,
+                                                          const InteractionSpec& interaction, bool forced) {
   const std::string why = "time_transform = \"potential\" adapts the step to U = -V, which measures closeness "
                           "only under gravity";
   if (potential.kind == PotentialKind::Uniform || potential.kind == PotentialKind::HeavyTop)
-    r.fail("potential.kind", fmt::format("\"{}\" is not taken: {} (a central field or mutual gravity); use "
-                                         "time_transform = \"none\"", to_string(potential.kind), why));
+    return TimeTransformRefusal{"potential.kind",
+                                fmt::format("\"{}\" is not taken: {} (a central field or mutual gravity)",
+                                            to_string(potential.kind), why)};
   if (!interaction.none() && !interaction.descriptor->attractive)
-    r.fail("interaction.kind", fmt::format("\"{}\" is not taken: {}, and {}'s V can be positive; use "
-                                           "time_transform = \"none\"", interaction_kind(interaction), why,
-                                           interaction.descriptor->title));
+    return TimeTransformRefusal{"interaction.kind",
+                                fmt::format("\"{}\" is not taken: {}, and {}'s V can be positive",
+                                            interaction_kind(interaction), why, interaction.descriptor->title)};
   if (potential.kind == PotentialKind::None && interaction.none())
-    r.fail("integrator.time_transform", why + "; this scenario has no potential: use time_transform = \"none\"");
+    return TimeTransformRefusal{"integrator.time_transform", why + "; this scenario has no potential"};
   if (forced)
-    r.fail("forcing", "is not taken with time_transform = \"potential\" (the forcing's work has no place in the "
-                      "time-transformed Hamiltonian); use time_transform = \"none\"");
+    return TimeTransformRefusal{"forcing", "is not taken with time_transform = \"potential\" (the forcing's work has "
+                                           "no place in the time-transformed Hamiltonian)"};
+  return std::nullopt;
+}
+
+namespace {
+
+/// The reader's refusal of a time transformation (time_transform_refusal).
+void require_attraction(const Reader& r, const PotentialSpec& potential, const InteractionSpec& interaction,
+                        bool forced) {
+  if (const auto refusal = time_transform_refusal(potential, interaction, forced))
+    r.fail(refusal->key, refusal->reason + "; use time_transform = \"none\"");
 }
 
 /// [integrator] with time_transform = "potential" (time_transformed.hpp):
 /// epsilon, the fictitious-time step, in place of step (order / composition
 /// compose the step in epsilon, read before); monitor_scale, c
-/// (default |V| at the start); max_steps, the most steps the run may take
+/// (default |V| at the start); exact_finish, whether the last step is
+/// shortened to end at the duration; max_steps, the most steps the run may take
 /// before it reaches duration (default 100 duration / epsilon: the physical
 /// step 100 times below epsilon on average, a run that is stuck).
 void read_time_transform(const Reader& r, const toml::table& t, IntegratorSpec& s) {
@@ -983,21 +1000,25 @@ void read_time_transform(const Reader& r, const toml::table& t, IntegratorSpec& 
   s.duration = r.number(t, "integrator", "duration");
   if (!(s.duration >= 0.0 && std::isfinite(s.duration)))
     r.fail("integrator.duration", "must be a finite number >= 0, got " + std::to_string(s.duration));
-  const double planned = std::ceil(100.0 * s.duration / s.step);
+  if (const toml::node* n = t.get("exact_finish")) {
+    if (!n->is_boolean()) r.fail("integrator.exact_finish", "must be true or false");
+    s.exact_finish = n->value<bool>().value();
+  }
   if (t.contains("max_steps")) {
     s.steps = r.integer(t, "integrator", "max_steps");
     if (s.steps < 1) r.fail("integrator.max_steps", "must be an integer >= 1");
-  } else if (!(planned <= 9007199254740992.0)) {
-    r.fail("integrator.epsilon", "gives a default max_steps (100 duration / epsilon) beyond 2^53; enlarge epsilon");
+  } else if (const auto planned = default_max_steps(s.duration, s.step)) {
+    s.steps = *planned;
   } else {
-    s.steps = std::max<std::int64_t>(1, static_cast<std::int64_t>(planned));
+    r.fail("integrator.epsilon", "gives a default max_steps (100 duration / epsilon) beyond 2^53; enlarge epsilon");
   }
 }
 
 IntegratorSpec read_integrator(const Reader& r, const toml::table& root) {
   const toml::table& t = r.table(root, "", "integrator");
   r.only_keys(t, "integrator", {"method", "solver", "step", "duration", "tolerance", "max_iterations", "predictor_order",
-                                "order", "composition", "time_transform", "epsilon", "monitor_scale", "max_steps"});
+                                "order", "composition", "time_transform", "epsilon", "monitor_scale", "max_steps",
+                                "exact_finish"});
   IntegratorSpec s;
   if (t.contains("method")) {
     const toml::node* n = t.get("method");
@@ -1033,7 +1054,7 @@ IntegratorSpec read_integrator(const Reader& r, const toml::table& root) {
     read_time_transform(r, t, s);
     return s;
   }
-  for (const char* key : {"epsilon", "monitor_scale", "max_steps"})
+  for (const char* key : {"epsilon", "monitor_scale", "max_steps", "exact_finish"})
     if (t.contains(key))
       r.fail(std::string("integrator.") + key, "belongs to the adaptive step; set time_transform = \"potential\" "
                                                "or remove it");
@@ -1207,14 +1228,20 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
     initial.w[a] = body.admissible_momentum(initial.w[a]);
   }
   // The rotation per step |Omega| h: at pi the discrete flow is undefined
-  // (and the rotation equation has no root well before, near 1 rad).
+  // (and the rotation equation has no root well before, near 1 rad). An
+  // adaptive step's physical step is at most epsilon (g <= 1), its size far
+  // from the sources.
+  const char* step_key = integrator.adaptive() ? "epsilon" : "step";
   for (std::size_t a = 0; a < bodies.size(); ++a) {
     const double rotation = (0.5 * bodies[a].inertia_inverse() * initial.w[a]).norm() * integrator.step;
     if (rotation >= std::numbers::pi)
-      r.fail("integrator.step", std::string("the initial rotation per step |Omega| h") +
-                                    (bodies_format ? " of bodies[" + std::to_string(a) + "]" : std::string()) + " = " +
-                                    std::to_string(rotation) + " rad reaches pi; use a step below " +
-                                    std::to_string(integrator.step / rotation * 0.1) + " (0.1 rad per step)");
+      r.fail(std::string("integrator.") + step_key,
+             fmt::format("the initial rotation per step |Omega| {}{} = {} rad reaches pi; use {} below {} (0.1 rad "
+                         "per step)",
+                         integrator.adaptive() ? "epsilon" : "h",
+                         bodies_format ? " of bodies[" + std::to_string(a) + "]" : std::string(),
+                         std::to_string(rotation), integrator.adaptive() ? "an epsilon" : "a step",
+                         std::to_string(integrator.step / rotation * 0.1)));
   }
   int threads = 0;
   std::optional<OnContact> on_contact;

@@ -101,10 +101,14 @@ struct IntegratorSpec {
   std::int64_t steps = 0;
   TimeTransform time_transform = TimeTransform::None;
   double monitor_scale = 0.0;  ///< time_transform: c of the monitor; 0: |V| at the start
+  /// time_transform: the last step is shortened so that the run ends at
+  /// t = duration exactly (time_transformed.hpp: finish_time).
+  bool exact_finish = false;
   bool adaptive() const { return time_transform != TimeTransform::None; }
   /// Whether a run that has reached step k at time t is at its end: a fixed
   /// step's after `steps` steps, an adaptive run's with the first step that
-  /// reaches `duration` (its `steps`, max_steps, then ends it as a failure).
+  /// reaches `duration` (its `steps`, max_steps, then ends it as a failure;
+  /// with exact_finish that step ends at `duration`).
   bool ends(std::int64_t k, double t) const { return adaptive() ? t >= duration : k >= steps; }
 };
 
@@ -149,6 +153,20 @@ struct ConservationLaws {
   bool linear_momentum = false;
 };
 ConservationLaws conservation_laws(const Scenario& sc);
+
+/// An adaptive run's max_steps when not given: 100 duration / epsilon (the physical step 100 times
+/// below epsilon on average: a run that is stuck), at least 1; nullopt beyond 2^53.
+std::optional<std::int64_t> default_max_steps(double duration, double epsilon);
+
+/// Why the adaptive LGVI (time_transform = "potential") cannot run a scenario: its
+/// monitor reads U = -V as a measure of closeness, so it needs an attraction (a
+/// central field, mutual gravity) and nothing whose V can be positive or that does
+/// work outside the Hamiltonian. `key` is the scenario key at fault.
+struct TimeTransformRefusal {
+  std::string key, reason;
+};
+std::optional<TimeTransformRefusal> time_transform_refusal(const PotentialSpec& potential,
+                                                          const InteractionSpec& interaction, bool forced);
 
 /// Whether a body given by mass + inertia feels a central field's
 /// gravity-gradient term ([potential] kind = "central" without model =

@@ -325,7 +325,9 @@ struct Recorder {
     stats.min_spin = std::min(stats.min_spin, spin.norm());
     stats.max_spin = std::max(stats.max_spin, spin.norm());
     stats.max_spin_change = std::max(stats.max_spin_change, (spin - stats.spin0).norm());
-    if (scenario.integrator.adaptive() && i.k > 0) {
+    // (Not the last step of an exact finish: shortened to end at the duration, it says nothing of the dynamics.)
+    if (scenario.integrator.adaptive() && i.k > 0 &&
+        !(scenario.integrator.exact_finish && i.t >= scenario.integrator.duration)) {
       const double dt = i.t - stats.last_t;
       stats.min_time_step = stats.max_time_step > 0.0 ? std::min(stats.min_time_step, dt) : dt;
       stats.max_time_step = std::max(stats.max_time_step, dt);

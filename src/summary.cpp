@@ -89,6 +89,7 @@ Json setup_json(const Scenario& s) {
     // null: |V| at the start (time_transformed.hpp)
     integ["monitor_scale"] = s.integrator.monitor_scale > 0.0 ? Json(s.integrator.monitor_scale) : Json();
     integ["max_steps"] = s.integrator.steps;
+    if (s.integrator.exact_finish) integ["exact_finish"] = true;  // absent: the run ends with the first step past it
   } else {
     integ["step"] = s.integrator.step;
   }

@@ -3,11 +3,16 @@
 // InvalidInput that starts with the file name and names the offending key.
 #include <gtest/gtest.h>
 
+#include "memory_sink.hpp"
 #include "scenario.hpp"
 #include "scenario_support.hpp"
+#include "simulation.hpp"
 
 #include <lgvi/error.hpp>
 
+#include <fmt/format.h>
+
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -207,6 +212,45 @@ TEST(ScenarioFiles, PaperClosePassParsesAsTheAdaptiveStep) {
   EXPECT_EQ(s.integrator.duration, 1000.0);
   EXPECT_EQ(s.integrator.steps, 1000000);
   EXPECT_EQ(s.initial().p, lgvi::Vector3<double>(1.0, 0.0, 0.0));
+  EXPECT_FALSE(s.integrator.exact_finish);  // the run ends with the first step past the duration
+}
+
+TEST(ScenarioInput, ExactFinishEndsTheAdaptiveRunAtTheDuration) {
+  // [integrator] exact_finish: the summary's last_time is the duration
+  // itself, not the first step past it, and min_step / max_step leave out
+  // the shortened last step (no measure of the dynamics). The duration is put
+  // 1e-6 past step 150 of a free run, so the last step is far shorter than
+  // any other; the steps before it are the free run's, bit for bit, so
+  // min_step and max_step are exactly the free run's over steps 1 to 150.
+  std::ifstream in(scenario_dir + "/paper-close-pass.toml");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  Scenario free_running = parse_scenario(replace(text, "duration = 1000.0", "duration = 20.0"), "dir/free.toml");
+  free_running.output_every = 1;
+  lgvi::app::MemorySink a(1000);
+  const lgvi::app::SimulationResult r0 = lgvi::app::simulate(free_running, a);
+  ASSERT_TRUE(r0.completed);
+  const std::vector<double> rows = a.take();
+  const auto t = [&](std::size_t k) { return rows[k * static_cast<std::size_t>(lgvi::app::trajectory_columns)]; };
+  constexpr std::size_t kept = 150;
+  ASSERT_GT(rows.size(), (kept + 1) * static_cast<std::size_t>(lgvi::app::trajectory_columns));
+  double min_dt = t(1) - t(0), max_dt = min_dt;
+  for (std::size_t k = 1; k <= kept; ++k) {
+    min_dt = std::min(min_dt, t(k) - t(k - 1));
+    max_dt = std::max(max_dt, t(k) - t(k - 1));
+  }
+  const double duration = t(kept) + 1e-6;
+  Scenario finishing = parse_scenario(
+      replace(text, "duration = 1000.0", fmt::format("duration = {}\nexact_finish = true", duration)),
+      "dir/finishing.toml");
+  ASSERT_TRUE(finishing.integrator.exact_finish);
+  lgvi::app::MemorySink b(2);
+  const lgvi::app::SimulationResult r1 = lgvi::app::simulate(finishing, b);
+  ASSERT_TRUE(r1.completed);
+  EXPECT_EQ(r1.stats.last_t, duration);
+  EXPECT_EQ(r1.stats.last_k, static_cast<std::int64_t>(kept) + 1);
+  EXPECT_EQ(r1.stats.min_time_step, min_dt);
+  EXPECT_EQ(r1.stats.max_time_step, max_dt);
+  EXPECT_GT(min_dt, 1e-3);  // the shortened step (1e-6) would have been the minimum
 }
 
 TEST(ScenarioInput, AdaptiveStepRefusesAPairPotentialWhoseEnergyCanBePositive) {
@@ -441,6 +485,11 @@ std::vector<BadCase> bad_cases() {
       {"AdaptiveMaxStepsZero", "max_steps = 0",
        mutate("step = 0.01", "time_transform = \"potential\"\nepsilon = 0.02\nmax_steps = 0"),
        {"integrator.max_steps", ">= 1"}},
+      {"AdaptiveExactFinishNotBoolean", "exact_finish = 1",
+       mutate("step = 0.01", "time_transform = \"potential\"\nepsilon = 0.02\nexact_finish = 1"),
+       {"integrator.exact_finish", "true or false"}},
+      {"ExactFinishWithoutTimeTransform", "exact_finish with a fixed step",
+       mutate("step = 0.01", "step = 0.01\nexact_finish = true"), {"integrator.exact_finish", "time_transform"}},
       {"EpsilonWithoutTimeTransform", "epsilon with a fixed step", mutate("step = 0.01", "step = 0.01\nepsilon = 0.02"),
        {"integrator.epsilon", "time_transform"}},
       {"AdaptiveOtherMethod", "time_transform with rattle-quaternion",

@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace {
@@ -37,9 +38,10 @@ Field paper_field() {
   return Field({CentralGravity(body, 1.0)});
 }
 
-Adaptive paper_stepper(double c, const lgvi::CompositionTable& composition = {}) {
-  return Adaptive(System(lgvi::paper::three_ball_body()), paper_field(), lgvi::TimeTransformOptions{c}, {}, {},
-                  composition);
+Adaptive paper_stepper(double c, const lgvi::CompositionTable& composition = {},
+                       double finish_time = std::numeric_limits<double>::infinity()) {
+  return Adaptive(System(lgvi::paper::three_ball_body()), paper_field(), lgvi::TimeTransformOptions{c, finish_time},
+                  {}, {}, composition);
 }
 
 /// A system potential that counts its evaluations (the cost measure).
@@ -249,47 +251,19 @@ TEST(TimeTransformed, TheBoundOrbitHasNoDriftAndBeatsTheFixedStepAtEqualCost) {
 // ------------------------------------------------- against the continuous equations
 
 /// The continuous equations (continuous.hpp) in the fictitious time of the
-/// same transformation: d/ds = g(U) d/dt, dt/ds = g(U), U = -V(x, q) (on the
-/// exact flow K - E0 = U, so this is the time the method discretizes). RK4
-/// in s is smooth through the close pass, where RK4 in t would need tiny steps.
+/// same transformation (ContinuousEquations::rk4_time_transformed, with this
+/// c): the time the method discretizes, smooth through the close pass.
 struct Reference {
   RigidBody body = lgvi::paper::three_ball_body();
   CentralGravity potential{body, 1.0};
   lgvi::ContinuousEquations<CentralGravity> eqs{body, potential};
   double c = 0.4;
 
-  struct Point {
-    lgvi::ContinuousState state;
-    double t;
-  };
-  double rate(const lgvi::ContinuousState& x) const {
-    return lgvi::time_transform_monitor(-potential.evaluate(x.x, lgvi::S3d(x.q)).energy, c);
-  }
-  Point rk4_s(const Point& p, double ds) const {
-    auto d = [&](const lgvi::ContinuousState& x, double& dt) {
-      const double g = rate(x);
-      dt = g;
-      return eqs.derivative(x) * g;
-    };
-    double t1 = 0, t2 = 0, t3 = 0, t4 = 0;
-    const auto k1 = d(p.state, t1);
-    const auto k2 = d(p.state + k1 * (ds / 2), t2);
-    const auto k3 = d(p.state + k2 * (ds / 2), t3);
-    const auto k4 = d(p.state + k3 * ds, t4);
-    return {p.state + (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (ds / 6), p.t + (t1 + 2 * t2 + 2 * t3 + t4) * (ds / 6)};
-  }
-  /// The state at time t_end from `start` at t0: RK4 steps ds in s while they
-  /// stay before t_end, then RK4 in t over the remainder (less than one step).
+  /// The state at time t_end from `start` at t0, with RK4 steps ds in the fictitious time.
   RigidBodyState at(const RigidBodyState& start, double t0, double t_end, double ds) const {
-    Point p{lgvi::to_continuous(start, body), t0};
-    for (;;) {
-      const Point next = rk4_s(p, ds);
-      if (next.t > t_end) break;
-      p = next;
-    }
-    const double rest = t_end - p.t;
-    const long n = 16;
-    return lgvi::from_continuous(eqs.rk4(p.state, rest / n, n), body);
+    return lgvi::from_continuous(eqs.rk4_time_transformed(lgvi::to_continuous(start, body), t0, t_end, ds,
+                                                          [&](double u) { return lgvi::time_transform_monitor(u, c); }),
+                                 body);
   }
 };
 
@@ -336,6 +310,75 @@ TEST(TimeTransformed, SecondOrderThroughTheClosestPassAgainstTheContinuousEquati
   EXPECT_LT(1e3 * reference_error, composed[2]);
   EXPECT_THAT(composed[0] / composed[1], ::testing::AllOf(::testing::Gt(14.0), ::testing::Lt(18.0)));
   EXPECT_THAT(composed[1] / composed[2], ::testing::AllOf(::testing::Gt(14.0), ::testing::Lt(18.0)));
+}
+
+TEST(TimeTransformed, FinishTimeEndsTheRunThereAtTheMethodsOrder) {
+  // With a finish time, the step that would pass it is retaken shorter: the
+  // run ends at t = 109 exactly (within the pass's aftermath, where the step is
+  // still small), and its state there against the reference at 109 keeps the
+  // method's order: errors fall by 4 per halving of eps (ratios in [3.6, 4.4],
+  // as the test above), and by 16 composed to order 4 (ratios in [14, 18]):
+  // one shortened step of the same method adds an error of the same order.
+  const Reference ref;
+  const double ds = 2.5e-4, t_end = 109.0;
+  const RigidBodyState start = ref.at(lgvi::paper::radial_initial_state(), 0.0, 100.0, ds);
+  const RigidBodyState exact = ref.at(start, 100.0, t_end, ds);
+  const auto errors = [&](const lgvi::CompositionTable& composition, std::initializer_list<double> epsilons) {
+    std::vector<double> e;
+    for (const double epsilon : epsilons) {
+      Adaptive stepper = paper_stepper(0.4, composition, t_end);
+      SystemState s(start);
+      stepper.initialize(s, 100.0);
+      const RunRecord r = run_until(stepper, s, t_end, epsilon);
+      EXPECT_EQ(stepper.time(), t_end);  // exactly: the last step was fitted to end there
+      EXPECT_LT(stepper.last_time_step(), r.max_dt);
+      // |q| = 1 and L are kept by the shortened step as by every other: |q| - 1
+      // random-walks by a few eps per step, ~sqrt(n) few eps over these n < 10^4
+      // steps, below 1e-13.
+      EXPECT_LT(r.max_norm_error, 1e-13);
+      EXPECT_LT(r.max_momentum_error, 1e-12);
+      e.push_back(lgvi::test::distance(s.body(0), exact));
+    }
+    return e;
+  };
+  const std::vector<double> plain = errors({}, {0.02, 0.01, 0.005});
+  const std::vector<double> four = errors(lgvi::CompositionTable::of_order(4), {0.08, 0.04, 0.02});
+  std::printf("[ lgvi     ] finishing at t = 109: errors %.3g %.3g %.3g (ratios %.3f %.3f); order 4: %.3g %.3g %.3g "
+              "(ratios %.3f %.3f)\n",
+              plain[0], plain[1], plain[2], plain[0] / plain[1], plain[1] / plain[2], four[0], four[1], four[2],
+              four[0] / four[1], four[1] / four[2]);
+  EXPECT_THAT(plain[0] / plain[1], ::testing::AllOf(::testing::Gt(3.6), ::testing::Lt(4.4)));
+  EXPECT_THAT(plain[1] / plain[2], ::testing::AllOf(::testing::Gt(3.6), ::testing::Lt(4.4)));
+  EXPECT_THAT(four[0] / four[1], ::testing::AllOf(::testing::Gt(14.0), ::testing::Lt(18.0)));
+  EXPECT_THAT(four[1] / four[2], ::testing::AllOf(::testing::Gt(14.0), ::testing::Lt(18.0)));
+}
+
+TEST(TimeTransformed, FinishTimeLeavesEveryEarlierStepAsItWas) {
+  // The steps before the last are the same with or without a finish time,
+  // bit for bit (only a step that can reach it keeps a copy of its start).
+  const double t_end = 30.0;
+  Adaptive free_running = paper_stepper(0.4), finishing = paper_stepper(0.4, {}, t_end);
+  SystemState a(lgvi::paper::radial_initial_state()), b(lgvi::paper::radial_initial_state());
+  free_running.initialize(a, 0.0);
+  finishing.initialize(b, 0.0);
+  std::int64_t steps = 0;
+  while (finishing.time() < t_end) {
+    free_running.step(a, 0.0, 0.02);
+    finishing.step(b, 0.0, 0.02);
+    ++steps;
+    if (free_running.time() > t_end) {
+      EXPECT_EQ(finishing.time(), t_end);
+      EXPECT_LT(finishing.last_time_step(), free_running.last_time_step());
+      break;
+    }
+    ASSERT_EQ(a.x[0], b.x[0]) << "step " << steps;
+    ASSERT_EQ(a.p[0], b.p[0]) << "step " << steps;
+    ASSERT_EQ(a.w[0], b.w[0]) << "step " << steps;
+    ASSERT_EQ(a.q[0].w(), b.q[0].w()) << "step " << steps;
+    ASSERT_EQ(a.q[0].vec(), b.q[0].vec()) << "step " << steps;
+    ASSERT_EQ(free_running.time(), finishing.time()) << "step " << steps;
+  }
+  EXPECT_EQ(finishing.time(), t_end);
 }
 
 TEST(TimeTransformed, IsReversible) {

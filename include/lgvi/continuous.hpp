@@ -20,6 +20,9 @@
 #include <lgvi/s3.hpp>
 #include <lgvi/state.hpp>
 
+#include <stdexcept>
+#include <string>
+
 namespace lgvi {
 
 /// A point of T(R^3 x S^3) in the paper's variables: (x, xdot, q, xi),
@@ -72,6 +75,39 @@ class ContinuousEquations {
       s = s + (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (h / 6);
     }
     return s;
+  }
+
+  /// The state at time t_end >= t0 from s at t0 by RK4 in the fictitious
+  /// time tau of the time transformation dt/dtau = g(-V) (g: the monitor of
+  /// time_transformed.hpp, a callable): steps dtau (t integrated with them)
+  /// while they end before t_end, then RK4 in t over the rest (less than one
+  /// step's dt, in 16 sub-steps). Smooth through a close pass, where RK4 in t
+  /// would need tiny steps: a tight reference for the adaptive LGVI.
+  /// std::runtime_error if t stops advancing (not finite: a collision).
+  template <class Monitor>
+  ContinuousState rk4_time_transformed(ContinuousState s, double t0, double t_end, double dtau, Monitor&& g) const {
+    // The equations in tau: d(state)/dtau = g(U) d(state)/dt, dt/dtau = g(U), U = -V.
+    const auto d = [&](const ContinuousState& x, double& rate) {
+      rate = g(-potential_.evaluate(x.x, S3d(x.q)).energy);
+      return derivative(x) * rate;
+    };
+    double t = t0;
+    for (;;) {
+      double r1 = 0, r2 = 0, r3 = 0, r4 = 0;
+      const ContinuousState k1 = d(s, r1);
+      const ContinuousState k2 = d(s + k1 * (dtau / 2), r2);
+      const ContinuousState k3 = d(s + k2 * (dtau / 2), r3);
+      const ContinuousState k4 = d(s + k3 * dtau, r4);
+      const double t_next = t + (r1 + 2 * r2 + 2 * r3 + r4) * (dtau / 6);
+      if (!(t_next > t))  // not finite, or g so small that t stands still (a collision)
+        throw std::runtime_error("the time-transformed RK4 reference stopped advancing at t = " + std::to_string(t) +
+                                 " (t + dt = " + std::to_string(t_next) + "): a collision, or a step too large");
+      if (t_next > t_end) break;
+      s = s + (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (dtau / 6);
+      t = t_next;
+    }
+    constexpr long rest_steps = 16;
+    return rk4(s, (t_end - t) / rest_steps, rest_steps);
   }
 
  private:

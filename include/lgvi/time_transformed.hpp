@@ -52,6 +52,14 @@
 // raises its order in eps (to 4, 6, 8: Yoshida's triple jump gives errors
 // falling by 16.0 per halving of eps through the paper's close pass). A
 // negative gamma_i steps back in t as well; the whole step advances it.
+//
+// Finishing at a given time (TimeTransformOptions::finish_time): the step
+// that would pass it is taken again from its start with a smaller eps' in
+// (0, eps), found by the Illinois variant of regula falsi on dt(eps') = the
+// time left (bracketed by 0 and eps, where the full step passed it), so the
+// run ends at that time exactly (to 4 eps of t) with a step of the same method
+// (same order in eps; each trial costs a step's evaluations). Only steps that can reach it
+// (t + eps sum |gamma_i| >= finish time, as g <= 1) keep a copy of their start.
 #pragma once
 
 #include <lgvi/checkpoint_fields.hpp>
@@ -66,6 +74,7 @@
 #include <lgvi/stepper.hpp>
 #include <lgvi/system.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -77,6 +86,9 @@ namespace lgvi {
 struct TimeTransformOptions {
   /// c in g(u) = (1 + (u/c)^4)^(-3/8); 0: |V| at the start.
   double monitor_scale = 0.0;
+  /// The physical time at which the run must end exactly (the file comment):
+  /// the step that would pass it is shortened to end there. Infinity: none.
+  double finish_time = std::numeric_limits<double>::infinity();
 };
 
 /// The monitor g(u) = (1 + (u/c)^4)^(-3/8), c > 0: in (0, 1], 1 at u = 0.
@@ -102,7 +114,9 @@ class TimeTransformedLieGroupVariationalIntegrator : public detail::ImplicitStep
     if (!(tt.monitor_scale >= 0.0 && std::isfinite(tt.monitor_scale)))
       throw InvalidInput("integrator.monitor_scale: must be a finite number > 0 (or 0: |V| at the start), got " +
                          std::to_string(tt.monitor_scale));
+    if (std::isnan(tt.finish_time)) throw InvalidInput("integrator.duration: the finish time is not a number");
     for (std::size_t k = 0; k < this->system_.kinds(); ++k) solvers_.emplace_back(this->system_.kind_body(k), solver);
+    for (const double g : composition_.gamma()) reach_ += std::abs(g);
     // Each drift of each sub-step extrapolates its own relative rotations.
     this->set_stages(2 * composition_.stages());
   }
@@ -126,34 +140,57 @@ class TimeTransformedLieGroupVariationalIntegrator : public detail::ImplicitStep
   /// One step of fictitious size eps: drift-kick-drift (the file comment),
   /// or the composition's sub-steps gamma_i eps. The `s` argument (the loop's
   /// fictitious time) is not used: the physical time advances by the sum of
-  /// the drifts' dt.
+  /// the drifts' dt. A step that would pass the finish time is shortened to
+  /// end there (the file comment), and time() is then the finish time; its
+  /// solve report is its last trial's (the evaluations of every trial count);
+  /// a step from the finish time has length 0.
   void step(SystemState& state, double /*s*/, double eps) {
-    const System& sys = this->system_;
-    for (SolveReport& r : this->reports_) r = {};
-    double dt = 0.0;
-    const std::vector<double>& gamma = composition_.gamma();
-    for (std::size_t i = 0; i < gamma.size(); ++i) {
-      const double e = gamma.size() == 1 ? eps : gamma[i] * eps;
-      const double dt1 = 0.5 * e * monitor(kinetic_energy(state, sys) - reference_energy_);
-      drift(state, dt1, 2 * i);
-      this->evaluate_at(state);
-      const double tau = e * monitor(-this->eval_.energy);
-      detail::for_each_body(sys, this->par_, [&](std::size_t a) { kick(state, a, tau); });
-      const double dt2 = 0.5 * e * monitor(kinetic_energy(state, sys) - reference_energy_);
-      drift(state, dt2, 2 * i + 1);
-      dt += dt1 + dt2;
+    if (!(time_ + eps * reach_ >= tt_.finish_time)) {
+      advance(state, eps);
+      return;
     }
-    this->evaluate_at(state);
-    detail::for_each_body(sys, this->par_, [&](std::size_t a) { this->note_finite(state, a); });
-    this->finish_step(state, /*checked=*/true);
-    // t += dt as a compensated sum: the steps are not all the same, and
-    // 10^5 of them rounded at the size of t would cost the trajectory rows
-    // digits of t (the loop's t0 + k h has no such sum to make).
-    const double y = dt - time_carry_;
-    const double t1 = time_ + y;
-    time_carry_ = (t1 - time_) - y;
-    time_ = t1;
-    last_dt_ = dt;
+    const SystemState start = state;
+    const auto predictors = this->predictors_;
+    const auto x_carry = this->x_carry_;
+    const double time0 = time_, carry0 = time_carry_;
+    advance(state, eps);
+    if (time_ <= tt_.finish_time) return;
+    // The time left, as the compensated sum holds it (time_ - carry is the sum).
+    const double left = (tt_.finish_time - time0) + carry0;
+    const auto miss = [&](double e) {
+      this->predictors_ = predictors;
+      this->x_carry_ = x_carry;
+      time_ = time0;
+      time_carry_ = carry0;
+      state = start;
+      advance(state, e);
+      return last_dt_ - left;
+    };
+    // Illinois: f(0) = -left < 0 < f(eps); a trial replaces the end of its
+    // sign, and halves the other end's f when it keeps the same end twice.
+    // Converged at a dt within 4 eps of the size of t: the state's offset
+    // from the finish time is round-off.
+    const double tolerance =
+        4.0 * std::numeric_limits<double>::epsilon() * std::max(std::abs(tt_.finish_time), std::abs(time0));
+    double a = 0.0, fa = -left, b = eps, fb = last_dt_ - left, f = fb;
+    for (int it = 0; it < 100 && std::abs(f) > tolerance; ++it) {
+      const double e = b - fb * (b - a) / (fb - fa);
+      f = miss(e);
+      if ((f > 0) == (fb > 0)) {
+        fa *= 0.5;
+      } else {
+        a = b;
+        fa = fb;
+      }
+      b = e;
+      fb = f;
+    }
+    if (std::abs(f) > tolerance)
+      throw StepFailure("the last step could not be fitted to end at t = " + std::to_string(tt_.finish_time) +
+                        " (its physical step misses it by " + std::to_string(f) + ")");
+    time_ = tt_.finish_time;
+    time_carry_ = 0.0;
+    last_dt_ = left;
   }
 
   /// The physical time of the current state.
@@ -209,6 +246,36 @@ class TimeTransformedLieGroupVariationalIntegrator : public detail::ImplicitStep
   }
 
  private:
+  /// The step of fictitious size eps of step(), without the finish time.
+  void advance(SystemState& state, double eps) {
+    const System& sys = this->system_;
+    for (SolveReport& r : this->reports_) r = {};
+    double dt = 0.0;
+    const std::vector<double>& gamma = composition_.gamma();
+    for (std::size_t i = 0; i < gamma.size(); ++i) {
+      const double e = gamma.size() == 1 ? eps : gamma[i] * eps;
+      const double dt1 = 0.5 * e * monitor(kinetic_energy(state, sys) - reference_energy_);
+      drift(state, dt1, 2 * i);
+      this->evaluate_at(state);
+      const double tau = e * monitor(-this->eval_.energy);
+      detail::for_each_body(sys, this->par_, [&](std::size_t a) { kick(state, a, tau); });
+      const double dt2 = 0.5 * e * monitor(kinetic_energy(state, sys) - reference_energy_);
+      drift(state, dt2, 2 * i + 1);
+      dt += dt1 + dt2;
+    }
+    this->evaluate_at(state);
+    detail::for_each_body(sys, this->par_, [&](std::size_t a) { this->note_finite(state, a); });
+    this->finish_step(state, /*checked=*/true);
+    // t += dt as a compensated sum: the steps are not all the same, and
+    // 10^5 of them rounded at the size of t would cost the trajectory rows
+    // digits of t (the loop's t0 + k h has no such sum to make).
+    const double y = dt - time_carry_;
+    const double t1 = time_ + y;
+    time_carry_ = (t1 - time_) - y;
+    time_ = t1;
+    last_dt_ = dt;
+  }
+
   /// Every body's free motion over dt by the LGVI (the file comment), with
   /// the predictors of `stage` (2 i: sub-step i's first drift, 2 i + 1 its
   /// second); each body's solve report added to the step's.
@@ -244,6 +311,7 @@ class TimeTransformedLieGroupVariationalIntegrator : public detail::ImplicitStep
   TimeTransformOptions tt_;
   std::vector<RotationSolver> solvers_;  ///< per kind (System::kind)
   CompositionTable composition_;  ///< the sub-steps gamma_i of a step (plain: one, gamma = 1)
+  double reach_ = 0.0;  ///< sum |gamma_i|: a step advances t by at most eps reach_ (g <= 1)
   double time_ = 0.0, time_carry_ = 0.0, last_dt_ = 0.0, reference_energy_ = 0.0, scale_ = 1.0;
 };
 

@@ -101,7 +101,8 @@ class Scenario:
                  orbit: Optional[Mapping[str, float]] = ...,
                  attitude: Optional[Mapping[str, Union[str, float]]] = ...,
                  time_transform: Optional[Literal["none", "potential"]] = ..., epsilon: Optional[float] = ...,
-                 monitor_scale: Optional[float] = ..., max_steps: Optional[int] = ...) -> None: ...
+                 monitor_scale: Optional[float] = ..., max_steps: Optional[int] = ...,
+                 exact_finish: Optional[bool] = ...) -> None: ...
     @classmethod
     def from_toml(cls, path: PathLike) -> Scenario:
         """Read a scenario file exactly as `lgvi run` does."""
@@ -120,7 +121,8 @@ class Scenario:
                     on_contact: Optional[Literal["stop", "warn", "ignore"]] = ...,
                     box: Optional[Dict[str, Any]] = ..., name: str = ...,
                     time_transform: Optional[Literal["none", "potential"]] = ..., epsilon: Optional[float] = ...,
-                    monitor_scale: Optional[float] = ..., max_steps: Optional[int] = ...) -> Scenario:
+                    monitor_scale: Optional[float] = ..., max_steps: Optional[int] = ...,
+                    exact_finish: Optional[bool] = ...) -> Scenario:
         """A scenario of N bodies from (N, 3) / (N, 4) arrays, validated by the reader of `lgvi run`."""
         ...
     @classmethod
@@ -142,7 +144,7 @@ class Scenario:
                 composition: Optional[Sequence[float]] = ..., every: int = ..., output_format: OutputFormat = ...,
                 name: str = ..., time_transform: Optional[Literal["none", "potential"]] = ...,
                 epsilon: Optional[float] = ..., monitor_scale: Optional[float] = ...,
-                max_steps: Optional[int] = ...) -> Scenario:
+                max_steps: Optional[int] = ..., exact_finish: Optional[bool] = ...) -> Scenario:
         """A copy with the given arguments changed."""
         ...
     @property

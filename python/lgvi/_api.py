@@ -238,12 +238,12 @@ _INITIAL_PAIRS = (("momentum", "velocity"), ("w", "omega"))
 _INTEGRATOR_KEYS = ("method", "solver", "step", "duration", "tolerance", "max_iterations", "predictor_order",
                     "order", "composition")
 # The adaptive step's keys ([integrator] time_transform = "potential"; docs/guide/adaptive-step.md).
-_ADAPTIVE_KEYS = ("time_transform", "epsilon", "monitor_scale", "max_steps")
+_ADAPTIVE_KEYS = ("time_transform", "epsilon", "monitor_scale", "max_steps", "exact_finish")
 
 
 def _apply_adaptive(integ, changes):
-    """time_transform, epsilon, monitor_scale and max_steps (keyword arguments) into the [integrator] dict
-    `integ`: "potential" replaces step by epsilon, "none" or None drops the four; None drops one. The reader
+    """time_transform, epsilon, monitor_scale, max_steps and exact_finish (keyword arguments) into the
+    [integrator] dict `integ`: "potential" replaces step by epsilon, "none" or None drops the five; None drops one. The reader
     checks the rest (what the adaptive step does not take)."""
     if "time_transform" in changes:
         kind = changes["time_transform"]
@@ -258,7 +258,8 @@ def _apply_adaptive(integ, changes):
             integ.pop("step", None)
     for key, check in (("epsilon", lambda v: _check.positive(v, "epsilon")),
                        ("monitor_scale", lambda v: _check.positive(v, "monitor_scale")),
-                       ("max_steps", lambda v: _check.integer(v, "max_steps", 1))):
+                       ("max_steps", lambda v: _check.integer(v, "max_steps", 1)),
+                       ("exact_finish", lambda v: _check.boolean(v, "exact_finish"))):
         if key in changes:
             if changes[key] is None:
                 integ.pop(key, None)
@@ -375,9 +376,10 @@ class Scenario:
     run takes ceil(duration / step) steps); or, for the adaptive LGVI under
     gravity (docs/guide/adaptive-step.md), ``time_transform="potential"``
     with ``epsilon`` (the fictitious-time step, in place of step),
-    ``monitor_scale`` (c; None: |V| at the start) and ``max_steps`` (None:
-    100 duration / epsilon): the run ends with the first step that reaches
-    the duration; ``method`` one of lgvi.METHODS
+    ``monitor_scale`` (c; None: |V| at the start), ``max_steps`` (None:
+    100 duration / epsilon) and ``exact_finish``: the run ends with the first
+    step that reaches the duration (with exact_finish=True, shortened to end
+    there exactly); ``method`` one of lgvi.METHODS
     ("lgvi", the Hamiltonian side, is the default; "lgvi-lagrangian",
     "so3-lgvi", "rattle-quaternion", "rk4-normalized", "euler-exp",
     "no-squish", "splitting-dlm", "exact"); ``solver`` "newton" (default),
@@ -401,13 +403,14 @@ class Scenario:
                  quaternion=None, momentum=None, velocity=None, w=None, omega=None,
                  method="lgvi", solver="newton", tolerance=None, max_iterations=None, predictor_order=None,
                  order=None, composition=None, every=1, output_format="csv", name="scenario",
-                 orbit=None, attitude=None, time_transform=None, epsilon=None, monitor_scale=None, max_steps=None):
+                 orbit=None, attitude=None, time_transform=None, epsilon=None, monitor_scale=None, max_steps=None,
+                 exact_finish=None):
         changes = dict(body=body, potential=potential, position=position, quaternion=quaternion,
                        momentum=momentum, velocity=velocity, w=w, omega=omega, method=method, solver=solver,
                        step=step, duration=duration, tolerance=tolerance, max_iterations=max_iterations,
                        predictor_order=predictor_order, every=every, orbit=orbit, attitude=attitude)
         _require_step(step, time_transform, changes, epsilon=epsilon, monitor_scale=monitor_scale,
-                      max_steps=max_steps)
+                      max_steps=max_steps, exact_finish=exact_finish)
         if order is not None:
             changes["order"] = order
         if composition is not None:
@@ -468,7 +471,7 @@ class Scenario:
     def from_arrays(cls, *, bodies, positions, quaternions, step=None, duration, momenta=None, velocities=None,
                     w=None, omegas=None, names=None, potential=None, interaction=None, method="lgvi", order=None,
                     every=1, threads=None, on_contact=None, box=None, name="scenario", time_transform=None,
-                    epsilon=None, monitor_scale=None, max_steps=None):
+                    epsilon=None, monitor_scale=None, max_steps=None, exact_finish=None):
         """A scenario of N bodies from numpy arrays (a ``[[bodies]]`` scenario file, written and read).
 
         ``bodies``: one lgvi.Body for every row, or a list of N of them;
@@ -481,7 +484,7 @@ class Scenario:
         1.0, "model": "balls" | "inertia"}`` or ``{"kind": "lennard-jones",
         "epsilon": .., "sigma": .., "cutoff": .., "skin": ..}``; ``method``,
         ``order``, ``step``, ``duration``, ``every`` and the adaptive step's
-        ``time_transform``, ``epsilon``, ``monitor_scale``, ``max_steps`` as for Scenario;
+        ``time_transform``, ``epsilon``, ``monitor_scale``, ``max_steps``, ``exact_finish`` as for Scenario;
         ``threads`` for the per-body loops (default: all cores);
         ``on_contact`` ([run] on_contact): "stop" (the default; lgvi.simulate
         then raises lgvi.IntegrationError at the first step where two bodies
@@ -501,7 +504,7 @@ class Scenario:
                             names=names, potential=potential, interaction=interaction, method=method, order=order,
                             every=every, threads=threads, on_contact=on_contact, box=box, name=name,
                             time_transform=time_transform, epsilon=epsilon, monitor_scale=monitor_scale,
-                            max_steps=max_steps)
+                            max_steps=max_steps, exact_finish=exact_finish)
 
     @classmethod
     def from_lammps_data(cls, path, *, interaction, step, duration, radius=None, periodic=None, atom_style=None,
@@ -819,7 +822,7 @@ def _system_toml(bodies, rows, names, potential, interaction, integrator, every,
 def _from_arrays(cls, *, bodies, positions, quaternions, step, duration, momenta=None, velocities=None, w=None,
                  omegas=None, names=None, potential=None, interaction=None, method="lgvi", order=None,
                  every=1, threads=None, on_contact=None, box=None, name="scenario", time_transform=None,
-                 epsilon=None, monitor_scale=None, max_steps=None):
+                 epsilon=None, monitor_scale=None, max_steps=None, exact_finish=None):
     if isinstance(bodies, dict):
         bodies = Body(**bodies)
     if isinstance(bodies, Body):
@@ -855,7 +858,8 @@ def _from_arrays(cls, *, bodies, positions, quaternions, step, duration, momenta
         if len(names) != n:
             raise ValueError(f"names: must have one name per body ({n}), got {len(names)}")
     adaptive = {}
-    _require_step(step, time_transform, adaptive, epsilon=epsilon, monitor_scale=monitor_scale, max_steps=max_steps)
+    _require_step(step, time_transform, adaptive, epsilon=epsilon, monitor_scale=monitor_scale, max_steps=max_steps,
+                  exact_finish=exact_finish)
     integ, run = _integrator_and_run(method, step, duration, order, threads, on_contact, adaptive)
     text = _system_toml(bodies, rows, names, _potential.spec(potential), _interaction(interaction), integ,
                         _check.integer(every, "every", 1), run, _box(box))

@@ -13,6 +13,13 @@ def _describe(value):
     return text if len(text) <= 80 else text[:77] + "..."
 
 
+def boolean(value, name):
+    """`value` as a bool: True or False (numpy's too), nothing else."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name}: must be True or False, got {_describe(value)}")
+    return bool(value)
+
+
 def array(value, name, shape):
     """`value` as a float64 array of exactly `shape`, all finite."""
     want = "(" + ", ".join(str(n) for n in shape) + ("," if len(shape) == 1 else "") + ")"

@@ -181,6 +181,40 @@ def test_python_keywords_refuse_what_the_adaptive_step_does_not_take():
         lgvi.Scenario(**common, time_transform="potential", epsilon=0.02, method="rattle-quaternion")
     s = lgvi.Scenario(**common, time_transform="potential", epsilon=0.02, max_steps=10)
     assert s.steps == 10 and s.time_transform == "potential"
+    with pytest.raises(ValueError, match="^exact_finish: must be True or False"):
+        lgvi.Scenario(**common, time_transform="potential", epsilon=0.02, exact_finish=1)
+    with pytest.raises(ValueError, match="integrator.exact_finish"):  # the reader's: a fixed step has no use for it
+        lgvi.Scenario(**common, step=0.01, exact_finish=True)
+
+
+@needs_cli
+def test_exact_finish_ends_at_the_duration_from_python_and_the_cli_and_resumes(tmp_path):
+    """exact_finish=True: the last row is at t = duration exactly, in lgvi.simulate as in lgvi run (row for
+    row), the rows before it are the free-running run's, bit for bit, and an interrupted run resumes byte
+    for byte through the shortened last step."""
+    lgvi = pytest.importorskip("lgvi")
+    free = lgvi.simulate(lgvi.Scenario.from_toml(CLOSE_PASS).replace(duration=120.3))
+    finishing = lgvi.Scenario.from_toml(CLOSE_PASS).replace(duration=120.3, exact_finish=True)
+    assert finishing.document["integrator"]["exact_finish"] is True
+    r = lgvi.simulate(finishing)
+    assert r.completed and r.t[-1] == 120.3 and free.t[-1] > 120.3
+    assert r.summary["last_time"] == 120.3 and r.summary["setup"]["integrator"]["exact_finish"] is True
+    assert np.array_equal(np.asarray(r.data)[:-1], np.asarray(free.data)[:-1])
+    path = scenario(tmp_path, **{"duration = 1000.0": "duration = 99999.7\nexact_finish = true",
+                                 "every = 10": "every = 5000"})
+    full = tmp_path / "full"
+    assert run(path, "--out", full).returncode == 0
+    whole = json.loads((full / "summary.json").read_text())
+    assert whole["completed"] and whole["last_time"] == 99999.7
+    assert trajectory(full)[-1, 0] == 99999.7
+    out = tmp_path / "run"
+    code, err = interrupt([path, "--out", out, "--checkpoint-every", 20000], out)
+    assert code == 130, err
+    assert run("--resume", out).returncode == 0
+    assert (out / "trajectory.csv").read_bytes() == (full / "trajectory.csv").read_bytes()
+    assert json.loads((out / "summary.json").read_text())["last_time"] == 99999.7
+    short = lgvi.Scenario.from_toml(CLOSE_PASS).replace(duration=120.3, exact_finish=True, every=1)
+    assert np.array_equal(np.asarray(lgvi.simulate(short).data)[-1], np.asarray(r.data)[-1])
 
 
 def test_from_arrays_builds_the_close_binary():
