@@ -9,6 +9,7 @@
 #include <lgvi/error.hpp>
 #include <lgvi/exact_free_body.hpp>
 #include <lgvi/potential.hpp>
+#include <lgvi/time_transformed.hpp>
 
 #include <fmt/format.h>
 
@@ -21,6 +22,7 @@
 #include <map>
 #include <optional>
 #include <stdexcept>
+#include <string_view>
 #include <variant>
 
 namespace lgvi::app {
@@ -31,8 +33,11 @@ namespace {
 
 /// The reference state at time T: for a free body (three moments) the exact flow; otherwise
 /// RK4 of the continuous equations with step h_ref (its error C h_ref^4 is
-/// then far below every method's).
-RigidBodyState reference_state(const Scenario& sc, double T, double h_ref) {
+/// then far below every method's), or, `transformed`, RK4 of them in the
+/// fictitious time of the adaptive runs' time transformation with step h_ref
+/// (ContinuousEquations::rk4_time_transformed; their monitor, the scenario's c
+/// or |V| at the start): smooth through a close pass.
+RigidBodyState reference_state(const Scenario& sc, double T, double h_ref, bool transformed) {
   // (A linear body's free flow is RK4's too: the exact flow is for three moments.)
   if (sc.potential.kind == PotentialKind::None && sc.body().rotational_dof() == 3)
     return ExactFreeRigidBody(sc.body(), sc.initial()).at(T);
@@ -42,7 +47,13 @@ RigidBodyState reference_state(const Scenario& sc, double T, double h_ref) {
   return std::visit(
       [&](const auto& potential) {
         const ContinuousEquations eqs(sc.body(), potential);
-        return from_continuous(eqs.rk4(to_continuous(sc.initial(), sc.body()), h, n), sc.body());
+        const ContinuousState start = to_continuous(sc.initial(), sc.body());
+        if (!transformed) return from_continuous(eqs.rk4(start, h, n), sc.body());
+        const double c = sc.integrator.monitor_scale > 0.0
+                             ? sc.integrator.monitor_scale
+                             : std::abs(potential.evaluate(sc.initial().x, sc.initial().q).energy);
+        const auto g = [c](double u) { return time_transform_monitor(u, c); };
+        return from_continuous(eqs.rk4_time_transformed(start, 0.0, T, h_ref, g), sc.body());
       },
       scenario_potential(sc));
 }
@@ -119,10 +130,17 @@ StateError system_error(const System& sys, const SystemState& s, const SystemSta
   return e;
 }
 
-/// Why method m cannot run the scenario, as the table says it; empty if it can. The reader's checks on
-/// [integrator] method (scenario.cpp), asked of every compared method.
-std::string not_applicable(const Scenario& sc, Method m) {
-  const MethodTraits& t = m.traits();
+/// Why the adaptive LGVI cannot run the scenario (scenario.cpp's time_transform_refusal); empty if it can.
+std::string time_transform_not_applicable(const Scenario& sc) {
+  const auto refusal = time_transform_refusal(sc.potential, sc.interaction, !sc.forcing.empty());
+  return refusal ? "the adaptive step (" + refusal->key + "): " + refusal->reason : std::string();
+}
+
+/// Why method choice m cannot run the scenario, as the table says it; empty if it can. The reader's checks
+/// on [integrator] method and time_transform (scenario.cpp), asked of every compared method.
+std::string not_applicable(const Scenario& sc, const MethodChoice& m) {
+  if (m.time_transformed) return time_transform_not_applicable(sc);
+  const MethodTraits& t = m.method.traits();
   if (t.free_body_only && (sc.bodies() > 1 || !sc.interaction.none() || sc.potential.kind != PotentialKind::None))
     return fmt::format("the exact flow of one free body; this scenario has {} bod{}{}{}", sc.bodies(),
                        sc.bodies() == 1 ? "y" : "ies",
@@ -184,6 +202,7 @@ struct LadderPoint {
 
 struct LongRun {
   double h = 0, wall = 0, max_energy_error = 0, final_energy_error = 0, max_quat = 0, max_rel_momentum = 0;
+  double last_t = 0;  ///< the time reached
   std::int64_t steps = 0, evaluations = 0;
   bool completed = false;
   std::string failure;
@@ -193,18 +212,37 @@ struct LongRun {
 
 std::string fmt_e(double v) { return std::isfinite(v) ? fmt::format("{:.3e}", v) : "-"; }
 
+/// `text` as one CSV field (RFC 4180): in double quotes, each double quote in it doubled.
+std::string csv_field(const std::string& text) {
+  std::string quoted = "\"";
+  for (const char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
 }  // namespace
 
 std::string MethodChoice::name() const {
-  return order == 2 ? std::string(to_string(method)) : fmt::format("{}:{}", to_string(method), order);
+  const std::string n = order == 2 ? std::string(to_string(method)) : fmt::format("{}:{}", to_string(method), order);
+  return time_transformed ? n + "+tt" : n;
 }
 
 MethodChoice method_choice_from_string(const std::string& text) {
   MethodChoice c;
-  const std::size_t colon = text.find(':');
-  c.method = Method::named(text.substr(0, colon), "--methods");
+  std::string spec = text;
+  constexpr std::string_view adaptive = "+tt";
+  if (const std::size_t at = spec.find(adaptive); at != std::string::npos && at + adaptive.size() != spec.size())
+    throw InvalidInput("key '--methods': \"" + text + "\": +tt goes last, after the order (e.g. lgvi:4+tt)");
+  if (spec.size() > adaptive.size() && spec.ends_with(adaptive)) {
+    c.time_transformed = true;
+    spec.resize(spec.size() - adaptive.size());
+  }
+  const std::size_t colon = spec.find(':');
+  c.method = Method::named(spec.substr(0, colon), "--methods");
+  if (c.time_transformed && c.method.traits().name != std::string_view("lgvi"))
+    throw InvalidInput("key '--methods': \"" + text + "\": +tt, the adaptive step (time_transform = \"potential\"), "
+                       "is built from the LGVI's Hamiltonian form: name lgvi+tt or lgvi:ORDER+tt");
   if (colon == std::string::npos) return c;
-  const std::string order = text.substr(colon + 1);
+  const std::string order = spec.substr(colon + 1);
   if (order != "2" && order != "4" && order != "6" && order != "8")
     throw InvalidInput("key '--methods': \"" + text + "\": the order after ':' must be 2, 4, 6 or 8");
   c.order = std::stoi(order);
@@ -216,13 +254,31 @@ MethodChoice method_choice_from_string(const std::string& text) {
   return c;
 }
 
+std::vector<MethodChoice> default_method_choices(const Scenario& sc) {
+  if (!sc.integrator.adaptive()) return {method_choice_from_string("lgvi"), method_choice_from_string("lgvi-lagrangian")};
+  // The scenario's order (a custom composition's is 2: --methods cannot name it, so the plain step).
+  const MethodChoice fixed{Method::named("lgvi"), sc.integrator.composition.order(), false};
+  return {MethodChoice{fixed.method, fixed.order, true}, fixed};
+}
+
 namespace {
-/// The scenario run with method choice m.
+/// The scenario run with method choice m: its method and order; with a time
+/// transformation (the scenario's monitor_scale) for "+tt", without one otherwise.
 Scenario with_method(const Scenario& base, const MethodChoice& m) {
   Scenario sc = base;
   sc.integrator.method = m.method;
   sc.integrator.composition = CompositionTable::of_order(m.order);
+  sc.integrator.time_transform = m.time_transformed ? TimeTransform::Potential : TimeTransform::None;
+  sc.integrator.exact_finish = false;
   return sc;
+}
+
+/// max_steps of an adaptive run of `duration` with fictitious step eps: the reader's default.
+std::int64_t adaptive_max_steps(double duration, double eps) {
+  if (const auto n = default_max_steps(duration, eps)) return *n;
+  throw InvalidInput(fmt::format("--error-time, --long-steps: an adaptive run over {} with epsilon {} would need "
+                                 "more than 2^53 steps; shorten it or enlarge --ladder-from",
+                                 duration, eps));
 }
 }  // namespace
 
@@ -231,17 +287,24 @@ namespace {
 constexpr int kMinRepeats = 3;
 constexpr int kMaxRepeats = 100000;
 
-/// The scenario run with method choice m at step `step` to t = T (llround(T / step) steps), writing its
-/// first and last rows only: one point of the ladder.
+/// The scenario run with method choice m at step `step` to t = T (llround(T / step) steps; "+tt": epsilon
+/// = step, ending at T exactly), writing its first and last rows only: one point of the ladder.
 Scenario ladder_scenario(const Scenario& base, const MethodChoice& m, double step, double T) {
   Scenario sc = with_method(base, m);
   sc.integrator.step = step;
-  sc.integrator.steps = std::llround(T / step);
+  if (m.time_transformed) {
+    sc.integrator.duration = T;
+    sc.integrator.exact_finish = true;
+    sc.integrator.steps = adaptive_max_steps(T, step);
+  } else {
+    sc.integrator.steps = std::llround(T / step);
+  }
   sc.output_every = sc.integrator.steps + 1;  // first and last rows only
   return sc;
 }
 
-/// A system's reference: lgvi composed to order 8 (Kahan & Li's 15 stages) at a step h_ref whose halving
+/// A system's reference: lgvi composed to order 8 (Kahan & Li's 15 stages; `transformed`: the adaptive
+/// lgvi:8+tt, whose step is epsilon, ending at T exactly) at a step h_ref whose halving
 /// changes the final state by at most kReferenceTolerance, in the comparison's own error measure
 /// (system_error). The steps tried are the ladder's largest h0, h0 / 2, ... down to a quarter of its
 /// finest, stopping when the tolerance is met. Past the truncation regime (where a halving divides the
@@ -270,13 +333,13 @@ constexpr int kRoundOffHalvings = 2;
 constexpr double kTruncationShrink = 8.0;
 
 SystemReference converged_reference(const Scenario& base, double T, double h_largest, double h_finest,
-                                    bool quiet) {
-  const MethodChoice order8{Method::named("lgvi"), 8};
+                                    bool quiet, bool transformed) {
+  const MethodChoice order8{Method::named("lgvi"), 8, transformed};
   const auto final_state = [&](double step) -> std::optional<SystemState> {
     MemorySink sink(2);
     SimulationResult r = simulate(ladder_scenario(base, order8, step, T), sink);
     if (!r.completed) {
-      if (!quiet) std::cerr << fmt::format("lgvi compare: reference lgvi:8, h = {:.6g}: {}\n", step, r.error);
+      if (!quiet) std::cerr << fmt::format("lgvi compare: reference {}, h = {:.6g}: {}\n", order8.name(), step, r.error);
       return std::nullopt;
     }
     return std::move(r.final_state);
@@ -290,8 +353,8 @@ SystemReference converged_reference(const Scenario& base, double T, double h_lar
     const double change = coarse && fine ? system_error(base.system, *coarse, *fine, base.initial_state).max()
                                          : std::numeric_limits<double>::infinity();
     if (!quiet && std::isfinite(change))
-      std::cerr << fmt::format("lgvi compare: reference lgvi:8, h = {:.6g}: halving it changes the final state by "
-                               "{:.3e}\n", h, change);
+      std::cerr << fmt::format("lgvi compare: reference {}, h = {:.6g}: halving it changes the final state by "
+                               "{:.3e}\n", order8.name(), h, change);
     if (change < best.change) best = {*coarse, h, change, change <= kReferenceTolerance};
     not_falling = std::isfinite(change) && change * kTruncationShrink > previous ? not_falling + 1 : 0;
     previous = std::min(previous, change);
@@ -300,10 +363,11 @@ SystemReference converged_reference(const Scenario& base, double T, double h_lar
   if (!(best.change <= kReferenceLimit))
     throw std::runtime_error(
         std::isfinite(best.change)
-            ? fmt::format("compare: the reference (lgvi:8) did not converge: at best, halving h_ref = {:.6g} changes "
+            ? fmt::format("compare: the reference ({}) did not converge: at best, halving h_ref = {:.6g} changes "
                           "the final state by {:.3e} (above {:.0e}); give a shorter --error-time",
-                          best.h, best.change, kReferenceLimit)
-            : std::string("compare: the reference runs (lgvi:8) failed at every step; give a smaller --ladder-from"));
+                          order8.name(), best.h, best.change, kReferenceLimit)
+            : fmt::format("compare: the reference runs ({}) failed at every step; give a smaller --ladder-from",
+                          order8.name()));
   return best;
 }
 
@@ -317,10 +381,6 @@ std::string fmt_timing(const Timing& t, double unit, const char* spec) {
 
 int compare_methods(const Scenario& base, const CompareOptions& opt) {
   if (opt.methods.empty()) throw InvalidInput("--methods: name at least one method");
-  if (base.integrator.adaptive())
-    throw InvalidInput("integrator.time_transform: lgvi compare measures methods at fixed steps and does not take "
-                       "the adaptive step yet; compare a copy with time_transform = \"none\" and a step, and run "
-                       "this scenario with lgvi run");
   if (opt.ladder < 2 || opt.ladder > 12) throw InvalidInput("--ladder: must be between 2 and 12");
   if (opt.long_steps < 1) throw InvalidInput("--long-steps: must be >= 1");
   if (!(opt.timing_budget >= 0) || opt.timing_budget > 1e4)
@@ -339,7 +399,10 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
                          "\" needs three principal moments > 0; the body is " +
                          (base.body().rotational_dof() == 2 ? "linear" : "a point mass") +
                          "; name lgvi or lgvi-lagrangian");
-    std::string why = system ? not_applicable(base, m.method) : std::string();
+    if (!system && m.time_transformed)
+      if (const std::string why = time_transform_not_applicable(base); !why.empty())
+        throw InvalidInput("--methods: \"" + m.name() + "\": " + why + "; name a fixed-step method");
+    std::string why = system ? not_applicable(base, m) : std::string();
     if (why.empty())
       runnable.push_back(m);
     else
@@ -369,14 +432,21 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
   const double h_min = h0 / std::pow(2.0, opt.ladder - 1);
   // No potential and no interaction: nothing to count but right-hand-side stages.
   const bool free_body = base.potential.kind == PotentialKind::None && base.interaction.none();
+  // An adaptive scenario, or an adaptive method among those compared: a close pass may lie within [0, T],
+  // which a fixed-step reference cannot follow; the references are then time-transformed too.
+  const bool transformed =
+      base.integrator.adaptive() ||
+      std::any_of(runnable.begin(), runnable.end(), [](const MethodChoice& m) { return m.time_transformed; });
   const SystemReference system_reference =
-      system ? converged_reference(base, T, h0, h_min, opt.quiet) : SystemReference{};
+      system ? converged_reference(base, T, h0, h_min, opt.quiet, transformed) : SystemReference{};
   const std::string reference_name =
-      system      ? fmt::format("lgvi:8 with step {:.3g}", system_reference.h)
+      system      ? fmt::format("lgvi:8{} with step {:.3g}", transformed ? "+tt" : "", system_reference.h)
       : free_body ? std::string("the exact flow")
-                  : fmt::format("RK4 with step {:.3g}", h_min / 8);
+      : transformed
+          ? fmt::format("RK4 of the time-transformed equations with step {:.3g} in the fictitious time", h_min / 8)
+          : fmt::format("RK4 with step {:.3g}", h_min / 8);
   if (!opt.quiet && !system) std::cerr << fmt::format("lgvi compare: reference ({}) to t = {}\n", reference_name, T);
-  const RigidBodyState reference = system ? RigidBodyState{} : reference_state(base, T, h_min / 8);
+  const RigidBodyState reference = system ? RigidBodyState{} : reference_state(base, T, h_min / 8, transformed);
   const RigidBodyState start = base.initial();
 
   std::map<MethodChoice, std::vector<LadderPoint>> ladder;
@@ -426,6 +496,14 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
     sc.integrator.step = h * cost_factor;
     sc.integrator.steps = static_cast<std::int64_t>(static_cast<double>(opt.long_steps) / cost_factor);
     sc.output_every = std::max<std::int64_t>(1, sc.integrator.steps / 2000);
+    if (m.time_transformed) {
+      // Over the same span, long_steps h, with epsilon = e h: the fixed step's far from the sources, where
+      // g = 1, and shorter where the dynamics is fast. Not equal cost then (a closer match, epsilon scaled
+      // by the mean g of a shorter run, takes steps far out larger than the fixed step's, which the body's
+      // own spin may not allow): comparison.md says how many evaluations it took.
+      sc.integrator.duration = static_cast<double>(opt.long_steps) * h;
+      sc.integrator.steps = adaptive_max_steps(sc.integrator.duration, sc.integrator.step);
+    }
     // A [[bodies]] scenario writes the long layout: one row per body and output step.
     const TrajectoryLayout layout = base.bodies_format ? scenario_layout(sc) : TrajectoryLayout{};
     MemorySink sink(2100 * layout.rows_per_step(), layout);
@@ -436,6 +514,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
     L.failure = r.error;
     L.wall = r.wall_seconds;
     L.steps = r.stats.last_k;
+    L.last_t = r.stats.last_t;
     L.evaluations = r.stats.potential_evaluations;
     L.max_energy_error = r.stats.max_energy_error;
     L.max_quat = r.stats.max_quat_error;
@@ -491,9 +570,9 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
   if (system)
     write_file_atomically(
         (fs::path(dir) / "reference.json").string(),
-        fmt::format("{{\n  \"method\": \"lgvi:8\",\n  \"t\": {},\n  \"h_ref\": {},\n  \"change_on_halving\": {},\n"
+        fmt::format("{{\n  \"method\": \"lgvi:8{}\",\n  \"t\": {},\n  \"h_ref\": {},\n  \"change_on_halving\": {},\n"
                     "  \"tolerance\": {},\n  \"tolerance_met\": {}\n}}\n",
-                    json_number(T), json_number(system_reference.h), json_number(system_reference.change),
+                    transformed ? "+tt" : "", json_number(T), json_number(system_reference.h), json_number(system_reference.change),
                     json_number(kReferenceTolerance), system_reference.met ? "true" : "false"));
 
   // ns per step at the finest step, with its quartiles.
@@ -530,7 +609,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
   const std::string error_text =
       system
           ? fmt::format(
-                "The reference is lgvi composed to order 8 (Kahan & Li's 15 stages) at h_ref = {:.6g}, the step at "
+                "The reference is lgvi composed to order 8 (Kahan & Li's 15 stages{}) at h_ref = {:.6g}, the step at "
                 "which halving changes the final state by {:.3e} in the error below ({}; reference.json). Error = "
                 "the largest, over the bodies, of |x_a - x_a,ref| / L (L = the largest distance of a body from the "
                 "centre of mass, at t = 0 or in the reference), the attitude angle of R_a,ref^T R_a (rad), "
@@ -538,7 +617,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
                 "reference; absolute where a scale is 0); the parts are in work_precision.csv and comparison.csv, "
                 "with the system's energy error max |E - E0| and its momentum errors max |P - P0| / sum |p_a0|, "
                 "max |L - L0| / |L0| over [0, T].\n",
-                system_reference.h, system_reference.change,
+                transformed ? "; adaptive, +tt: h_ref is its epsilon, the run ending at T" : "", system_reference.h, system_reference.change,
                 system_reference.met
                     ? fmt::format("tolerance {:.0e}, met", kReferenceTolerance)
                     : fmt::format("the tolerance {:.0e} is below the round-off accumulated over this run; the "
@@ -554,16 +633,31 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
   const std::string energy_column =
       system ? fmt::format("max abs energy error over [0, T] at h/{} | ", finest) : std::string();
   const int columns = system ? 13 : 11;
+  std::string adaptive_note;
+  for (const MethodChoice& m : runnable) {
+    if (!m.time_transformed) continue;
+    const LongRun& L = long_runs[m];
+    adaptive_note += fmt::format("{}{}: epsilon {:.4g}, {} evaluations", adaptive_note.empty() ? "" : "; ", m.name(),
+                                 L.h, L.evaluations);
+  }
+  if (!adaptive_note.empty())
+    adaptive_note = fmt::format(
+        "The adaptive LGVI (+tt, time_transform = \"potential\"): h is its fictitious-time step epsilon (the "
+        "physical step adapts, dt = epsilon g(-V)); its ladder runs end at t = T exactly (exact_finish). Its long "
+        "run spans the same time with epsilon = e h, the fixed step's where g = 1, and takes more evaluations where "
+        "its step shrinks (not equal cost: a fixed step takes {} + 1 over the whole span): {}.\n",
+        opt.long_steps, adaptive_note);
   std::string md = fmt::format(
       "# Comparison on `{}`\n\nWork-precision: steps h = {} ... {} to t = {} against {}. {}"
       "Observed order: from the finest pair of steps whose errors lie in [1e-10, 0.1].\n"
       "Timings: after an untimed first run, each run repeated until the repeats add up to {} s (at least {}); "
       "median [first quartile, third quartile]; \"within noise\" where the quartile intervals overlap.\n"
-      "{}; {} steps of h.\n\n"
+      "{}; {} steps of h.\n{}\n"
       "| method | {}/step | observed order | error at h | error at h/{} | {}attitude error at h/{} (rad) | {}"
       "ns/step, median [quartiles] | vs lgvi | long: max abs energy error | long: max abs(abs(q) - 1) | long: max rel. {} |\n"
       "|---|{}\n",
       base.name, h0, h_min, T, reference_name, error_text, opt.timing_budget, kMinRepeats, cost_note, opt.long_steps,
+      adaptive_note,
       free_body ? "stages" : "evaluations", finest, position_column, finest, energy_column, momentum_column,
       [&] {
         std::string separator;
@@ -575,7 +669,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
       // Not run: the reason, in the table and in the CSV's last column.
       csv += m.name();
       for (int c = 1; c < 21; ++c) csv += c == 14 || c == 20 ? ",false" : ",null";
-      csv += ",null,null,null,\"" + u->second + "\"\n";
+      csv += ",null,null,null," + csv_field(u->second) + "\n";
       md += fmt::format("| {} | not applicable: {} |", m.name(), u->second);
       for (int c = 2; c < columns; ++c) md += " - |";
       md += "\n";
@@ -621,7 +715,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
                       !std::isfinite(vs) ? std::string("-")
                       : noise            ? fmt::format("{:.2f} (within noise)", vs)
                                          : fmt::format("{:.2f}", vs),
-                      L.completed ? fmt_e(L.max_energy_error) : fmt::format("failed at t = {}", L.steps * L.h),
+                      L.completed ? fmt_e(L.max_energy_error) : fmt::format("failed at t = {}", L.last_t),
                       fmt_e(L.max_quat), fmt_e(L.max_rel_momentum));
   }
   // Who keeps the energy error below a target at the least cost (from the ladder): by potential evaluations

@@ -13,6 +13,12 @@
 //    momentum errors beside them; a method that cannot run the system (exact: one free body only;
 //    no-squish, splitting-dlm: principal axes; only lgvi and so3-lgvi take a forcing) is a table row
 //    saying why, not a failed comparison.
+//  * The adaptive LGVI ("lgvi+tt", "lgvi:4+tt"; the default when the scenario has time_transform):
+//    its ladder is in epsilon, each run ending at T exactly (exact_finish), so fixed and adaptive
+//    steps meet on the same error-against-evaluations axes. Where it is compared, or the scenario
+//    is adaptive, the references are time-transformed too: RK4 of the continuous equations in the
+//    fictitious time (ContinuousEquations::rk4_time_transformed, the runs' monitor) for one body,
+//    lgvi:8+tt for a system: a fixed-step reference cannot follow a close pass.
 //  * Long-time behaviour at equal cost: every method given the same number of
 //    potential evaluations per unit time (a method needing e evaluations per
 //    step runs with step e h), out to `long_steps` steps of h; energy error,
@@ -31,17 +37,29 @@
 namespace lgvi::app {
 
 /// A method as `--methods` names it: "lgvi", or "lgvi:4" for the method
-/// composed to order 4 (composition.hpp; symmetric one-step methods only).
+/// composed to order 4 (composition.hpp; symmetric one-step methods only);
+/// "lgvi+tt" or "lgvi:4+tt" for the adaptive LGVI (time_transform =
+/// "potential", time_transformed.hpp), whose step in the ladder is epsilon.
 struct MethodChoice {
   Method method;  ///< default: "lgvi"
   int order = 2;
+  bool time_transformed = false;  ///< the adaptive LGVI ("+tt")
   std::string name() const;
-  bool operator<(const MethodChoice& o) const { return method != o.method ? method < o.method : order < o.order; }
-  bool operator==(const MethodChoice& o) const { return method == o.method && order == o.order; }
+  bool operator<(const MethodChoice& o) const {
+    if (method != o.method) return method < o.method;
+    return order != o.order ? order < o.order : time_transformed < o.time_transformed;
+  }
+  bool operator==(const MethodChoice& o) const {
+    return method == o.method && order == o.order && time_transformed == o.time_transformed;
+  }
 };
 
-/// "NAME" or "NAME:ORDER"; throws InvalidInput naming `--methods`.
+/// "NAME", "NAME:ORDER", "lgvi+tt" or "lgvi:ORDER+tt"; throws InvalidInput naming `--methods`.
 MethodChoice method_choice_from_string(const std::string& text);
+
+/// The methods compared when `--methods` is not given: lgvi and lgvi-lagrangian; for an adaptive
+/// scenario (time_transform), its adaptive step and the fixed step at its order (e.g. lgvi:4+tt, lgvi:4).
+std::vector<MethodChoice> default_method_choices(const Scenario& scenario);
 
 struct CompareOptions {
   std::vector<MethodChoice> methods;

@@ -62,9 +62,12 @@ int run_cli(int argc, char** argv) {
   lgvi::app::CompareOptions compare_options;
   bool compare_no_figures = false;
   compare->add_option("SCENARIO", compare_scenario, "Scenario file (TOML)")->required();
-  compare->add_option("--methods", compare_methods_list,
-                      "Comma-separated methods (see docs/guide/compare.md); NAME:ORDER composes a symmetric one-step "
-                      "method to order 4, 6 or 8 (e.g. lgvi:4). Default: lgvi,lgvi-lagrangian");
+  auto* compare_methods_opt = compare->add_option(
+      "--methods", compare_methods_list,
+      "Comma-separated methods (see docs/guide/compare.md); NAME:ORDER composes a symmetric one-step method to "
+      "order 4, 6 or 8 (e.g. lgvi:4); lgvi+tt, lgvi:ORDER+tt the adaptive LGVI (time_transform). Default: "
+      "lgvi,lgvi-lagrangian; for a scenario with time_transform, its adaptive step and the fixed one at its order "
+      "(e.g. lgvi:4+tt,lgvi:4)");
   compare->add_option("--out", compare_options.out_dir,
                       "Output folder (default: NAME-compare, NAME the scenario's name); it must not exist or be "
                       "empty, unless --force");
@@ -153,9 +156,13 @@ int run_cli(int argc, char** argv) {
   try {
     if (compare->parsed()) {
       const lgvi::app::Scenario scenario = lgvi::app::read_scenario(compare_scenario);
-      std::stringstream list(compare_methods_list);
-      for (std::string name; std::getline(list, name, ',');)
-        compare_options.methods.push_back(lgvi::app::method_choice_from_string(name));
+      if (compare_methods_opt->count() == 0) {
+        compare_options.methods = lgvi::app::default_method_choices(scenario);
+      } else {
+        std::stringstream list(compare_methods_list);
+        for (std::string name; std::getline(list, name, ',');)
+          compare_options.methods.push_back(lgvi::app::method_choice_from_string(name));
+      }
       compare_options.figures = !compare_no_figures;
       return lgvi::app::compare_methods(scenario, compare_options);
     }

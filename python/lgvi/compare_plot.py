@@ -80,7 +80,9 @@ def draw_compare_figures(directory):
             ax.semilogy(t, np.maximum(y, FLOOR), label=method, lw=0.8)
         ax.set_xlabel("t")
         ax.set_ylabel(f"max({label}, {FLOOR:g})")
-        ax.set_title(f"Long-time behaviour at equal cost: {label}")
+        # The adaptive LGVI's long run (+tt) has the fixed step's epsilon = e h, not its cost (comparison.md).
+        adaptive = " (+tt: epsilon = e h)" if any(m.endswith("+tt") for m in lt) else ""
+        ax.set_title(f"Long-time behaviour at equal cost{adaptive}: {label}")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8)
         save(fig, name)
