@@ -118,6 +118,15 @@ struct TrajectoryLayout {
   }
   /// Rows per output step.
   std::int64_t rows_per_step() const { return bodies > 0 ? bodies : 1; }
+  /// The column names: `header` split at its commas.
+  std::vector<std::string> column_names() const {
+    std::vector<std::string> names;
+    std::size_t from = 0;
+    for (std::size_t comma; (comma = header.find(',', from)) != std::string::npos; from = comma + 1)
+      names.push_back(header.substr(from, comma - from));
+    names.push_back(header.substr(from));
+    return names;
+  }
 };
 
 /// How far a file has been written, as returned by TrajectorySink::sync() and

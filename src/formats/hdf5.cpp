@@ -185,13 +185,7 @@ class Hdf5Trajectory final : public TrajectorySink {
                                  H5P_DEFAULT),
                       H5Dclose, "create /trajectory in");
 
-    std::vector<std::string> names;
-    for (const char *p = layout_.header.c_str(), *q = p;; ++q)
-      if (*q == ',' || *q == '\0') {
-        names.emplace_back(p, q);
-        if (*q == '\0') break;
-        p = q + 1;
-      }
+    const std::vector<std::string> names = layout_.column_names();
     std::vector<const char*> pointers;
     pointers.reserve(names.size());
     for (const auto& n : names) pointers.push_back(n.c_str());

@@ -143,14 +143,7 @@ class NpzTrajectory final : public TrajectorySink {
     entries.push_back(trajectory_local_entry(crc32_combine(crc32_of(header), data_crc_, data_bytes),
                                              header.size() + data_bytes));
 
-    std::vector<std::string> names;
-    for (const char *p = layout_.header.c_str(), *q = p;; ++q)
-      if (*q == ',' || *q == '\0') {
-        names.emplace_back(p, q);
-        if (*q == '\0') break;
-        p = q + 1;
-      }
-    const std::pair<const char*, std::string> small[] = {{"columns.npy", npy_unicode(names, false)},
+    const std::pair<const char*, std::string> small[] = {{"columns.npy", npy_unicode(layout_.column_names(), false)},
                                                         {"scenario.npy", npy_unicode({scenario_toml}, true)},
                                                         {"summary.npy", npy_unicode({summary_json}, true)}};
     std::int64_t at = end_;

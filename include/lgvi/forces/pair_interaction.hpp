@@ -316,12 +316,37 @@ class PairInteraction {
     return count;
   }
 
+  /// A site's index in the lists (4 bytes: the lists are most of the
+  /// interaction's memory); at most max_sites sites.
+  using SiteIndex = std::uint32_t;
+  static constexpr std::size_t max_sites = 0x7fffffff;
+
   /// A separation's component along axis k: its minimum image in a periodic
   /// box (the identity along an open axis), as it is.
   template <bool Periodic>
   double separation(double d, int k) const {
     if constexpr (Periodic) return box_.reduce(d, k);
     else return d;
+  }
+
+  /// The candidates[0, n) within r^2 < reach2 of position x, in their order,
+  /// into list (which has room for n); returns how many. Branch-free: each
+  /// candidate is written, and kept by advancing the count (the lists'
+  /// build and pruning both filter so).
+  template <bool Periodic>
+  std::size_t within(const Vector3<double>* position, const Vector3<double>& x, const SiteIndex* candidates,
+                     std::size_t n, double reach2, SiteIndex* list) const {
+    const double xi = x(0), yi = x(1), zi = x(2);
+    std::size_t count = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const SiteIndex j = candidates[k];
+      const double dx = separation<Periodic>(position[j](0) - xi, 0),
+                   dy = separation<Periodic>(position[j](1) - yi, 1),
+                   dz = separation<Periodic>(position[j](2) - zi, 2);
+      list[count] = j;
+      count += static_cast<std::size_t>(dx * dx + dy * dy + dz * dz < reach2);
+    }
+    return count;
   }
 
   /// The pair terms of bodies [a, b): the separations gathered into the
@@ -703,7 +728,6 @@ class PairInteraction {
             }
           }
           for (std::size_t i = g0; i < g1; ++i) {
-            const double xi = position_[i](0), yi = position_[i](1), zi = position_[i](2);
             const std::size_t first = used;
             if (out.size() < first + kept) {
               // Grown by a quarter (a vector's resize would double it): the
@@ -711,16 +735,8 @@ class PairInteraction {
               out.reserve(first + kept + (first + kept) / 4);
               out.resize(out.capacity());
             }
-            SiteIndex* const list = out.data() + first;
-            std::size_t count = 0;
-            for (std::size_t k = 0; k < kept; ++k) {
-              const SiteIndex j = near[k];
-              const double dx = separation<Periodic>(position_[j](0) - xi, 0),
-                           dy = separation<Periodic>(position_[j](1) - yi, 1),
-                           dz = separation<Periodic>(position_[j](2) - zi, 2);
-              list[count] = j;
-              count += static_cast<std::size_t>(dx * dx + dy * dy + dz * dz < reach2);
-            }
+            const std::size_t count =
+                within<Periodic>(position_.data(), position_[i], near.data(), kept, reach2, out.data() + first);
             used = first + count;
             outer_start_[i + 1] = count;  // summed below
           }
@@ -763,17 +779,10 @@ class PairInteraction {
       SiteIndex* const list = neighbours_.data() + base;
       std::size_t count = 0;
       for (std::size_t i = i0; i < i1; ++i) {
-        const double xi = position[i](0), yi = position[i](1), zi = position[i](2);
-        const std::size_t first = count, k1 = outer_start_[i + 1] - base;
-        for (std::size_t k = outer_start_[i] - base; k < k1; ++k) {
-          const SiteIndex j = outer[k];
-          const double dx = separation<Periodic>(position[j](0) - xi, 0),
-                       dy = separation<Periodic>(position[j](1) - yi, 1),
-                       dz = separation<Periodic>(position[j](2) - zi, 2);
-          list[count] = j;
-          count += static_cast<std::size_t>(dx * dx + dy * dy + dz * dz < reach2);
-        }
-        list_start_[i + 1] = count - first;  // summed below
+        const std::size_t k0 = outer_start_[i] - base, k1 = outer_start_[i + 1] - base;
+        const std::size_t kept = within<Periodic>(position, position[i], outer + k0, k1 - k0, reach2, list + count);
+        count += kept;
+        list_start_[i + 1] = kept;  // summed below
       }
       chunk_used_[chunk] = count;
     });
@@ -910,10 +919,6 @@ class PairInteraction {
   /// extended by reach, a volume closer to that box's than with cells of
   /// side reach (docs/tuning.md).
   static constexpr double cells_per_reach = 2.0;
-  /// A site's index in the lists (4 bytes: the lists are most of the
-  /// interaction's memory); at most max_sites sites.
-  using SiteIndex = std::uint32_t;
-  static constexpr std::size_t max_sites = 0x7fffffff;
   mutable std::vector<std::size_t> cell_start_, fill_, list_start_;
   mutable std::vector<SiteIndex> cell_index_, sorted_;
   mutable std::vector<double> cell_x_, cell_y_, cell_z_;  ///< the sites' positions in cell order
