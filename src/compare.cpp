@@ -156,7 +156,7 @@ std::string not_applicable(const Scenario& sc, const MethodChoice& m) {
       if (sc.system.body(a).rotational_dof() != 3)
         return fmt::format("needs three principal moments > 0; {} is {}",
                            sc.bodies_format ? fmt::format("bodies[{}]", a) : std::string("the body"),
-                           sc.system.body(a).rotational_dof() == 2 ? "linear" : "a point mass");
+                           sc.system.body(a).rotation_description());
   if (!sc.forcing.empty() && !t.accepts_forcing)
     return "does not take [[forcing]] (" +
            method_names_where([](const MethodTraits& x) { return x.accepts_forcing; }, ", ", " and ", false) + " do)";
@@ -397,7 +397,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
     if (!system && !m.method.traits().linear_bodies && base.body().rotational_dof() != 3)
       throw InvalidInput("--methods: \"" + std::string(m.method.name()) +
                          "\" needs three principal moments > 0; the body is " +
-                         (base.body().rotational_dof() == 2 ? "linear" : "a point mass") +
+                         base.body().rotation_description() +
                          "; name lgvi or lgvi-lagrangian");
     if (!system && m.time_transformed)
       if (const std::string why = time_transform_not_applicable(base); !why.empty())

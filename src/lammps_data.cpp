@@ -23,6 +23,18 @@
 namespace lgvi::app {
 namespace {
 
+/// FNV-1a, 64 bits (file_checksum).
+struct Fnv1a {
+  std::uint64_t h = 0xcbf29ce484222325ULL;
+  void add(const char* bytes, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i) {
+      h ^= static_cast<unsigned char>(bytes[i]);
+      h *= 0x100000001b3ULL;
+    }
+  }
+  std::string hex() const { return fmt::format("{:016x}", h); }
+};
+
 /// The file read line by line: comments ('#' to the end) cut off and kept,
 /// the rest split at white space; messages name the file and the line.
 class DataLines {
@@ -35,6 +47,8 @@ class DataLines {
   /// The next line; false at the end of the file.
   bool next() {
     if (!std::getline(in_, text_)) return false;
+    hash_.add(text_.data(), text_.size());
+    if (!in_.eof()) hash_.add("\n", 1);  // getline consumed one (at the end it stops without)
     ++number_;
     if (!text_.empty() && text_.back() == '\r') text_.pop_back();
     const std::size_t hash = text_.find('#');
@@ -49,6 +63,13 @@ class DataLines {
       if (i > start) tokens_.emplace_back(text_.data() + start, i - start);
     }
     return true;
+  }
+
+  /// file_checksum of the whole file: the lines read so far and the rest.
+  std::string checksum() {
+    while (next()) {
+    }
+    return hash_.hex();
   }
 
   const std::vector<std::string_view>& tokens() const { return tokens_; }
@@ -101,6 +122,7 @@ class DataLines {
   std::string text_, comment_;
   std::vector<std::string_view> tokens_;
   long number_ = 0;
+  Fnv1a hash_;  ///< of the bytes read (checksum)
 };
 
 /// The counted header lines of a data file (LAMMPS's read_data), by their words.
@@ -392,22 +414,20 @@ LammpsDataBodies read_lammps_data(const std::string& path, const std::vector<dou
     out.states.push_back(s);
     first = last;
   }
+  out.checksum = in.checksum();
   return out;
 }
 
 std::string file_checksum(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InvalidInput(printable(path) + ": cannot open the LAMMPS data file");
-  std::uint64_t h = 0xcbf29ce484222325ULL;
+  Fnv1a h;
   char buffer[1 << 16];
   while (in) {
     in.read(buffer, sizeof buffer);
-    for (std::streamsize i = 0; i < in.gcount(); ++i) {
-      h ^= static_cast<unsigned char>(buffer[i]);
-      h *= 0x100000001b3ULL;
-    }
+    h.add(buffer, static_cast<std::size_t>(in.gcount()));
   }
-  return fmt::format("{:016x}", h);
+  return h.hex();
 }
 
 }  // namespace lgvi::app

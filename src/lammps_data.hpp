@@ -38,6 +38,7 @@ struct LammpsDataBodies {
   std::int64_t atoms = 0;
   int atom_types = 0;
   std::string atom_style;  ///< "full" or "molecular" (also bond, angle)
+  std::string checksum;    ///< file_checksum of the bytes read (the whole file)
 };
 
 /// Reads a data file (atom_style full, molecular, bond or angle: the Atoms
@@ -55,7 +56,8 @@ LammpsDataBodies read_lammps_data(const std::string& path, const std::vector<dou
 
 /// FNV-1a, 64 bits, of a file's bytes, as 16 hexadecimal digits: the run's
 /// copy of the scenario records it, so that a resume from a changed data
-/// file is refused rather than run with other bodies.
+/// file is refused rather than run with other bodies. read_lammps_data gives
+/// it of the bytes it parsed (LammpsDataBodies::checksum), reading the file once.
 std::string file_checksum(const std::string& path);
 
 }  // namespace lgvi::app

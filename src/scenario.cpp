@@ -679,16 +679,31 @@ Box read_import(const Reader& r, toml::table& root, const std::string& scenario_
         r.fail("import.radius", "must be >= 0 (a ball's radius per atom type; 0: point masses)");
   }
   const std::array<bool, 3> periodic = read_periodic(r, t, "import");
-  const std::string checksum = file_checksum(file.string());
+  // A resumed run's copy of the scenario holds the file's checksum: a file
+  // changed since is refused with that reason, even where it no longer
+  // parses (then, and only then, the file is read a second time).
+  std::optional<std::string> recorded;
   if (const toml::node* n = t.get("checksum")) {
-    if (!n->is_string() || n->value<std::string>().value() != checksum)
-      r.fail("import.checksum", "the data file " + printable(file.string()) + " is not the one this run began with " +
-                                    "(its checksum is now " + checksum +
-                                    "); restore it, or start the run again without this key");
+    if (!n->is_string()) r.fail("import.checksum", "must be a string (the data file's checksum, written by the run)");
+    recorded = n->value<std::string>().value();
   }
+  const auto changed = [&](const std::string& checksum) {
+    r.fail("import.checksum", "the data file " + printable(file.string()) + " is not the one this run began with " +
+                                  "(its checksum is now " + checksum +
+                                  "); restore it, or start the run again without this key");
+  };
   const std::string atom_style =
       t.contains("atom_style") ? r.string(t, "import", "atom_style", {"full", "molecular", "bond", "angle"}) : "";
-  LammpsDataBodies data = read_lammps_data(file.string(), radius, periodic, atom_style);
+  LammpsDataBodies data;
+  try {
+    data = read_lammps_data(file.string(), radius, periodic, atom_style);
+  } catch (const InvalidInput&) {
+    if (recorded)
+      if (const std::string now = file_checksum(file.string()); now != *recorded) changed(now);
+    throw;
+  }
+  if (recorded && data.checksum != *recorded) changed(data.checksum);
+  const std::string& checksum = data.checksum;
   site_types = data.atom_types;
   if (data.bodies.size() > 1000000) r.fail("import.lammps_data", "more than 10^6 bodies");
   for (RigidBody& b : data.bodies) {
@@ -1214,7 +1229,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
     const RigidBody& body = bodies[a];
     if (body.rotational_dof() == 3) continue;
     const std::string which = bodies_format ? fmt::format("bodies[{}] (\"{}\")", a, names[a]) : "the body";
-    const std::string what = body.rotational_dof() == 2 ? "a linear body (a zero principal moment)" : "a point mass (no inertia)";
+    const std::string what = body.rotation_description();
     if (!method.linear_bodies)
       r.fail("integrator.method",
              fmt::format("\"{}\" needs three principal moments > 0; {} is {}; use {}", method.name, which, what,

@@ -92,10 +92,8 @@ TrajectoryLayout scenario_layout(const Scenario& s) {
   TrajectoryLayout layout =
       s.bodies_format ? TrajectoryLayout::long_format(static_cast<std::int64_t>(s.bodies()), forced, thermo_columns(s))
                       : TrajectoryLayout::single_body(forced);
-  if (!holds_columns(s.output_format)) {
-    layout.shapes = body_shapes(s.system);
-    layout.ids = s.file_ids;
-  }
+  if (!holds_columns(s.output_format)) layout.shapes = body_shapes(s.system);
+  if (writes_file_ids(s.output_format)) layout.ids = s.file_ids;
   // An adaptive run's rows are not at multiples of a step: 0 (the dump numbers its frames).
   layout.step = s.integrator.adaptive() ? 0.0 : s.integrator.step;
   layout.box = s.system.box();

@@ -337,10 +337,7 @@ class ExactFreeBodyStepper {
       : body_(body), potential_(std::move(potential)), h_(h) {
     if constexpr (!std::is_same_v<P, NoPotential>)
       throw InvalidInput("integrator.method: \"exact\" is only available for the free body (no potential)");
-    if (body.rotational_dof() != 3)
-      throw InvalidInput(std::string("the exact flow needs three principal moments > 0; the body is ") +
-                         (body.rotational_dof() == 2 ? "a linear body (a zero principal moment)"
-                                                     : "a point mass (no inertia)"));
+    detail::require_three_moments(System(body), "the exact flow");
     detail::require_valid_step(h);
   }
 

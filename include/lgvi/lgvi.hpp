@@ -72,13 +72,15 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
 
   LieGroupVariationalIntegrator(System system, I potential, SolverOptions solver = {}, Parallelism par = {})
       : Base(std::move(system), std::move(potential), solver, par), w_half_(this->system_.size()), f_(this->system_.size()) {
-    for (std::size_t k = 0; k < this->system_.kinds(); ++k) solvers_.emplace_back(this->system_.kind_body(k), solver);
+    this->use_rotation_solvers();
     // In batches from two full ones on; fewer bodies keep the scalar solves
-    // (a batch pays for four lanes whatever it holds). At the first step a
+    // (a batch pays for four lanes whatever it holds), as do systems of
+    // linear bodies only (none batchable). At the first step a
     // batch seeds all its bodies' predictors before solving: a body after
     // one whose solve fails has its predictor seeded from this attempt,
     // where the loop below would leave it empty.
-    batched_ = solver.kind == SolverKind::Newton && this->system_.size() >= 2 * RotationSolveBatch::lanes;
+    batched_ = solver.kind == SolverKind::Newton && this->system_.size() >= 2 * RotationSolveBatch::lanes &&
+               this->any_batchable();
   }
 
   /// initialize(state, t): the base's; the first step's initial guess is then
@@ -117,25 +119,25 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
         S3d guess[lanes];
         for (std::size_t l = 0; l < count; ++l) {
           guess[l] = right_side(first + l);
-          solver(first + l).load(batch, static_cast<int>(l), (0.25 * h) * w_half_[first + l], guess[l]);
+          this->solver(first + l).load(batch, static_cast<int>(l), (0.25 * h) * w_half_[first + l], guess[l]);
         }
         detail::newton_cayley_lanes(batch, static_cast<int>(count), this->opt_.tolerance, this->opt_.max_iterations);
         for (std::size_t l = 0; l < count; ++l) {
           const std::size_t a = first + l;
           const auto lane = static_cast<int>(l);
-          if (batch.solved[lane] && solver(a).batchable()) {
+          if (batch.solved[lane] && this->solver(a).batchable()) {
             this->reports_[a] = {batch.iterations[lane], batch.residual_evaluations[lane], 0};
             advance(a, S3d(batch.f[0][lane], batch.f[1][lane], batch.f[2][lane], batch.f[3][lane]));
             continue;
           }
-          detail::for_body(sys, a, [&] { solver(a).solve((0.25 * h) * w_half_[a], guess[l], this->reports_[a]); });
+          detail::for_body(sys, a, [&] { this->solver(a).solve((0.25 * h) * w_half_[a], guess[l], this->reports_[a]); });
           advance(a, guess[l]);
         }
       });
     } else {
       detail::for_each_body(sys, this->par_, [&](std::size_t a) {
         S3d f = right_side(a);
-        solver(a).solve((0.25 * h) * w_half_[a], f, this->reports_[a]);
+        this->solver(a).solve((0.25 * h) * w_half_[a], f, this->reports_[a]);
         advance(a, f);
       });
     }
@@ -171,9 +173,6 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
   }
 
  private:
-  /// Body a's solver (one per kind of body: it holds the kind's inertia).
-  const RotationSolver& solver(std::size_t a) const { return solvers_[this->system_.kind(a)]; }
-  std::vector<RotationSolver> solvers_;  ///< per kind (System::kind)
   std::vector<Vector3<double>> w_half_;
   std::vector<S3d> f_;
   bool batched_ = false;  ///< the rotation solves in RotationSolveBatch (step)
@@ -228,7 +227,7 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
                                           Parallelism par = {})
       : Base(std::move(system), std::move(potential), solver, par) {
     const std::size_t n = this->system_.size();
-    for (std::size_t k = 0; k < this->system_.kinds(); ++k) solvers_.emplace_back(this->system_.kind_body(k), solver);
+    this->use_rotation_solvers();
     x_next_.resize(n);
     d_.resize(n);
     f_.resize(n);
@@ -272,7 +271,7 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
       s.w[a] = body.admissible_momentum((4.0 / h) * g_backward + h * torque);
       // DEL for configuration k + 2.
       S3d f = this->predictor(a).predict();
-      solver(a).solve(g_backward + (0.5 * h * h) * torque, f, this->reports_[a]);
+      this->solver(a).solve(g_backward + (0.5 * h * h) * torque, f, this->reports_[a]);
       this->predictor(a).push(f);
       d_[a] += (h * h / body.mass()) * force;
       this->add_to_position(x_next_[a], a, d_[a]);
@@ -325,7 +324,7 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
       const RigidBody& body = sys.body(a);
       const Vector3<double> b = (0.25 * h) * (s.w[a] + h * this->eval_.torque[a]);
       S3d f = S3d::exp(body.inertia_inverse() * b);
-      solver(a).solve(b, f, this->reports_[a]);
+      this->solver(a).solve(b, f, this->reports_[a]);
       this->predictor(a).reset(f);
       d_[a] = (h / body.mass()) * (s.p[a] + (0.5 * h) * this->eval_.force[a]);
       x_next_[a] = s.x[a];
@@ -416,9 +415,6 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
     return v;
   }
 
-  /// Body a's solver (one per kind of body: it holds the kind's inertia).
-  const RotationSolver& solver(std::size_t a) const { return solvers_[this->system_.kind(a)]; }
-  std::vector<RotationSolver> solvers_;  ///< per kind (System::kind)
   std::vector<Vector3<double>> x_next_;
   std::vector<Vector3<double>> d_;  ///< per body: x_next - x (the reported state's), summed (the class comment)
   std::vector<S3d> q_next_;

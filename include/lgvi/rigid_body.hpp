@@ -161,6 +161,13 @@ class RigidBody {
   const Matrix3<double>& inertia_inverse() const { return inertia_inverse_; }
   /// Rotational degrees of freedom: 3, 2 for a linear body, 0 for a point.
   int rotational_dof() const { return rotational_dof_; }
+  /// What the body is, for messages: "a body with three principal moments",
+  /// "a linear body (a zero principal moment)" or "a point mass (no inertia)".
+  const char* rotation_description() const {
+    return rotational_dof_ == 3   ? "a body with three principal moments"
+           : rotational_dof_ == 2 ? "a linear body (a zero principal moment)"
+                                  : "a point mass (no inertia)";
+  }
   /// A linear body's axis n (body frame, unit): J = I (1 - n n^T). Zero otherwise.
   const Vector3<double>& linear_axis() const { return axis_; }
   /// The momentum w (= 2 J Omega) with what this body cannot have removed:

@@ -62,11 +62,9 @@ namespace detail {
 /// infinities or a wrong motion.
 inline void require_three_moments(const System& system, const char* method) {
   for (std::size_t a = 0; a < system.size(); ++a) {
-    const int dof = system.body(a).rotational_dof();
-    if (dof == 3) continue;
+    if (system.body(a).rotational_dof() == 3) continue;
     throw InvalidInput(std::string(method) + " needs three principal moments > 0; body " + std::to_string(a) +
-                       " (\"" + system.name(a) + "\") is " +
-                       (dof == 2 ? "a linear body (a zero principal moment)" : "a point mass (no inertia)") +
+                       " (\"" + system.name(a) + "\") is " + system.body(a).rotation_description() +
                        "; integrate it with the LGVI (lgvi or lgvi-lagrangian)");
   }
 }

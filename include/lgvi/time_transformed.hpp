@@ -115,7 +115,7 @@ class TimeTransformedLieGroupVariationalIntegrator : public detail::ImplicitStep
       throw InvalidInput("integrator.monitor_scale: must be a finite number > 0 (or 0: |V| at the start), got " +
                          std::to_string(tt.monitor_scale));
     if (std::isnan(tt.finish_time)) throw InvalidInput("integrator.duration: the finish time is not a number");
-    for (std::size_t k = 0; k < this->system_.kinds(); ++k) solvers_.emplace_back(this->system_.kind_body(k), solver);
+    this->use_rotation_solvers();
     for (const double g : composition_.gamma()) reach_ += std::abs(g);
     // Each drift of each sub-step extrapolates its own relative rotations.
     this->set_stages(2 * composition_.stages());
@@ -290,7 +290,7 @@ class TimeTransformedLieGroupVariationalIntegrator : public detail::ImplicitStep
       if (predictor.empty()) predictor.reset(S3d::exp(body.inertia_inverse() * ((0.25 * dt) * w)));
       S3d f = predictor.predict();
       SolveReport report;
-      solver(a).solve((0.25 * dt) * w, f, report);
+      this->solver(a).solve((0.25 * dt) * w, f, report);
       predictor.push(f);
       state.q[a] = state.q[a].times_near_identity(f);
       state.w[a] = body.admissible_momentum(f.inverse().act(w));
@@ -307,9 +307,7 @@ class TimeTransformedLieGroupVariationalIntegrator : public detail::ImplicitStep
     state.w[a] = this->system_.body(a).admissible_momentum(state.w[a] + (2.0 * tau) * this->torque(a));
   }
 
-  const RotationSolver& solver(std::size_t a) const { return solvers_[this->system_.kind(a)]; }
   TimeTransformOptions tt_;
-  std::vector<RotationSolver> solvers_;  ///< per kind (System::kind)
   CompositionTable composition_;  ///< the sub-steps gamma_i of a step (plain: one, gamma = 1)
   double reach_ = 0.0;  ///< sum |gamma_i|: a step advances t by at most eps reach_ (g <= 1)
   double time_ = 0.0, time_carry_ = 0.0, last_dt_ = 0.0, reference_energy_ = 0.0, scale_ = 1.0;

@@ -108,7 +108,8 @@ class Scenario:
         """Read a scenario file exactly as `lgvi run` does."""
         ...
     @classmethod
-    def from_string(cls, text: str, name: str = ...) -> Scenario:
+    def from_string(cls, text: str, name: str = ...,
+                    directory: Optional[Union[str, "os.PathLike[str]"]] = ...) -> Scenario:
         """Parse scenario TOML text exactly as `lgvi run` does."""
         ...
     @classmethod

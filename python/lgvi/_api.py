@@ -461,11 +461,21 @@ class Scenario:
             raise _value_error(e) from None
 
     @classmethod
-    def from_string(cls, text, name="scenario"):
-        """Parse scenario TOML text exactly as ``lgvi run`` reads a file; ValueError with the CLI's message."""
+    def from_string(cls, text, name="scenario", directory=None):
+        """Parse scenario TOML text exactly as ``lgvi run`` reads a file; ValueError with the CLI's message.
+
+        The files the text names by relative paths (``[import] lammps_data``, forcing and profile tables)
+        are read from ``directory``, as a scenario file's are from its folder; None: the current
+        directory.
+        """
         if not isinstance(text, str):
             raise ValueError(f"text: must be a str of TOML, got {type(text).__name__}")
-        return cls._wrap(_parse(text, _check_name(name)))
+        name = _check_name(name)
+        if directory is not None:
+            if not isinstance(directory, (str, os.PathLike)) or not os.path.isdir(directory):
+                raise ValueError(f"directory: must be an existing folder, got {directory!r}")
+            name = os.path.join(os.fspath(directory), name)
+        return cls._wrap(_parse(text, name))
 
     @classmethod
     def from_arrays(cls, *, bodies, positions, quaternions, step=None, duration, momenta=None, velocities=None,

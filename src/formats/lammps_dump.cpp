@@ -113,6 +113,7 @@ std::unique_ptr<TrajectorySink> open_lammps_dump(const std::string& path, const 
 
 extern const FormatDescriptor lammps_dump_format;  // listed in formats/registry.cpp
 const FormatDescriptor lammps_dump_format{
-    .name = "lammps-dump", .file_name = "trajectory.lammpstrj", .holds_columns = false, .open = open_lammps_dump};
+    .name = "lammps-dump", .file_name = "trajectory.lammpstrj", .holds_columns = false, .writes_file_ids = true,
+    .open = open_lammps_dump};
 
 }  // namespace lgvi::app

@@ -43,6 +43,10 @@ struct FormatDescriptor {
   /// Whether the file holds the trajectory's columns, which lgvi.load and the
   /// figures read; the others are exports of the bodies' sites for viewers.
   bool holds_columns = true;
+  /// Whether the file writes a data file's atom and molecule IDs
+  /// (TrajectoryLayout::ids, an imported system's): only then are they copied
+  /// into the layout.
+  bool writes_file_ids = false;
   /// Opens a new file (truncating), or, with `resume`, reopens one and
   /// truncates it back to that position to append. Throws std::runtime_error
   /// naming the file on failure.
@@ -82,6 +86,8 @@ inline const char* trajectory_file_name(TrajectoryFormat f) { return f.descripto
 
 /// Whether the format holds the trajectory's columns (FormatDescriptor::holds_columns).
 inline bool holds_columns(TrajectoryFormat f) { return f.descriptor().holds_columns; }
+/// Whether the format writes an imported system's IDs (FormatDescriptor::writes_file_ids).
+inline bool writes_file_ids(TrajectoryFormat f) { return f.descriptor().writes_file_ids; }
 
 /// FormatDescriptor::open of the format.
 std::unique_ptr<TrajectorySink> open_trajectory(TrajectoryFormat format, const std::string& path,

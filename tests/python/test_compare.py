@@ -285,7 +285,8 @@ radius = 0.0
     assert proc.returncode == 0, proc.stderr
     with open(tmp_path / "c" / "comparison.csv", newline="") as f:
         rows = {r["method"]: r for r in csv.DictReader(f)}
-    assert rows["rk4-normalized"]["not_applicable"] == "needs three principal moments > 0; bodies[0] is linear"
+    assert rows["rk4-normalized"]["not_applicable"] == \
+        "needs three principal moments > 0; bodies[0] is a linear body (a zero principal moment)"
     assert float(rows["lgvi"]["error_at_h"]) > 0 and float(rows["lgvi-lagrangian"]["error_at_h"]) > 0
     # One free rod: its reference is RK4 (the exact flow is for three moments); other methods are refused.
     single = tmp_path / "single.toml"
@@ -300,7 +301,7 @@ radius = 0.0
             "--no-figures", "-q", "--out", str(tmp_path / "s")]
     proc = subprocess.run(args + ["--methods", "lgvi,rk4-normalized"], capture_output=True, text=True)
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1
-    assert '"rk4-normalized" needs three principal moments > 0; the body is linear' in proc.stderr
+    assert '"rk4-normalized" needs three principal moments > 0; the body is a linear body' in proc.stderr
     proc = subprocess.run(args + ["--methods", "lgvi,lgvi-lagrangian"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     with open(tmp_path / "s" / "comparison.csv", newline="") as f:

@@ -437,6 +437,35 @@ def test_the_run_copy_refuses_a_changed_data_file(tmp_path):
     proc = run(tmp_path / "run" / "scenario.toml", "--out", tmp_path / "changed")
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1
     assert "import.checksum" in proc.stderr and "is not the one this run began with" in proc.stderr
+    # Changed so that it no longer parses: still the checksum's reason, not the parse error.
+    data.write_text(data.read_text().replace("Velocities", "Velocitiez"))
+    proc = run(tmp_path / "run" / "scenario.toml", "--out", tmp_path / "broken")
+    assert proc.returncode == 2 and "import.checksum" in proc.stderr, proc.stderr
+
+
+def fnv1a(data):
+    """FNV-1a, 64 bits, of bytes: the checksum as its definition gives it (independent of lgvi's reader)."""
+    h = 0xcbf29ce484222325
+    for b in data:
+        h = ((h ^ b) * 0x100000001b3) % 2**64
+    return f"{h:016x}"
+
+
+@pytest.mark.parametrize("ending", ["lf", "crlf", "no final newline"])
+def test_the_checksum_is_fnv1a_of_the_files_bytes(tmp_path, ending):
+    # The reader checksums the bytes as it parses them (one read of the file): CRLF line ends and a last
+    # line without its newline included, exactly as the bytes are.
+    atoms, velocities = mixed_molecules()
+    data = write_data(tmp_path / "mixed.data", atoms, velocities)
+    raw = data.read_bytes()
+    if ending == "crlf":
+        raw = raw.replace(b"\n", b"\r\n")
+    elif ending == "no final newline":
+        raw = raw.rstrip(b"\n")
+    data.write_bytes(raw)
+    assert run(scenario(tmp_path, data.name), "--out", tmp_path / "run").returncode == 0
+    copy = (tmp_path / "run" / "scenario.toml").read_text()
+    assert f"checksum = '{fnv1a(raw)}'" in copy
 
 
 BAD = {
@@ -628,3 +657,23 @@ def test_overlapping_molecules_are_named(tmp_path):
     proc = run(scenario(tmp_path, data.name, extra="radius = 0.3"), "--out", tmp_path / "run")
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1
     assert 'at the start' in proc.stderr and '("mol3" and "mol2")' in proc.stderr, proc.stderr
+
+
+def test_from_string_reads_relative_paths_from_the_directory_given(tmp_path, monkeypatch):
+    """Scenario.from_string(text, name, directory): the data file named by a relative path is read from
+    `directory`, as a scenario file's are from its folder; without it, from the current directory (here
+    another folder, where the file is not: the reader's error names the key)."""
+    lgvi = pytest.importorskip("lgvi")
+    atoms, velocities = mixed_molecules()
+    data = write_data(tmp_path / "mixed.data", atoms, velocities)
+    text = scenario(tmp_path, data.name).read_text()
+    from_file = lgvi.Scenario.from_toml(tmp_path / "imported.toml")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    from_text = lgvi.Scenario.from_string(text, "imported", directory=tmp_path)
+    assert from_text.toml == from_file.toml  # the same bodies, the data file's checksum included
+    with pytest.raises(ValueError, match="import.lammps_data"):
+        lgvi.Scenario.from_string(text, "imported")
+    with pytest.raises(ValueError, match="^directory: must be an existing folder"):
+        lgvi.Scenario.from_string(text, "imported", directory=tmp_path / "missing")

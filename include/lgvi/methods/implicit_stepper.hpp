@@ -203,7 +203,24 @@ class ImplicitStepperBase : public StepperBase<I> {
     body_finite_[a] = body_finite(s, this->eval_, a) ? 1 : 0;
   }
 
+  /// For the steppers that turn each body by the paper's rotation solve
+  /// (lgvi.hpp's two forms, time_transformed.hpp): one RotationSolver per
+  /// kind of body (System::kind; it holds the kind's inertia), made by
+  /// use_rotation_solvers() in their constructors.
+  void use_rotation_solvers() {
+    for (std::size_t k = 0; k < this->system_.kinds(); ++k)
+      rotation_solvers_.emplace_back(this->system_.kind_body(k), opt_);
+  }
+  /// Body a's rotation solver (use_rotation_solvers).
+  const RotationSolver& solver(std::size_t a) const { return rotation_solvers_[this->system_.kind(a)]; }
+  /// Whether any body's solve can run in a RotationSolveBatch.
+  bool any_batchable() const {
+    return std::any_of(rotation_solvers_.begin(), rotation_solvers_.end(),
+                       [](const RotationSolver& s) { return s.batchable(); });
+  }
+
   SolverOptions opt_;
+  std::vector<RotationSolver> rotation_solvers_;  ///< per kind (use_rotation_solvers)
   std::vector<Predictor> predictors_;  ///< stage-major: stage i, body a at i N + a
   std::size_t stage_ = 0;
   std::vector<SolveReport> reports_;
