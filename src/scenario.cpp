@@ -697,7 +697,7 @@ Box read_import(const Reader& r, toml::table& root, const std::string& scenario_
   LammpsDataBodies data;
   try {
     data = read_lammps_data(file.string(), radius, periodic, atom_style);
-  } catch (const InvalidInput&) {
+  } catch (const std::exception&) {  // (a changed header can also ask for more memory than there is)
     if (recorded)
       if (const std::string now = file_checksum(file.string()); now != *recorded) changed(now);
     throw;

@@ -110,7 +110,7 @@ class Scenario:
     @classmethod
     def from_string(cls, text: str, name: str = ...,
                     directory: Optional[Union[str, "os.PathLike[str]"]] = ...) -> Scenario:
-        """Parse scenario TOML text exactly as `lgvi run` does."""
+        """Parse scenario TOML text exactly as `lgvi run` does; relative paths in it from `directory`."""
         ...
     @classmethod
     def from_arrays(cls, *, bodies: Union[Body, Sequence[Body]], positions: npt.ArrayLike, quaternions: npt.ArrayLike,

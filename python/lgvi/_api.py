@@ -464,16 +464,19 @@ class Scenario:
     def from_string(cls, text, name="scenario", directory=None):
         """Parse scenario TOML text exactly as ``lgvi run`` reads a file; ValueError with the CLI's message.
 
-        The files the text names by relative paths (``[import] lammps_data``, forcing and profile tables)
-        are read from ``directory``, as a scenario file's are from its folder; None: the current
-        directory.
+        The files the text names by relative paths (``[import] lammps_data``, forcing tables) are
+        read from ``directory``, as a scenario file's are from its folder; None: from the folder in
+        ``name``, if it has one, else the current directory.
         """
         if not isinstance(text, str):
             raise ValueError(f"text: must be a str of TOML, got {type(text).__name__}")
         name = _check_name(name)
         if directory is not None:
-            if not isinstance(directory, (str, os.PathLike)) or not os.path.isdir(directory):
+            if (not isinstance(directory, (str, os.PathLike)) or not isinstance(os.fspath(directory), str)
+                    or not os.path.isdir(directory)):
                 raise ValueError(f"directory: must be an existing folder, got {directory!r}")
+            if os.path.isabs(name):
+                raise ValueError(f"name: {name!r} is an absolute path; with directory, give the name alone")
             name = os.path.join(os.fspath(directory), name)
         return cls._wrap(_parse(text, name))
 

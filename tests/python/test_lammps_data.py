@@ -677,3 +677,7 @@ def test_from_string_reads_relative_paths_from_the_directory_given(tmp_path, mon
         lgvi.Scenario.from_string(text, "imported")
     with pytest.raises(ValueError, match="^directory: must be an existing folder"):
         lgvi.Scenario.from_string(text, "imported", directory=tmp_path / "missing")
+    with pytest.raises(ValueError, match="^name: .* absolute path"):  # which folder would be meant is unclear
+        lgvi.Scenario.from_string(text, str(tmp_path / "imported"), directory=elsewhere)
+    # Without directory, a folder in the name is the scenario file's folder, as before.
+    assert lgvi.Scenario.from_string(text, str(tmp_path / "imported")).toml == from_file.toml
