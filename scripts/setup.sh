@@ -12,7 +12,8 @@ packages=(g++ make cmake libeigen3-dev libcli11-dev libtomlplusplus-dev libfmt-d
           libhdf5-dev python3-h5py clang clang-tidy libclang-rt-14-dev time libboost-dev git zlib1g-dev nlohmann-json3-dev libomp-dev
           openmpi-bin libopenmpi-dev python3-mpi4py python3-distributed python3-vtk9 python3-ipykernel python3-jupyter-client
           chromium ffmpeg nodejs lammps liblammps-dev
-          python3-sphinx python3-myst-parser python3-breathe doxygen python3-sphinx-rtd-theme)
+          python3-sphinx python3-myst-parser python3-breathe doxygen python3-sphinx-rtd-theme
+          python3-build python3-venv python3-pip python3-setuptools python3-wheel)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -2,8 +2,8 @@
 
 Writes ``RUN_DIR/view.html``, one self-contained page that opens offline from
 disk (``file://``, no server, no network): three.js (the npm package
-``three``, from ``web/node_modules`` of the source tree, installed by
-``scripts/setup.sh``) is inlined as ES modules behind an import map of
+``three``: the copy an installed wheel carries in ``lgvi/_three``, else
+``web/node_modules`` of the source tree, installed by ``scripts/setup.sh``) is inlined as ES modules behind an import map of
 ``data:`` URLs, and the trajectory is embedded as base64 float32 (positions
 and quaternions; times and diagnostics float64), decimated to at most
 ``max_frames`` frames and about ``max_bytes`` bytes (the page says so when it
@@ -235,13 +235,22 @@ def web_dir():
                     f"sources): {SETUP_HINT}")
 
 
+def three_dir():
+    """The folder with three.js's build/ and examples/: the installed package's own copy (lgvi/_three, put
+    there by the wheel's build, setup.py) or the source tree's web/node_modules/three."""
+    packaged = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_three")
+    if os.path.isfile(os.path.join(packaged, "build", "three.module.js")):
+        return packaged
+    return os.path.join(web_dir(), "node_modules", "three")
+
+
 def _data_url(text):
     return "data:text/javascript;base64," + base64.b64encode(text.encode("utf-8")).decode("ascii")
 
 
 def three_importmap():
     """The import map that inlines three.js (three.core.js, three.module.js) and OrbitControls as data: URLs."""
-    three = os.path.join(web_dir(), "node_modules", "three")
+    three = three_dir()
 
     def read(*path):
         with open(os.path.join(three, *path), encoding="utf-8") as f:
@@ -309,6 +318,7 @@ def _write_view(source, out, max_frames, max_bytes):
         if folder is None:
             raise ValueError("view: an in-memory result needs out= (a path for the .html file)")
         out = os.path.join(folder, "view.html")
+    out = os.fsdecode(out)  # a str, bytes or path-like (pathlib.Path) name
     html, meta = _render(result, max_frames, max_bytes)
     if os.path.exists(out) and not os.path.isfile(out):
         # A device or pipe (--out /dev/stdout): written into; replacing it would put a file in its place.

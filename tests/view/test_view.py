@@ -193,6 +193,9 @@ def test_python_view_of_a_result_in_memory(tmp_path, tmp_path_factory):
     # 2001 rows into at most 50 frames: every ceil(2000 / 49) = 41st row (0 .. 1968) and the last.
     assert meta["frames"] == 50 and meta["rows"] == 2001 and meta["decimated"]
     assert lgvi.view(run) == os.path.join(run, "view.html")
+    # A pathlib.Path out (as a user writes it): the same file, its name returned as a str.
+    assert lgvi.view(result, out=tmp_path / "top-path.html", max_frames=50, display=False) == str(tmp_path / "top-path.html")
+    assert open(tmp_path / "top-path.html", encoding="utf-8").read() == html
 
 
 def test_inline_display_in_jupyter(monkeypatch, tmp_path, tmp_path_factory):
