@@ -165,7 +165,8 @@ DESCRIPTIONS = {
     "sweep:ensemble.members": "with random [[vary]]: how many members; with grids only: omitted (their product)",
     "sweep:ensemble.seed": "integer: every draw comes from (seed, member index)",
     "sweep:ensemble.trajectories": "\"none\" (default) | \"all\": keep each member's run folder in DIR/members/NNNNNN",
-    "sweep:vary.key": "the dotted scenario key to vary, e.g. \"initial.w\"; a body by name: \"bodies.primary.omega\"",
+    "sweep:vary.key": "the dotted scenario key to vary, e.g. \"initial.w\"; a body by name: \"bodies.primary.omega\"; "
+                      "a [[forcing]] entry by its index from 0: \"forcing.0.k_p\"",
     "sweep:vary.normal": "{mean, std}: normal draws",
     "sweep:vary.uniform": "{low, high}: uniform draws",
     "sweep:vary.values": "[...]: a grid; several grids: their product, the last key fastest",

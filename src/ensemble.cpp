@@ -121,7 +121,8 @@ std::vector<std::string> split_key(const std::string& key) {
 
 /// The table holding the key's last part, in a scenario's document: tables by
 /// name ("initial", "integrator", ...), a [[bodies]] entry by its name
-/// ("bodies.primary.omega"; unnamed entries are body0, body1, ...). nullptr
+/// ("bodies.primary.omega"; unnamed entries are body0, body1, ...), an entry
+/// of another array of tables by its index from 0 ("forcing.0.k_p"). nullptr
 /// if there is none; `leaf` gets the last part.
 toml::table* key_table(toml::table& root, const std::vector<std::string>& parts, std::string& leaf) {
   if (parts.size() < 2) return nullptr;
@@ -141,7 +142,17 @@ toml::table* key_table(toml::table& root, const std::vector<std::string>& parts,
     i = 2;
   }
   for (; i + 1 < parts.size(); ++i) {
-    t = (*t)[parts[i]].as_table();
+    if (toml::array* entries = (*t)[parts[i]].as_array()) {  // [[forcing]]: the next part is an index
+      const std::string& index = parts[i + 1];
+      if (i + 2 >= parts.size() || index.empty() || index.size() > 6 ||
+          index.find_first_not_of("0123456789") != std::string::npos)
+        return nullptr;
+      const std::size_t a = std::stoul(index);
+      t = a < entries->size() ? entries->get(a)->as_table() : nullptr;
+      ++i;
+    } else {
+      t = (*t)[parts[i]].as_table();
+    }
     if (!t) return nullptr;
   }
   leaf = parts.back();
@@ -371,7 +382,7 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
     toml::table* t = key_table(base, split_key(v.key), leaf);
     if (!t)
       r.fail(p, "\"" + v.key + "\" names no table of the base scenario (e.g. \"initial.omega\", \"integrator.step\", "
-                "\"bodies.NAME.omega\")");
+                "\"bodies.NAME.omega\", \"forcing.0.k_p\" for the first [[forcing]])");
     if (v.kind == VarySpec::Kind::RandomRotation) v.scalar = false;
     if (const toml::node* n = t->get(leaf)) {
       bool scalar = false;

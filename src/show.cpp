@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -72,17 +73,33 @@ void show_run(const std::string& dir, std::ostream& out) {
                             epsilon ? text(epsilon) : text(path(summary, {"setup", "integrator", "step"}))));
   row("wall time", fmt::format("{:.4g} s ({:.0f} ns/step)", number(field("wall_seconds")),
                                number(field("ns_per_step"))));
-  row("energy", fmt::format("E0 = {}, max |E - E0| = {:.3e}", text(field("initial_energy")),
-                            number(field("max_abs_energy_error"))));
+  // With [[forcing]], the energy error is E - E0 - W (W the forcing's work), as summary.json's
+  // energy_error_is says: the row names it so, with W at the end.
+  const Json* work = field("work");
+  if (work && work->is_number())
+    row("energy", fmt::format("E0 = {}, max |E - E0 - W| = {:.3e} (W: the forcing's work, {:.6g} at the end)",
+                              text(field("initial_energy")), number(field("max_abs_energy_error")), number(work)));
+  else
+    row("energy", fmt::format("E0 = {}, max |E - E0| = {:.3e}", text(field("initial_energy")),
+                              number(field("max_abs_energy_error"))));
   row("|q| - 1", fmt::format("max {:.3e}", number(field("max_abs_quat_norm_error"))));
-  row("angular momentum", fmt::format("L0 = {}, max |L - L0| = {:.3e} (relative {:.3e})",
+  // A momentum this run's dynamics does not conserve (a periodic box, a forcing, an external field):
+  // summary.json lists its columns under conserved.changes_not_errors; its row says it is a change.
+  const Json* changes = path(summary, {"conserved", "changes_not_errors"});
+  const auto is_change = [changes](const char* column) {
+    return changes && changes->is_array() && std::find(changes->begin(), changes->end(), column) != changes->end();
+  };
+  constexpr const char* change_note = " -- a change: this run's dynamics does not conserve it";
+  row("angular momentum", fmt::format("L0 = {}, max |L - L0| = {:.3e} (relative {:.3e}){}",
                                       text(field("initial_angular_momentum")), number(field("max_momentum_error")),
-                                      number(field("max_relative_momentum_error"))));
+                                      number(field("max_relative_momentum_error")),
+                                      is_change("max_momentum_error") ? change_note : ""));
   const Json* bodies = field("final_bodies");
   const std::size_t n = bodies && bodies->is_array() ? bodies->size() : 1;
   if (n > 1) {
     row("bodies", fmt::format("{} (the final state of each is in summary.json, final_bodies)", n));
-    row("linear momentum", fmt::format("max |P - P0| / sum |p_a0| = {:.3e}", number(field("max_linear_momentum_error"))));
+    row("linear momentum", fmt::format("max |P - P0| / sum |p_a0| = {:.3e}{}", number(field("max_linear_momentum_error")),
+                                       is_change("max_linear_momentum_error") ? change_note : ""));
     // Contact episodes, where the run checked for them ([run] on_contact "stop" or "warn").
     const Json* contacts = field("contacts");
     if (contacts && contacts->is_array() && contacts->empty()) row("contacts", "none");

@@ -12,6 +12,19 @@ foreach(doc LICENSE THIRD-PARTY-NOTICES.md CITATION.cff)
     message(FATAL_ERROR "cmake --install did not install share/doc/lgvi/${doc}")
   endif()
 endforeach()
+# The command-line tool, and (when the build has it) the Python package, in the prefix too.
+execute_process(COMMAND ${WORK_DIR}/prefix/bin/lgvi --version RESULT_VARIABLE rc OUTPUT_VARIABLE out)
+if(rc OR NOT out MATCHES "^lgvi [0-9]")
+  message(FATAL_ERROR "the installed bin/lgvi --version failed (${rc}): ${out}")
+endif()
+if(PYTHON AND PYTHON_SITE)
+  execute_process(COMMAND ${CMAKE_COMMAND} -E env PYTHONPATH=${WORK_DIR}/prefix/${PYTHON_SITE}
+                          ${PYTHON} -c "import lgvi, lgvi._core; print(lgvi._core.__file__)"
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(rc OR NOT out MATCHES "^${WORK_DIR}/prefix/")
+    message(FATAL_ERROR "the installed Python package does not import from the prefix (${rc}): ${out}${err}")
+  endif()
+endif()
 execute_process(COMMAND ${CMAKE_COMMAND} -S ${SOURCE_DIR} -B ${WORK_DIR}/build -DCMAKE_BUILD_TYPE=Release
                         -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)

@@ -577,3 +577,32 @@ def test_resuming_a_folder_from_before_the_labels_writes_them_and_refuses_a_chan
     proc = ensemble("--resume", out)
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and "gravity-gradient" in proc.stderr and 'model = "point"' in proc.stderr
+
+
+def test_a_forcing_key_is_varied_by_its_index(tmp_path):
+    # "forcing.0.k_p": the first [[forcing]] entry's gain. Each member is the run of the scenario with that
+    # value written in: its final state equal to the last bit (members.csv's 17 digits read back exactly).
+    slew = (SOURCE / "scenarios" / "attitude-slew.toml").read_text()
+    assert slew.count("k_p = 6.0\n") == 1
+    (tmp_path / "slew.toml").write_text(slew)
+    grid = tmp_path / "gains.toml"
+    grid.write_text('[ensemble]\nscenario = "slew.toml"\n[[vary]]\nkey = "forcing.0.k_p"\nvalues = [3.0, 12.0]\n')
+    proc = ensemble(grid, "--out", tmp_path / "gains", "--threads", "1")
+    assert proc.returncode == 0, proc.stderr
+    with open(tmp_path / "gains" / "members.csv", newline="") as f:
+        members = list(csv.DictReader(f))
+    assert [m["forcing.0.k_p"] for m in members] == ["3", "12"]
+    for m in members:
+        one = tmp_path / f"k_p-{m['forcing.0.k_p']}.toml"
+        one.write_text(slew.replace("k_p = 6.0\n", f"k_p = {m['forcing.0.k_p']}.0\n"))
+        out = tmp_path / one.stem
+        assert subprocess.run([BINARY, "run", str(one), "--out", str(out), "-q", "--no-figures"]).returncode == 0
+        final = __import__("json").loads((out / "summary.json").read_text())["final"]
+        assert [float(m[k]) for k in ("qw", "qx", "qy", "qz")] == final["quaternion"]
+        assert [float(m[k]) for k in ("wx", "wy", "wz")] == final["w"]
+    # An index past the entries, or not a number, names the key and the form to use (exit status 2).
+    for key in ("forcing.2.k_p", "forcing.first.k_p", "forcing.0"):
+        grid.write_text(f'[ensemble]\nscenario = "slew.toml"\n[[vary]]\nkey = "{key}"\nvalues = [3.0]\n')
+        bad = ensemble(grid, "--out", tmp_path / "bad")
+        assert bad.returncode == 2 and bad.stderr.count("\n") == 1, bad.stderr
+        assert f'"{key}" names no table of the base scenario' in bad.stderr and "forcing.0.k_p" in bad.stderr

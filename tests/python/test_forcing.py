@@ -66,6 +66,10 @@ def test_cli_slew_writes_work_and_the_energy_balance(tmp_path):
     assert 2 * np.arccos(min(1.0, abs(q @ target))) < 1e-3
     # The integrator's own energy error is far below the work done (9e-3 J).
     assert summary["max_abs_energy_error"] < 1e-8
+    # lgvi show names the balance it reports and the momentum it does not conserve.
+    shown = subprocess.run([BINARY, "show", str(out)], capture_output=True, text=True, check=True).stdout
+    assert f"max |E - E0 - W| = {summary['max_abs_energy_error']:.3e} (W: the forcing's work, " in shown
+    assert "-- a change: this run's dynamics does not conserve it" in shown
 
 
 def test_python_forcing_matches_the_built_in_damping():

@@ -319,6 +319,13 @@ def test_a_periodic_gas_writes_its_temperature_and_pressure(tmp_path, fmt):
     if fmt == "csv":
         header = (tmp_path / "out" / "trajectory.csv").read_text().split("\n", 1)[0]
         assert header == BODIES_HEADER + ",temperature,pressure"
+        # lgvi show: a periodic box does not conserve the angular momentum, and its row says so; the linear
+        # momentum's row does not (it is conserved, to round-off).
+        shown = subprocess.run([BINARY, "show", str(tmp_path / "out")], capture_output=True, text=True).stdout
+        rows = {line.split("  ")[0]: line for line in shown.splitlines()}
+        assert r.summary["conserved"]["changes_not_errors"] == ["max_momentum_error", "max_relative_momentum_error"]
+        assert rows["angular momentum"].endswith("-- a change: this run's dynamics does not conserve it")
+        assert "a change" not in rows["linear momentum"]
     # Through the Python package: the same numbers, named by the summary.
     s = lgvi.simulate(lgvi.Scenario.from_string(path.read_text(), "gas"))
     assert np.array_equal(s.temperature, r.temperature) and np.array_equal(s.pressure, r.pressure)
@@ -336,6 +343,9 @@ def test_only_molecular_runs_have_thermodynamic_columns(tmp_path):
     assert run(binary, "--out", tmp_path / "binary").returncode == 0
     assert (tmp_path / "binary" / "trajectory.csv").read_text().split("\n", 1)[0] == BODIES_HEADER
     assert "thermodynamics" not in json.loads((tmp_path / "binary" / "summary.json").read_text())
+    # Mutual gravity in free space conserves both momenta: no row of lgvi show calls them a change.
+    assert "a change" not in subprocess.run([BINARY, "show", str(tmp_path / "binary")], capture_output=True,
+                                            text=True).stdout
 
 
 LAMMPS = __import__("shutil").which(os.environ.get("LMP_BINARY", "lmp"))
