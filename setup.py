@@ -8,11 +8,19 @@ puts it next to them, with three.js for lgvi.view when web/node_modules has it.
 Environment:
   LGVI_CMAKE_BUILD_DIR  an existing CMake build tree of this source to take lgvi._core from (built
                         there with `cmake --build DIR --target lgvi_python`; nothing is recompiled
-                        when it is up to date). Without it, a Release tree under build/setuptools/
-                        is configured for the running interpreter (tests, benchmarks and MPI off).
+                        when it is up to date). Without it, a Release tree is configured for the
+                        running interpreter (tests, benchmarks and MPI off) in the build's
+                        temporary folder.
   CMAKE_BUILD_PARALLEL_LEVEL  compile jobs (default: the number of processors).
+
+setuptools' own folders (build/, the egg-info) go to a new temporary folder on every invocation,
+removed at exit: nothing of an earlier build (another interpreter's module, a file since removed)
+can reach a wheel, and two builds at once do not share one. pybind11's CMake package comes from
+the system (Debian's pybind11-dev); where the Python package pybind11 is importable instead (a
+PyPI-style build environment), its CMake directory is passed to CMake.
 """
 
+import atexit
 import os
 import pathlib
 import re
@@ -20,13 +28,15 @@ import shutil
 import subprocess
 import sys
 import sysconfig
+import tempfile
 
 from setuptools import setup
 from setuptools.command.build_py import build_py
 from setuptools.dist import Distribution
 
 ROOT = pathlib.Path(__file__).resolve().parent
-WORK = ROOT / "build" / "setuptools"  # setuptools' own build and egg-info folders, apart from CMake's build/
+WORK = pathlib.Path(tempfile.mkdtemp(prefix="lgvi-setuptools-"))  # setuptools' build/ and egg-info (the docstring)
+atexit.register(shutil.rmtree, WORK, ignore_errors=True)
 # lgvi.view's three.js (MIT, web/package-lock.json), copied into the wheel under lgvi/_three/ with the
 # same relative paths as in node_modules/three (python/lgvi/viewer.py reads them from either place).
 THREE_FILES = ("LICENSE", "build/three.module.js", "build/three.core.js", "examples/jsm/controls/OrbitControls.js")
@@ -64,8 +74,14 @@ def build_core(build_temp):
                                "(no CMakeCache.txt); unset it to build one, or run scripts/setup.sh first")
     else:
         tree = pathlib.Path(build_temp).resolve() / "cmake"
+        hints = []
+        try:
+            import pybind11  # noqa: PLC0415 (only where pip installed it)
+            hints.append(f"-Dpybind11_DIR={pybind11.get_cmake_dir()}")
+        except ImportError:
+            pass
         run(["cmake", "-S", ROOT, "-B", tree, "-DCMAKE_BUILD_TYPE=Release", "-DLGVI_BUILD_TESTS=OFF",
-             "-DLGVI_BUILD_BENCHMARKS=OFF", "-DLGVI_MPI=OFF", f"-DLGVI_SYSTEM_PYTHON={sys.executable}"])
+             "-DLGVI_BUILD_BENCHMARKS=OFF", "-DLGVI_MPI=OFF", f"-DLGVI_SYSTEM_PYTHON={sys.executable}", *hints])
     jobs = os.environ.get("CMAKE_BUILD_PARALLEL_LEVEL") or str(os.cpu_count() or 1)
     run(["cmake", "--build", tree, "--target", "lgvi_python", "-j", jobs])
     core = tree / "python" / "lgvi" / f"_core{suffix}"
@@ -95,7 +111,6 @@ class BuildPyWithCore(build_py):
                   "lgvi.view will ask for it", file=sys.stderr, flush=True)
 
 
-WORK.mkdir(parents=True, exist_ok=True)
 setup(
     version=cmake_version(),
     distclass=BinaryDistribution,

@@ -9,6 +9,7 @@ energy's relative error and that error over the rotational kinetic energy (summa
 """
 import argparse
 import json
+import math
 import pathlib
 import re
 import subprocess
@@ -20,7 +21,7 @@ import lgvi
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 T = 5676.978  # the orbit's period, s
-T_LIBRATION = T / 1.5497  # n sqrt(3 (Jy - Jx) / Jz) with J = (2.98, 20.48, 22.98)
+T_LIBRATION = T / math.sqrt(3 * (20.48 - 2.98) / 22.98)  # 2 pi / (n sqrt(3 (Jy - Jx) / Jz)), J = (2.98, 20.48, 22.98)
 
 
 def main():

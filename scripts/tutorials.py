@@ -6,10 +6,12 @@
 Every ```sh block of a tutorial runs with bash (-euo pipefail), and every ```python block with this
 interpreter, in the order of the page, from one working folder that looks like the repository root to
 them: `build/lgvi` is the binary under test, and `scenarios/`, `docs/`, `benchmarks/`, `scripts/` are the
-source tree's. A ```text block right after a block that runs is that block's output as the page shows
-it, and must be what the block prints (trailing blanks aside): the numbers a page quotes there cannot
-drift from what the commands give. Other fenced blocks (toml) are not run. A page names the figures it
-shows and the files its commands write them to in MyST comments,
+source tree's. A ```text block right after a block that runs is that block's standard output as the page
+shows it, and must be what the block prints (trailing blanks aside; "..." in a line of it stands for any
+text, for wall times): the numbers a page quotes there cannot drift from what the commands give. Standard
+error goes to the log only. ```toml blocks and MyST directives ({literalinclude}) are not run; a fence of
+any other kind, or a ```text block that follows no block that runs, is an error (it would go unchecked).
+A page names the figures it shows and the files its commands write them to in MyST comments,
 
     % figure results/didymos/libration.png -> figures/didymos-libration.png
 
@@ -30,12 +32,16 @@ import tempfile
 SOURCE = pathlib.Path(__file__).resolve().parents[1]
 TUTORIALS = SOURCE / "docs" / "tutorials"
 LINKED = ("scenarios", "docs", "benchmarks", "scripts")
-FENCE = re.compile(r"^```(\w+)[^\n]*\n(.*?)^```[ \t]*$", re.M | re.S)
+FENCE = re.compile(r"^```([^\n]*)\n(.*?)^```[ \t]*$", re.M | re.S)
 FIGURE = re.compile(r"^% figure (\S+) -> (\S+)[ \t]*$", re.M)
 
 
 class OutputMismatch(Exception):
     """A block printed other than the ```text block after it shows."""
+
+
+class PageError(Exception):
+    """A fenced block this runner would leave unchecked."""
 
 
 def blocks(text):
@@ -44,18 +50,40 @@ def blocks(text):
     fences = list(FENCE.finditer(text))
     out = []
     for i, m in enumerate(fences):
-        if m.group(1) not in ("sh", "python"):
+        kind = m.group(1).strip()
+        if kind == "text":
+            before = fences[i - 1] if i > 0 else None
+            if before is None or before.group(1).strip() not in ("sh", "python") or text[before.end():m.start()].strip():
+                raise PageError(f"a ```text block (line {text.count(chr(10), 0, m.start()) + 1}) that follows no "
+                                "sh or python block: nothing would check it")
             continue
+        if kind == "toml" or kind.startswith("{"):
+            continue
+        if kind not in ("sh", "python"):
+            raise PageError(f"a ```{kind or '(no language)'} block (line {text.count(chr(10), 0, m.start()) + 1}): "
+                            "tutorials use sh, python, text (output) and toml")
         after = fences[i + 1] if i + 1 < len(fences) else None
         shown = None
-        if after is not None and after.group(1) == "text" and not text[m.end():after.start()].strip():
+        if after is not None and after.group(1).strip() == "text" and not text[m.end():after.start()].strip():
             shown = after.group(2)
-        out.append((m.group(1), m.group(2), shown))
+        out.append((kind, m.group(2), shown))
     return out
 
 
 def _lines(text):
     return [line.rstrip() for line in text.strip("\n").splitlines()]
+
+
+def matches(printed, shown):
+    """Whether the printed lines are the shown ones, "..." in a shown line standing for any text."""
+    got, want = _lines(printed), _lines(shown)
+    if len(got) != len(want):
+        return False
+    for g, w in zip(got, want):
+        pattern = ".*".join(re.escape(part) for part in w.split("..."))
+        if not re.fullmatch(pattern, g):
+            return False
+    return True
 
 
 def figures(text):
@@ -67,13 +95,14 @@ def prepare(work, binary, python_dir=None):
     """A working folder that looks like the repository root: build/lgvi and the source folders."""
     work.mkdir(parents=True, exist_ok=True)
     (work / "build").mkdir(exist_ok=True)
-    if not (work / "build" / "lgvi").exists():
-        (work / "build" / "lgvi").symlink_to(pathlib.Path(binary).resolve())
-    if python_dir and not (work / "build" / "python").exists():
-        (work / "build" / "python").symlink_to(pathlib.Path(python_dir).resolve())
-    for name in LINKED:
+    links = [("build/lgvi", pathlib.Path(binary).resolve())] + [(name, SOURCE / name) for name in LINKED]
+    if python_dir:
+        links.append(("build/python", pathlib.Path(python_dir).resolve()))
+    for name, target in links:
+        if (work / name).is_symlink():  # (a dangling link of an earlier run too)
+            (work / name).unlink()
         if not (work / name).exists():
-            (work / name).symlink_to(SOURCE / name)
+            (work / name).symlink_to(target)
 
 
 def run_tutorial(name, work, env=None, log=sys.stdout):
@@ -88,11 +117,11 @@ def run_tutorial(name, work, env=None, log=sys.stdout):
             command = ["bash", "-euo", "pipefail", "-c", code]
         else:
             command = [sys.executable, "-c", code]
-        proc = subprocess.run(command, cwd=work, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        print(proc.stdout, end="", file=log, flush=True)
+        proc = subprocess.run(command, cwd=work, env=env, capture_output=True, text=True)
+        print(proc.stdout + proc.stderr, end="", file=log, flush=True)
         if proc.returncode != 0:
-            raise subprocess.CalledProcessError(proc.returncode, f"{name}.md block {i + 1}", proc.stdout)
-        if shown is not None and _lines(proc.stdout) != _lines(shown):
+            raise subprocess.CalledProcessError(proc.returncode, f"{name}.md block {i + 1}", proc.stdout + proc.stderr)
+        if shown is not None and not matches(proc.stdout, shown):
             raise OutputMismatch(f"{name}.md block {i + 1} printed\n{proc.stdout}\nbut the page shows\n{shown}")
         outputs.append(proc.stdout)
     for written, _ in figures(text):
@@ -116,7 +145,7 @@ def main(argv=None):
     for name in names:
         try:
             text, _ = run_tutorial(name, work, env)
-        except (subprocess.CalledProcessError, OutputMismatch, FileNotFoundError) as e:
+        except (subprocess.CalledProcessError, OutputMismatch, PageError, FileNotFoundError) as e:
             print(f"tutorials: {name}: {e}", file=sys.stderr)
             return 1
         if args.copy_figures:

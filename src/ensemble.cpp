@@ -144,7 +144,8 @@ toml::table* key_table(toml::table& root, const std::vector<std::string>& parts,
   for (; i + 1 < parts.size(); ++i) {
     if (toml::array* entries = (*t)[parts[i]].as_array()) {  // [[forcing]]: the next part is an index
       const std::string& index = parts[i + 1];
-      if (i + 2 >= parts.size() || index.empty() || index.size() > 6 ||
+      // One spelling per entry (0, 1, ..., no leading zero): the key is also the members.csv column's name.
+      if (i + 2 >= parts.size() || index.empty() || index.size() > 6 || (index.size() > 1 && index[0] == '0') ||
           index.find_first_not_of("0123456789") != std::string::npos)
         return nullptr;
       const std::size_t a = std::stoul(index);
@@ -451,6 +452,7 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
     };
     if (laws.angular_momentum != ConservationLaws::Angular::Conserved) change("max_momentum_error");
     if (!laws.linear_momentum) change("max_linear_momentum_error");
+    plan.forced = plan.forced || laws.forced;
     if (m == 0) {
       plan.output_format = sc.output_format;
       adaptive = sc.integrator.adaptive();
@@ -803,10 +805,12 @@ void show_ensemble(const std::string& dir, std::ostream& out) {
   // holds), and which columns are changes rather than errors.
   std::int64_t planned = 0;
   std::vector<std::string> changes;
+  bool forced = false;
   try {
     const EnsemblePlan plan = ensemble_detail::plan_of_folder(dir, false);
     planned = plan.members();
     changes = plan.changes_not_errors;
+    forced = plan.forced;
   } catch (const std::exception&) {
     planned = rows;
   }
@@ -823,7 +827,8 @@ void show_ensemble(const std::string& dir, std::ostream& out) {
     std::sort(values[e].begin(), values[e].end());
     const bool change = std::find(changes.begin(), changes.end(), errors[e]) != changes.end();
     marked = marked || change;
-    row("  " + errors[e] + (change ? " (a change)" : ""), fmt::format("{:.3e} / {:.3e} / {:.3e} / {:.3e}", quantile(values[e], 0.0),
+    const bool balance = forced && errors[e] == "max_abs_energy_error";  // of E - E0 - W, as one run's summary says
+    row("  " + errors[e] + (change ? " (a change)" : "") + (balance ? " (E - E0 - W)" : ""), fmt::format("{:.3e} / {:.3e} / {:.3e} / {:.3e}", quantile(values[e], 0.0),
                                       quantile(values[e], 0.5), quantile(values[e], 0.9), quantile(values[e], 1.0)));
   }
   if (marked)

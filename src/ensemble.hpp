@@ -59,6 +59,8 @@ struct EnsemblePlan {
   /// conserve (a forcing or an external field; conservation_laws), as
   /// summary.json's conserved.changes_not_errors says for one run.
   std::vector<std::string> changes_not_errors;
+  /// The members run a [[forcing]]: their max_abs_energy_error is of E - E0 - W (W the forcing's work).
+  bool forced = false;
   TrajectoryFormat output_format;  ///< the base scenario's: its members table (members.npz, .h5) beside the CSV
 
   std::int64_t members() const { return static_cast<std::int64_t>(varied.size()); }

@@ -170,13 +170,18 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
   if (opt.checkpoint_every > 0) fs::remove(checkpoint_path);  // the run is complete: nothing to resume
   const RunStatistics& st = result.stats;
   const double l0 = st.momentum0.norm();
+  // As summary.json's "conserved" says: under a forcing the energy error is E - E0 - W, and an angular
+  // momentum the dynamics does not conserve (a periodic box, a field, a forcing) has changed, not erred.
+  const ConservationLaws laws = conservation_laws(sc);
   if (!opt.quiet)
     std::cout << fmt::format(
-        "{}: {} steps in {:.3f} s ({:.0f} ns/step); max |dE| = {:.3e}, max ||q|-1| = {:.3e}, max |dL|/|L0| = {:.3e}; "
+        "{}: {} steps in {:.3f} s ({:.0f} ns/step); max |{}| = {:.3e}, max ||q|-1| = {:.3e}, max |dL|/|L0| = {:.3e}{}; "
         "output in {}\n",
         sc.name, st.last_k, result.wall_seconds,
-        st.last_k ? result.wall_seconds * 1e9 / static_cast<double>(st.last_k) : 0.0, st.max_energy_error,
-        st.max_quat_error, l0 > 0 ? st.max_momentum_error / l0 : st.max_momentum_error, dir);
+        st.last_k ? result.wall_seconds * 1e9 / static_cast<double>(st.last_k) : 0.0,
+        laws.forced ? "E - E0 - W" : "dE", st.max_energy_error, st.max_quat_error,
+        l0 > 0 ? st.max_momentum_error / l0 : st.max_momentum_error,
+        laws.angular_momentum == ConservationLaws::Angular::Conserved ? "" : " (a change: not conserved here)", dir);
   // The figures are drawn from the trajectory's columns; the particle exports
   // (xyz, vtk, lammps-dump) do not hold them (lgvi.load refuses them), so those runs have none.
   if (opt.figures && !holds_columns(sc.output_format)) {

@@ -76,7 +76,9 @@ void show_run(const std::string& dir, std::ostream& out) {
   // With [[forcing]], the energy error is E - E0 - W (W the forcing's work), as summary.json's
   // energy_error_is says: the row names it so, with W at the end.
   const Json* work = field("work");
-  if (work && work->is_number())
+  const Json* energy_error_is = field("energy_error_is");
+  if (energy_error_is && energy_error_is->is_string() && energy_error_is->get<std::string>() == "E - E0 - work" &&
+      work && work->is_number())
     row("energy", fmt::format("E0 = {}, max |E - E0 - W| = {:.3e} (W: the forcing's work, {:.6g} at the end)",
                               text(field("initial_energy")), number(field("max_abs_energy_error")), number(work)));
   else

@@ -6,6 +6,11 @@ neighbour settings, timed in one invocation:
 
     /usr/bin/python3 benchmarks/lammps/compare_lammps.py LGVI_BINARY LMP_BINARY [--steps 2000] [--repeat 5]
     /usr/bin/python3 benchmarks/lammps/compare_lammps.py LGVI_BINARY LMP_BINARY --periodic
+    /usr/bin/python3 benchmarks/lammps/compare_lammps.py LGVI_BINARY LMP_BINARY --periodic --scenario S.toml
+
+--scenario takes another gas or liquid of the same molecules (three Lennard-Jones sites of mass 1, the
+same eps, sigma, cutoff 2.5 and skin 0.3: scenarios/lj-fluid-periodic.toml, say) instead of
+scenarios/lj-gas.toml; with --periodic its own [box] is used when it has one.
 
 With --periodic the same gas fills a periodic cube of side 22 (the lattice of
 spacing 2.2 continued across the faces: [box] in lgvi, boundary p p p in
@@ -41,6 +46,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import tomllib
 
 import numpy as np
 
@@ -55,9 +61,18 @@ ROOT = HERE.parent.parent
 BOX = (-1.1, 20.9)
 
 
-def scenario_text(steps, step, every, periodic=False):
-    text = (ROOT / "scenarios" / "lj-gas.toml").read_text()
-    if periodic:
+GAS = ROOT / "scenarios" / "lj-gas.toml"
+
+
+def box_of(text):
+    """((lower, upper) of the scenario's [box] as arrays) or None."""
+    box = tomllib.loads(text).get("box")
+    return (np.array(box["lower"], dtype=float), np.array(box["upper"], dtype=float)) if box else None
+
+
+def scenario_text(steps, step, every, periodic=False, base=GAS):
+    text = pathlib.Path(base).read_text()
+    if periodic and box_of(text) is None:
         lo, hi = BOX
         text += f"\n[box]\nlower = [{lo!r}, {lo!r}, {lo!r}]\nupper = [{hi!r}, {hi!r}, {hi!r}]\n"
     text = text.replace("radius = 0.5", "radius = 0.0")  # point masses, as LAMMPS atoms
@@ -67,10 +82,10 @@ def scenario_text(steps, step, every, periodic=False):
     return text
 
 
-def lammps_data(lgvi, work, periodic=False):
+def lammps_data(lgvi, work, periodic=False, base=GAS):
     """Writes the LAMMPS data file of lgvi's initial state; returns its path."""
     scen = work / "initial.toml"
-    scen.write_text(scenario_text(0, 0.002, 1, periodic))
+    scen.write_text(scenario_text(0, 0.002, 1, periodic, base))
     subprocess.run([lgvi, "run", scen, "--out", work / "initial", "--force", "--no-figures", "-q"], check=True)
     rows = np.loadtxt(work / "initial" / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
     summary = json.loads((work / "initial" / "summary.json").read_text())
@@ -90,7 +105,7 @@ def lammps_data(lgvi, work, periodic=False):
     pos = np.array([a[1] for a in atoms])
     lo, hi = pos.min(axis=0) - 50.0, pos.max(axis=0) + 50.0
     if periodic:  # atoms outside a periodic box are wrapped in by read_data, with their image flags
-        lo, hi = np.full(3, BOX[0]), np.full(3, BOX[1])
+        lo, hi = box_of(scen.read_text())
     lines = ["LAMMPS data: lgvi's lj-gas initial state (benchmarks/lammps/compare_lammps.py)", "",
              f"{len(atoms)} atoms", "1 atom types", ""]
     lines += [f"{lo[i]!r} {hi[i]!r} {c}lo {c}hi" for i, c in enumerate("xyz")]
@@ -122,10 +137,10 @@ def run_lammps(lmp, work, steps, step, thermo, periodic=False):
     return loop / steps, max(abs(e - energies[0]) for e in energies), energies[0]
 
 
-def periodic_start(lgvi, lmp, work):
+def periodic_start(lgvi, lmp, work, base=GAS):
     """The periodic gas's step-0 energies, temperature and pressure in both programs; exits 1 unless they agree to
     1e-10 relative."""
-    lammps_data(lgvi, work, periodic=True)
+    lammps_data(lgvi, work, periodic=True, base=base)
     out = subprocess.run([lmp, "-in", str(HERE / "in.lj-triangles-thermo"), "-log", "none", "-screen", "none",
                           "-var", "data", str(work / "lj-triangles.data"), "-var", "log", str(work / "thermo.log")],
                          capture_output=True, text=True, cwd=work)
@@ -140,7 +155,9 @@ def periodic_start(lgvi, lmp, work):
     t = sum(row[9:12] @ row[9:12] / (2 * mass) + row[12:15] @ np.linalg.solve(inertia, row[12:15]) / 8 for row in rows)
     v = summary["initial_energy"] - t
     thermo = summary["thermodynamics"]
-    print("Periodic Lennard-Jones gas of 1000 rigid triangle molecules in a cube of side 22, step 0:\n")
+    lo, hi = box_of((work / "initial.toml").read_text())
+    sides = " x ".join(f"{side:g}" for side in hi - lo)
+    print(f"{pathlib.Path(base).name}: {len(rows)} rigid triangle molecules in a periodic box of {sides}, step 0:\n")
     print("| quantity | lgvi | LAMMPS | relative difference |")
     print("|---|---:|---:|---:|")
     worst = 0.0
@@ -170,11 +187,14 @@ def main():
     ap.add_argument("--step", type=float, default=0.002)
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--periodic", action="store_true", help="compare the start of the periodic gas")
+    ap.add_argument("--scenario", default=str(GAS), help="the gas or liquid (default scenarios/lj-gas.toml)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         work = pathlib.Path(tmp)
         if args.periodic:
-            periodic_start(args.lgvi, args.lmp, work)
+            periodic_start(args.lgvi, args.lmp, work, args.scenario)
+        if args.scenario != str(GAS):
+            sys.exit("compare_lammps.py: --scenario is for --periodic (the timed run is scenarios/lj-gas.toml's)")
         lammps_data(args.lgvi, work)
         # Energy errors: every 10th step written (LAMMPS thermo output costs time, so timed runs write rarely).
         _, lmp_de, lmp_e0 = run_lammps(args.lmp, work, args.steps, args.step, 10)

@@ -6,9 +6,10 @@ tests/python/test_package.py), uninstalled; and `pip install --no-build-isolatio
 
 Run by ctest (python.wheel) with LGVI_CMAKE_BUILD_DIR set to the test build tree, so that the wheel
 takes the lgvi._core already compiled there instead of compiling it a second time (setup.py documents
-the variable; a build without it configures and compiles its own tree, as a user's does), and with
-LGVI_BINARY and LGVI_SOURCE_DIR as for the other Python tests. Every child runs without PYTHONPATH:
-what it imports must come from the virtual environment.
+the variable), and with LGVI_BINARY and LGVI_SOURCE_DIR as for the other Python tests. Every child runs
+without PYTHONPATH or LGVI_SOURCE_DIR: what it imports, and lgvi.view's three.js, must come from the
+virtual environment. The build a user gets, a source distribution compiled from scratch through CMake
+(about 2 minutes on 2 cores), runs with LGVI_WHEEL_FROM_SCRATCH=1 (test_a_wheel_from_the_sdist_...).
 """
 
 import email.parser
@@ -22,6 +23,7 @@ import sysconfig
 import zipfile
 
 import pytest
+from packaging.requirements import Requirement
 
 SOURCE = pathlib.Path(os.environ.get("LGVI_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
 BINARY = os.environ.get("LGVI_BINARY")
@@ -31,8 +33,9 @@ pytest.importorskip("build", reason="Debian's python3-build (scripts/setup.sh in
 
 
 def clean_env(**extra):
-    """The environment without PYTHONPATH (the build tree's package must not leak into the venv)."""
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
+    """The environment without PYTHONPATH and LGVI_SOURCE_DIR (the build tree's package, or the source tree's
+    three.js, must not leak into the venv)."""
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME", "LGVI_SOURCE_DIR")}
     env.update(extra)
     return env
 
@@ -83,13 +86,15 @@ def test_wheel_holds_the_package_the_module_and_the_licence(wheel):
     assert f"lgvi-{version}.dist-info/LICENSE" in names
     assert meta["Name"] == "lgvi" and meta["Version"] == version
     assert meta["License"] == "BSD-3-Clause"
-    assert set(meta.get_all("Requires-Dist")) == {"matplotlib (>=3.5)", "numpy (>=1.21)", "h5py ; extra == 'hdf5'"}
+    requires = {str(Requirement(r)) for r in meta.get_all("Requires-Dist")}  # normalised spelling
+    assert requires == {"matplotlib>=3.5", "numpy>=1.21", 'h5py; extra == "hdf5"'}
 
 
 RUN_IN_VENV = r"""
 import json, pathlib, sys
 import numpy as np
 import lgvi
+import lgvi.viewer
 out = pathlib.Path(sys.argv[1])
 site = pathlib.Path(sys.argv[2]).resolve()
 # Imported from the virtual environment, compiled module included.
@@ -100,6 +105,8 @@ scenario = lgvi.Scenario.from_toml(sys.argv[3])
 result = lgvi.simulate(scenario)
 np.save(out / "state.npy", np.column_stack([result.x, result.q, result.p, result.w]))
 path = lgvi.view(result, out / "view.html")
+three = lgvi.viewer.three_dir()                      # the wheel's own copy, not a source tree's
+assert pathlib.Path(three).resolve().is_relative_to(site), three
 print(json.dumps({"version": lgvi.__version__, "rows": len(result.t), "view": str(path)}))
 """
 
@@ -124,7 +131,7 @@ def test_installed_wheel_runs_like_the_cli_then_uninstalls(wheel, tmp_path):
     info = json.loads(proc.stdout.strip().splitlines()[-1])
     assert info["version"] == cmake_version()
     assert pathlib.Path(info["view"]).is_file()
-    assert b"three/core" in pathlib.Path(info["view"]).read_bytes()  # three.js inlined from the package's copy
+    assert b"three/core" in pathlib.Path(info["view"]).read_bytes()  # three.js inlined (from the wheel's copy)
 
     # The CLI of the same build, on the same file: the installed module runs the same compiled loop, so
     # every number is equal to the last bit (its 17-digit CSV reads back exactly).
@@ -158,3 +165,46 @@ def test_pip_install_from_the_source_tree(tmp_path):
     file, version = proc.stdout.split()
     assert pathlib.Path(file).resolve().is_relative_to((tmp_path / "venv").resolve())
     assert version == cmake_version()
+
+
+def test_the_source_distribution_carries_what_the_build_reads(tmp_path):
+    out = tmp_path / "dist"
+    check([sys.executable, "-m", "build", "--no-isolation", "--sdist", "--outdir", out, SOURCE])
+    (sdist,) = out.glob("lgvi-*.tar.gz")
+    import tarfile
+    with tarfile.open(sdist) as tar:
+        names = {n.split("/", 1)[1] for n in tar.getnames() if "/" in n}
+    # CMake's inputs for lgvi._core (every source of the run library and the module), the package, the licence.
+    for f in ("CMakeLists.txt", "cmake/lgviConfig.cmake.in", "setup.py", "pyproject.toml", "LICENSE",
+              "src/python/CMakeLists.txt", "src/python/module.cpp", "include/lgvi/lgvi.hpp", "python/lgvi/__init__.py",
+              "python/lgvi/viewer.html", "web/package-lock.json"):
+        assert f in names, f
+    sources = set(re.findall(r"src/[\w/]+\.cpp", (SOURCE / "CMakeLists.txt").read_text()))
+    assert sources and sources <= names, sorted(sources - names)
+    assert not any(n.startswith(("build/", "tests/", "results/")) for n in names)
+
+
+@pytest.mark.skipif(os.environ.get("LGVI_WHEEL_FROM_SCRATCH") != "1",
+                    reason="compiles lgvi._core from scratch (~2 min on 2 cores): LGVI_WHEEL_FROM_SCRATCH=1")
+def test_a_wheel_from_the_sdist_compiled_from_scratch(tmp_path):
+    # The build a user gets: `python3 -m build --no-isolation` makes the sdist and the wheel from it, with no build
+    # tree given (setup.py configures and compiles one), then the wheel runs in a fresh venv like the CLI.
+    import numpy as np
+
+    out = tmp_path / "dist"
+    env = {k: v for k, v in clean_env().items() if k != "LGVI_CMAKE_BUILD_DIR"}
+    proc = subprocess.run([sys.executable, "-m", "build", "--no-isolation", "--outdir", str(out), str(SOURCE)],
+                          capture_output=True, text=True, env=env)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    assert "lgvi build: cmake -S" in proc.stdout  # it configured a tree of its own
+    (wheel,) = out.glob("*.whl")
+    python = make_venv(tmp_path / "venv")
+    check([python, "-m", "pip", "install", "--no-index", "--no-input", wheel])
+    scenario = short_paper_orbit(tmp_path)
+    code = ("import sys, numpy as np, lgvi; r = lgvi.simulate(lgvi.Scenario.from_toml(sys.argv[1])); "
+            "np.save(sys.argv[2], np.column_stack([r.x, r.q, r.p, r.w]))")
+    check([python, "-c", code, scenario, tmp_path / "state.npy"])
+    check([BINARY, "run", scenario, "--out", tmp_path / "cli", "--no-figures", "-q"])
+    data = np.loadtxt(tmp_path / "cli" / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
+    # The same compiler and flags (Release) as the CLI's: the same numbers to the last bit.
+    assert np.array_equal(np.load(tmp_path / "state.npy"), data[:, 1:14])

@@ -592,6 +592,9 @@ def test_a_forcing_key_is_varied_by_its_index(tmp_path):
     with open(tmp_path / "gains" / "members.csv", newline="") as f:
         members = list(csv.DictReader(f))
     assert [m["forcing.0.k_p"] for m in members] == ["3", "12"]
+    # lgvi show names the forced members' energy error the balance it is, E - E0 - W.
+    shown = subprocess.run([BINARY, "show", str(tmp_path / "gains")], capture_output=True, text=True).stdout
+    assert "  max_abs_energy_error (E - E0 - W) " in shown
     for m in members:
         one = tmp_path / f"k_p-{m['forcing.0.k_p']}.toml"
         one.write_text(slew.replace("k_p = 6.0\n", f"k_p = {m['forcing.0.k_p']}.0\n"))
@@ -601,7 +604,7 @@ def test_a_forcing_key_is_varied_by_its_index(tmp_path):
         assert [float(m[k]) for k in ("qw", "qx", "qy", "qz")] == final["quaternion"]
         assert [float(m[k]) for k in ("wx", "wy", "wz")] == final["w"]
     # An index past the entries, or not a number, names the key and the form to use (exit status 2).
-    for key in ("forcing.2.k_p", "forcing.first.k_p", "forcing.0"):
+    for key in ("forcing.2.k_p", "forcing.first.k_p", "forcing.0", "forcing.00.k_p"):
         grid.write_text(f'[ensemble]\nscenario = "slew.toml"\n[[vary]]\nkey = "{key}"\nvalues = [3.0]\n')
         bad = ensemble(grid, "--out", tmp_path / "bad")
         assert bad.returncode == 2 and bad.stderr.count("\n") == 1, bad.stderr
