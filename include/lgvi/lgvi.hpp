@@ -15,6 +15,10 @@
 // inertia about its axis; rotated by f it would leak across the axis, an
 // O(h) error) and keeps no axial component (RigidBody::admissible_momentum).
 // A single body is N = 1 (single_body.hpp gives it the RigidBodyState API).
+// A body with reaction wheels (a gyrostat, wheels.hpp) takes the same step
+// with its rotation equation P(J_s f_v + (h/2) h_w) = (h/4)(w0 + h M0) and
+// the same update of w; its wheels' momenta take half of each step's motor
+// impulse before the solve and half after (set_wheel_torques, gyrostat.hpp).
 //
 // Discrete Lagrangian (paper eq. "discrtelag", from Wendlandt & Marsden):
 //   L_d = h( m|x1 - x0|^2/(2h^2) + (2/h^2) Im(q0^* q1)^T J Im(q0^* q1) - (V0 + V1)/2 ).
@@ -39,6 +43,7 @@
 #include <lgvi/error.hpp>
 #include <lgvi/interaction.hpp>
 #include <lgvi/methods/implicit_stepper.hpp>
+#include <lgvi/gyrostat.hpp>
 #include <lgvi/potential.hpp>
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/rotation_solver.hpp>
@@ -50,6 +55,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -81,11 +87,46 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
     // where the loop below would leave it empty.
     batched_ = solver.kind == SolverKind::Newton && this->system_.size() >= 2 * RotationSolveBatch::lanes &&
                this->any_batchable();
+    // Gyrostats: their own rotation equation (gyrostat.hpp), solved body by body.
+    for (std::size_t a = 0; a < this->system_.size(); ++a)
+      if (this->system_.body(a).has_wheels()) {
+        if (gyrostats_.empty()) gyrostats_.resize(this->system_.size());
+        gyrostats_[a].emplace(this->system_.body(a).wheels().reduced_inertia(), solver);
+      }
+    if (!gyrostats_.empty()) {
+      batched_ = false;
+      wheel_impulse_.resize(this->system_.size());
+      wheel_speed_.resize(this->system_.size());
+      for (std::size_t a = 0; a < this->system_.size(); ++a) {
+        wheel_impulse_[a].assign(this->system_.body(a).wheels().size(), 0.0);
+        wheel_speed_[a].assign(this->system_.body(a).wheels().size(), 0.0);
+      }
+    }
   }
 
-  /// initialize(state, t): the base's; the first step's initial guess is then
-  /// the first-order estimate xi0 ~ J^{-1} b.
-  using Base::initialize;
+  /// Motor torques on the bodies' reaction wheels, each held between its
+  /// samples (gyrostat.hpp). Before initialize(). Throws InvalidInput for a
+  /// body or wheel that does not exist.
+  void set_wheel_torques(std::vector<WheelTorque> torques) {
+    for (const WheelTorque& u : torques)
+      if (u.body >= this->system_.size() || u.wheel >= this->system_.body(u.body).wheels().size())
+        throw InvalidInput("wheel torque: body " + std::to_string(u.body) + " has no wheel " + std::to_string(u.wheel));
+    wheel_torques_ = std::move(torques);
+  }
+  /// The work of the motor torques since initialize(): sum over steps and
+  /// wheels of impulse x the wheel's mean relative speed at the step's ends.
+  double wheel_work() const { return wheel_work_; }
+  /// The impulse each wheel received in the last step (body, wheel), after
+  /// the limits: its mean applied torque is this / h.
+  const std::vector<std::vector<double>>& last_wheel_impulses() const { return wheel_impulse_; }
+
+  void initialize(const SystemState& s, double t) {
+    Base::initialize(s, t);
+    wheel_work_ = 0.0;
+    if (!gyrostats_.empty() && s.eta.size() != s.size())
+      throw InvalidInput("state: bodies with reaction wheels need their momenta eta (SystemState::eta)");
+  }
+
 
   /// One step of the paper's system "eqhamilton" (forms above). Each solve
   /// starts from its RotationPredictor's extrapolation of the last steps' f.
@@ -94,12 +135,19 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
   void step(SystemState& s, double t, double h) {
     const System& sys = this->system_;
     this->begin_step(s, t);
+    if (!gyrostats_.empty()) kick_wheels(s, t, h);
     // Body a's right side b = (h/4)(w0 + h M0) of g(xi0) = b (w_half_[a] =
-    // w0 + h M0), and the initial guess of its solve.
+    // w0 + h M0), and the initial guess of its solve: the first-order
+    // estimate xi0 ~ J^{-1} b (a gyrostat's J_s^{-1} (b - c)) at the first step.
     auto right_side = [&](std::size_t a) {
       w_half_[a] = s.w[a] + h * this->torque(a);
       RotationPredictor& predictor = this->predictor(a);
-      if (predictor.empty()) predictor.reset(S3d::exp(sys.body(a).inertia_inverse() * ((0.25 * h) * w_half_[a])));
+      if (predictor.empty()) {
+        const Vector3<double> b = (0.25 * h) * w_half_[a];
+        predictor.reset(gyrostat(a) ? S3d::exp(sys.body(a).wheels().reduced_inertia().inverse() *
+                                               (b - wheel_offset(s, a, h)))
+                                    : S3d::exp(sys.body(a).inertia_inverse() * b));
+      }
       return predictor.predict();
     };
     // Body a after its solve gave f.
@@ -137,7 +185,12 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
     } else {
       detail::for_each_body(sys, this->par_, [&](std::size_t a) {
         S3d f = right_side(a);
-        this->solver(a).solve((0.25 * h) * w_half_[a], f, this->reports_[a]);
+        if (gyrostat(a))
+          detail::for_body(sys, a, [&] {
+            gyrostats_[a]->solve((0.25 * h) * w_half_[a], wheel_offset(s, a, h), f, this->reports_[a]);
+          });
+        else
+          this->solver(a).solve((0.25 * h) * w_half_[a], f, this->reports_[a]);
         advance(a, f);
       });
     }
@@ -154,6 +207,9 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
       s.w[a] = body.admissible_momentum(f_[a].inverse().act(body.admissible_momentum(w_half_[a])) + h * this->torque(a));
       if (checked) this->note_finite(s, a);
     });
+    // (Not in the kick: a forcing that reads the momenta calls it more than once.)
+    if (!gyrostats_.empty())
+      for (std::size_t a = 0; a < sys.size(); ++a) finish_wheels(s, a);
     this->finish_step(s, checked);
   }
 
@@ -173,9 +229,58 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
   }
 
  private:
+  bool gyrostat(std::size_t a) const { return !gyrostats_.empty() && gyrostats_[a].has_value(); }
+
+  /// c = (h/2) h_w(eta_half): the wheels' momentum at the middle of the step (s.eta holds eta_half
+  /// between kick_wheels and finish_wheels).
+  Vector3<double> wheel_offset(const SystemState& s, std::size_t a, double h) const {
+    return (0.5 * h) * this->system_.body(a).wheels().momentum(s.eta[a].data());
+  }
+
+  /// Before the solves: each wheel's impulse over [t, t + h] after its limits, its relative speed at
+  /// t, and half of the impulse given (s.eta becomes eta_half). A torque is clipped to +-max_torque;
+  /// a wheel at or beyond max_speed gets no impulse that would speed it up further.
+  void kick_wheels(SystemState& s, double t, double h) {
+    const System& sys = this->system_;
+    for (std::size_t a = 0; a < sys.size(); ++a) {
+      std::fill(wheel_impulse_[a].begin(), wheel_impulse_[a].end(), 0.0);
+      if (!gyrostat(a)) continue;
+      const Wheels& wheels = sys.body(a).wheels();
+      const Vector3<double> omega = wheels.body_rate(s.w[a], s.eta[a].data());
+      for (std::size_t i = 0; i < wheels.size(); ++i) wheel_speed_[a][i] = wheels.relative_speed(i, s.eta[a].data(), omega);
+    }
+    for (const WheelTorque& u : wheel_torques_) {
+      const Wheel& wheel = sys.body(u.body).wheels()[u.wheel];
+      double impulse = u.torque.impulse(t, t + h, wheel.max_torque);
+      const double speed = wheel_speed_[u.body][u.wheel];
+      if (std::abs(speed) >= wheel.max_speed && impulse * speed > 0.0) impulse = 0.0;
+      wheel_impulse_[u.body][u.wheel] += impulse;
+    }
+    for (std::size_t a = 0; a < sys.size(); ++a)
+      for (std::size_t i = 0; i < wheel_impulse_[a].size(); ++i) s.eta[a][i] += 0.5 * wheel_impulse_[a][i];
+  }
+
+  /// After body a's w is final (serially, in body order): the other half of its wheels' impulses, and
+  /// their work (impulse x the mean of the relative speeds at the step's ends).
+  void finish_wheels(SystemState& s, std::size_t a) {
+    if (!gyrostat(a)) return;
+    const Wheels& wheels = this->system_.body(a).wheels();
+    std::vector<double>& eta = s.eta[a];
+    for (std::size_t i = 0; i < wheels.size(); ++i) eta[i] += 0.5 * wheel_impulse_[a][i];
+    const Vector3<double> omega = wheels.body_rate(s.w[a], eta.data());
+    double work = 0.0;
+    for (std::size_t i = 0; i < wheels.size(); ++i)
+      work += wheel_impulse_[a][i] * 0.5 * (wheel_speed_[a][i] + wheels.relative_speed(i, eta.data(), omega));
+    wheel_work_ += work;
+  }
+
   std::vector<Vector3<double>> w_half_;
   std::vector<S3d> f_;
   bool batched_ = false;  ///< the rotation solves in RotationSolveBatch (step)
+  std::vector<std::optional<GyrostatRotationSolver>> gyrostats_;  ///< per body (empty: no body has wheels)
+  std::vector<WheelTorque> wheel_torques_;
+  std::vector<std::vector<double>> wheel_impulse_, wheel_speed_;  ///< per body and wheel, this step's
+  double wheel_work_ = 0.0;
 };
 
 template <Potential P>

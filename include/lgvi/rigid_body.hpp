@@ -20,15 +20,21 @@
 // is linear; J is then stored as the exact I (1 - n n^T), I the mean of the
 // two others, and inertia_inverse() is its pseudo-inverse (1 - n n^T) / I.
 // Only methods that say so in their traits take such bodies (lgvi.hpp).
+//
+// Reaction wheels (wheels.hpp) make a body a gyrostat: J is then the inertia
+// with the wheels locked, and the wheels' axial momenta are part of the state
+// (SystemState::eta). with_wheels() adds them; bodies without are unchanged.
 #pragma once
 
 #include <lgvi/error.hpp>
 #include <lgvi/s3.hpp>
+#include <lgvi/wheels.hpp>
 
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -152,6 +158,24 @@ class RigidBody {
     body.extent_ = Extent::Sphere;
     body.semi_axes_ = Vector3<double>::Constant(radius);
     return body;
+  }
+
+  /// This body with reaction wheels (its J the whole body's, wheels locked).
+  /// Throws InvalidInput as Wheels does, naming `prefix`.wheel[i]; a linear
+  /// body or a point takes none (`prefix`.wheel).
+  RigidBody with_wheels(std::vector<Wheel> wheels, const std::string& prefix = "body") const {
+    if (wheels.empty()) return *this;
+    if (rotational_dof_ != 3)
+      throw InvalidInput(prefix + ".wheel: " + std::string(rotation_description()) + " takes no reaction wheels");
+    RigidBody body = *this;
+    body.wheels_ = std::make_shared<const Wheels>(inertia_, std::move(wheels), prefix);
+    return body;
+  }
+  bool has_wheels() const { return wheels_ != nullptr; }
+  /// The wheels (none: an empty set).
+  const Wheels& wheels() const {
+    static const Wheels none;
+    return wheels_ ? *wheels_ : none;
   }
 
   double mass() const { return mass_; }
@@ -288,6 +312,7 @@ class RigidBody {
   std::vector<Ball> balls_;
   Extent extent_ = Extent::Point;
   Vector3<double> semi_axes_ = Vector3<double>::Zero();
+  std::shared_ptr<const Wheels> wheels_;  ///< none: a rigid body (shared: bodies are copied freely)
 };
 
 }  // namespace lgvi

@@ -147,6 +147,10 @@ inline SystemBodies system_bodies(const System& sys) { return SystemBodies(sys);
 struct SystemState {
   std::vector<Vector3<double>> x, p, w;
   std::vector<S3d> q;
+  /// The reaction wheels' axial momenta eta_i = j_i (a_i.omega + Omega_i) (wheels.hpp), per body in the
+  /// order of its wheels: empty when no body has wheels, else one (possibly empty) list per body. Then
+  /// w = 2 Pi is the total angular momentum of body and wheels in body axes.
+  std::vector<std::vector<double>> eta;
 
   SystemState() = default;
   explicit SystemState(std::size_t n)
@@ -165,6 +169,9 @@ struct SystemState {
   bool all_finite() const {
     for (std::size_t a = 0; a < size(); ++a)
       if (!body(a).all_finite()) return false;
+    for (const std::vector<double>& e : eta)
+      for (const double v : e)
+        if (!std::isfinite(v)) return false;
     return true;
   }
 };
@@ -198,10 +205,18 @@ struct SystemEvaluation {
 // Sums over bodies start from body 0's term, not from zero, so that N = 1
 // gives the single-body value bit for bit (0 + -0 would turn a -0 into +0).
 
+/// Body a's kinetic energy: a rigid body's (state.hpp), or with reaction wheels
+/// |p|^2/(2m) + the gyrostat's rotational energy (Wheels::kinetic_energy).
+inline double kinetic_energy(const SystemState& s, const System& sys, std::size_t a) {
+  const RigidBody& body = sys.body(a);
+  if (!body.has_wheels() || s.eta.empty()) return kinetic_energy(s.body(a), body);
+  return s.p[a].squaredNorm() / (2.0 * body.mass()) + body.wheels().kinetic_energy(s.w[a], s.eta[a].data());
+}
+
 /// Kinetic energy of the system, summed over bodies in order.
 inline double kinetic_energy(const SystemState& s, const System& sys) {
-  double t = kinetic_energy(s.body(0), sys.body(0));
-  for (std::size_t a = 1; a < s.size(); ++a) t += kinetic_energy(s.body(a), sys.body(a));
+  double t = kinetic_energy(s, sys, 0);
+  for (std::size_t a = 1; a < s.size(); ++a) t += kinetic_energy(s, sys, a);
   return t;
 }
 

@@ -1,0 +1,127 @@
+// The gyrostat step's pieces (the model and the derivation: wheels.hpp): the
+// implicit rotation equation with the wheels' momentum, and the motor torque
+// commands held between samples.
+#pragma once
+
+#include <lgvi/error.hpp>
+#include <lgvi/rotation_solver.hpp>
+#include <lgvi/s3.hpp>
+#include <lgvi/wheels.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace lgvi {
+
+/// The gyrostat's implicit equation, P(J_s f_v + c) = b with P(u) = f_s u +
+/// f_v x u, c = (h/2) h_w and b = (h/4)(w0 + h M0) (the file comment), by
+/// Newton's method in the Cayley chart f = (1, u)/s, s = sqrt(1 + |u|^2):
+///   r(u) = J_s u + u x J_s u + s (c + u x c) - s^2 b = s^2 (P(J_s f_v + c) - b),
+///   dr/du = J_s + hat(u) J_s - hat(J_s u) - s hat(c) + (c + u x c) u^T / s - 2 b u^T.
+/// With c = 0 it is the rigid body's equation (RotationEquation's Cayley
+/// residual). Stops when |r| <= tolerance (|b| + |c| s) or the update is
+/// below tolerance |u|; throws StepFailure when it does not converge.
+class GyrostatRotationSolver {
+ public:
+  GyrostatRotationSolver(const Matrix3<double>& reduced_inertia, SolverOptions options)
+      : js_(reduced_inertia), opt_(options) {}
+
+  void solve(const Vector3<double>& b, const Vector3<double>& c, S3d& f, SolveReport& report) const {
+    report = {};
+    if (!(f.w() > 0.0)) f = S3d();
+    Vector3<double> u = f.vec() / f.w();
+    const double scale = b.norm() + c.norm();
+    for (int it = 0; it < opt_.max_iterations; ++it) {
+      const double s2 = 1.0 + u.squaredNorm();
+      const double s = std::sqrt(s2);
+      const Vector3<double> ju = js_ * u;
+      const Vector3<double> cu = c + u.cross(c);
+      const Vector3<double> r = ju + u.cross(ju) + s * cu - s2 * b;
+      ++report.residual_evaluations;
+      if (r.norm() <= opt_.tolerance * scale * s2) {
+        f = cayley(u, s);
+        return;
+      }
+      Matrix3<double> d = js_ + S3d::hat(u) * js_ - S3d::hat(ju) - s * S3d::hat(c) + (cu / s) * u.transpose() -
+                          2.0 * b * u.transpose();
+      const Vector3<double> step = detail::solve_3x3(d, r);
+      ++report.iterations;
+      if (!step.allFinite()) break;
+      u -= step;
+      if (step.norm() <= opt_.tolerance * u.norm()) {
+        f = cayley(u, std::sqrt(1.0 + u.squaredNorm()));
+        return;
+      }
+    }
+    throw StepFailure("the gyrostat's rotation equation did not converge in " + std::to_string(opt_.max_iterations) +
+                          " iterations", detail::smaller_step_hint);
+  }
+
+  const Matrix3<double>& reduced_inertia() const { return js_; }
+
+ private:
+  static S3d cayley(const Vector3<double>& u, double s) { return S3d(1.0 / s, u.x() / s, u.y() / s, u.z() / s); }
+  Matrix3<double> js_;
+  SolverOptions opt_;
+};
+
+/// A motor torque command held between samples (zero-order hold): u(t) =
+/// u_i for t_i <= t < t_{i+1}, the first value before t_0 and the last after
+/// the last time. A constant is one row. impulse(t0, t1, limit) is the exact
+/// integral over [t0, t1] of u clipped to [-limit, limit].
+class HeldTorque {
+ public:
+  HeldTorque() = default;
+  static HeldTorque constant(double u) { return HeldTorque({0.0}, {u}); }
+  /// Throws InvalidInput unless the times are finite and strictly increasing
+  /// and the values finite, with as many values as times (one at least).
+  HeldTorque(std::vector<double> t, std::vector<double> u) : t_(std::move(t)), u_(std::move(u)) {
+    if (t_.empty() || t_.size() != u_.size()) throw InvalidInput("table: one torque per time, one row at least");
+    for (std::size_t i = 0; i < t_.size(); ++i) {
+      if (!std::isfinite(t_[i]) || !std::isfinite(u_[i]))
+        throw InvalidInput("table: row " + std::to_string(i + 1) + " is not finite");
+      if (i > 0 && !(t_[i] > t_[i - 1]))
+        throw InvalidInput("table: times must be strictly increasing (row " + std::to_string(i + 1) + ")");
+    }
+  }
+
+  /// The commanded torque at t.
+  double at(double t) const { return u_[segment(t)]; }
+
+  /// The integral of u, clipped to [-limit, limit], over [t0, t1] (t0 <= t1), summed segment by
+  /// segment: a command held over the whole step is u h, bit for bit.
+  double impulse(double t0, double t1, double limit = std::numeric_limits<double>::infinity()) const {
+    double total = 0.0;
+    double a = t0;
+    for (std::size_t i = segment(t0); a < t1; ++i) {
+      const double end = i + 1 < t_.size() ? std::min(t1, t_[i + 1]) : t1;
+      total += std::clamp(u_[i], -limit, limit) * (end - a);
+      a = end;
+    }
+    return total;
+  }
+
+ private:
+  /// The row in force at t: the last i with t_i <= t (0 before the first).
+  std::size_t segment(double t) const {
+    std::size_t i = 0;
+    while (i + 1 < t_.size() && t_[i + 1] <= t) ++i;
+    return i;
+  }
+  std::vector<double> t_{0.0};
+  std::vector<double> u_{0.0};
+};
+
+/// A motor torque command on wheel `wheel` of body `body` (the stepper's set_wheel_torques).
+struct WheelTorque {
+  std::size_t body = 0;
+  std::size_t wheel = 0;
+  HeldTorque torque;
+};
+
+}  // namespace lgvi

@@ -1,0 +1,295 @@
+// The gyrostat (a body with reaction wheels, wheels.hpp) in the quaternion
+// LGVI: against the continuous gyrostat equations integrated by RK4 at a
+// step small enough for round-off (the order, with and without motor
+// torques), the total angular momentum to round-off under motor torques that
+// switch inside steps, every commanded impulse delivered exactly, the limits,
+// the energy, and the model's checks.
+#include <lgvi/gyrostat.hpp>
+#include <lgvi/interaction.hpp>
+#include <lgvi/lgvi.hpp>
+#include <lgvi/potential.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+namespace {
+
+using lgvi::HeldTorque;
+using lgvi::RigidBody;
+using lgvi::S3d;
+using lgvi::System;
+using lgvi::SystemState;
+using lgvi::Wheel;
+using lgvi::WheelTorque;
+using M3 = lgvi::Matrix3<double>;
+using V3 = lgvi::Vector3<double>;
+using Free = lgvi::ExternalField<lgvi::NoPotential>;
+using Gyrostat = lgvi::LieGroupVariationalIntegrator<Free>;
+
+/// A wheel on `axis` of moment j, with limits (none by default).
+Wheel wheel(const V3& axis, double j, double max_torque = INFINITY, double max_speed = INFINITY,
+            const std::string& name = {}) {
+  return Wheel{axis, j, max_torque, max_speed, name};
+}
+
+/// A spacecraft of locked inertia diag(10, 15, 20) with three wheels (j = 0.05, 0.04, 0.06) on the body
+/// axes and a fourth skewed one (j = 0.03).
+RigidBody spacecraft() {
+  const V3 skew = V3(1.0, 1.0, 1.0).normalized();
+  return RigidBody(100.0, V3(10.0, 15.0, 20.0).asDiagonal().toDenseMatrix())
+      .with_wheels({wheel(V3::UnitX(), 0.05, INFINITY, INFINITY, "x"), wheel(V3::UnitY(), 0.04, INFINITY, INFINITY, "y"),
+                    wheel(V3::UnitZ(), 0.06, INFINITY, INFINITY, "z"), wheel(skew, 0.03, INFINITY, INFINITY, "skew")});
+}
+
+/// The initial state: a tumble omega = (0.3, -0.2, 0.25) rad/s and wheel speeds (relative) of 20, -35, 50, 10 rad/s.
+SystemState start(const RigidBody& body) {
+  SystemState s(1);
+  s.q[0] = S3d(std::cos(0.3), std::sin(0.3) * 0.6, 0.0, std::sin(0.3) * 0.8);
+  const V3 omega(0.3, -0.2, 0.25);
+  const double speeds[] = {20.0, -35.0, 50.0, 10.0};
+  const lgvi::Wheels& wheels = body.wheels();
+  s.eta.assign(1, std::vector<double>(wheels.size()));
+  V3 pi = body.inertia() * omega;
+  for (std::size_t i = 0; i < wheels.size(); ++i) {
+    s.eta[0][i] = wheels.axial_momentum(i, speeds[i], omega);
+    pi += wheels[i].inertia * speeds[i] * wheels[i].axis;
+  }
+  s.w[0] = 2.0 * pi;
+  return s;
+}
+
+/// The spin-up and spin-down commands: wheel x at +0.02 N m until t = 1.3, then -0.03; wheel skew at -0.01
+/// from t = 0.7 on (switch times inside steps of 0.1 and 0.05, not on their boundaries).
+std::vector<WheelTorque> commands() {
+  return {{0, 0, HeldTorque({0.0, 1.3}, {0.02, -0.03})}, {0, 3, HeldTorque({0.0, 0.7}, {0.0, -0.01})}};
+}
+
+V3 inertial_momentum(const SystemState& s) { return s.q[0].act(0.5 * s.w[0]); }
+
+/// The continuous equations: Pi' = Pi x omega, eta_i' = u_i(t), q' = q (0, omega) / 2, omega = J_s^{-1}
+/// (Pi - h_w), by classical RK4 with step dt (the commands' switches on its grid).
+struct Continuous {
+  S3d q;
+  V3 pi;
+  std::vector<double> eta;
+};
+Continuous reference(const RigidBody& body, const SystemState& s0, const std::vector<WheelTorque>& u, double T,
+                     double dt) {
+  const lgvi::Wheels& wheels = body.wheels();
+  const M3 js_inverse = wheels.reduced_inertia().inverse();
+  struct D {
+    lgvi::Vector4<double> q;
+    V3 pi;
+    std::vector<double> eta;
+  };
+  auto rate = [&](double t, const lgvi::Vector4<double>& q, const V3& pi, const std::vector<double>& eta) {
+    const V3 omega = js_inverse * (pi - wheels.momentum(eta.data()));
+    const S3d qq(q(0), q(1), q(2), q(3));
+    const S3d dq = qq * S3d(0.0, omega.x(), omega.y(), omega.z());
+    D d{0.5 * dq.scalar_first(), pi.cross(omega), std::vector<double>(eta.size(), 0.0)};
+    for (const WheelTorque& c : u) d.eta[c.wheel] += c.torque.at(t);  // t: the step's middle (below)
+    return d;
+  };
+  lgvi::Vector4<double> q = s0.q[0].scalar_first();
+  V3 pi = 0.5 * s0.w[0];
+  std::vector<double> eta = s0.eta[0];
+  const auto n = static_cast<long>(std::llround(T / dt));
+  auto add = [](const std::vector<double>& a, const std::vector<double>& b, double c) {
+    std::vector<double> r = a;
+    for (std::size_t i = 0; i < r.size(); ++i) r[i] += c * b[i];
+    return r;
+  };
+  for (long k = 0; k < n; ++k) {
+    // The command held over [t, t + dt] (a switch on the grid): every stage reads it at the step's middle,
+    // which no rounding of k dt moves across a switch.
+    const double t = (static_cast<double>(k) + 0.5) * dt;
+    const D k1 = rate(t, q, pi, eta);
+    const D k2 = rate(t, q + 0.5 * dt * k1.q, pi + 0.5 * dt * k1.pi, add(eta, k1.eta, 0.5 * dt));
+    const D k3 = rate(t, q + 0.5 * dt * k2.q, pi + 0.5 * dt * k2.pi, add(eta, k2.eta, 0.5 * dt));
+    const D k4 = rate(t, q + dt * k3.q, pi + dt * k3.pi, add(eta, k3.eta, dt));
+    q += dt / 6.0 * (k1.q + 2.0 * k2.q + 2.0 * k3.q + k4.q);
+    pi += dt / 6.0 * (k1.pi + 2.0 * k2.pi + 2.0 * k3.pi + k4.pi);
+    for (std::size_t i = 0; i < eta.size(); ++i) eta[i] += dt / 6.0 * (k1.eta[i] + 2.0 * k2.eta[i] + 2.0 * k3.eta[i] + k4.eta[i]);
+    q.normalize();
+  }
+  return {S3d(q(0), q(1), q(2), q(3)), pi, eta};
+}
+
+SystemState run(const RigidBody& body, const std::vector<WheelTorque>& u, double h, double T, double* work = nullptr) {
+  Gyrostat stepper(System(body), Free::uniform(lgvi::NoPotential{}, 1));
+  stepper.set_wheel_torques(u);
+  SystemState s = start(body);
+  stepper.initialize(s, 0.0);
+  const auto n = static_cast<long>(std::llround(T / h));
+  for (long k = 0; k < n; ++k) stepper.step(s, static_cast<double>(k) * h, h);
+  if (work) *work = stepper.wheel_work();
+  return s;
+}
+
+/// The error of a run against the reference: the rotation angle between the attitudes plus |Pi - Pi_ref| / |Pi_ref|.
+double error(const SystemState& s, const Continuous& ref) {
+  const double angle = 2.0 * std::asin(std::min(1.0, (s.q[0].inverse() * ref.q).vec().norm()));
+  return angle + (0.5 * s.w[0] - ref.pi).norm() / ref.pi.norm();
+}
+
+TEST(Gyrostat, ConvergesAtSecondOrderToTheContinuousEquations) {
+  // Free (constant wheel momenta) and with the spin-up/down commands, whose switches (t = 0.7, 1.3) fall on
+  // the steps' grid at h = 0.1 and its halvings: error ratios 4 per halving, within 5 % (measured 4.0024 and
+  // 4.0006 both ways: the O(h^3) terms are small here). RK4 at dt = 1e-4: its error, ~1e-15, is far below the
+  // LGVI's 4.4e-5 at the finest step.
+  const RigidBody body = spacecraft();
+  for (const bool torques : {false, true}) {
+    const std::vector<WheelTorque> u = torques ? commands() : std::vector<WheelTorque>{};
+    const double T = 4.0;
+    const Continuous ref = reference(body, start(body), u, T, 1e-4);
+    double previous = 0.0;
+    for (const double h : {0.1, 0.05, 0.025}) {
+      const double e = error(run(body, u, h, T), ref);
+      std::printf("[ lgvi     ] gyrostat, torques %d, h %.3f: error %.3e%s\n", torques, h, e,
+                  previous > 0.0 ? (", ratio " + std::to_string(previous / e)).c_str() : "");
+      if (previous > 0.0) {
+        EXPECT_NEAR(previous / e, 4.0, 0.2) << "torques " << torques << " h " << h;
+      }
+      previous = e;
+    }
+    EXPECT_LT(previous, 2e-4);
+  }
+}
+
+TEST(Gyrostat, MotorTorquesKeepTheTotalAngularMomentumToRoundOff) {
+  // 10^4 steps of 0.013 (switches inside steps): the inertial total momentum pi(q) w / 2 changes only by
+  // rounding, a random walk of ~1e-16 per step (measured ~1e-14), while the wheels' momentum changes by
+  // ~0.1 of it; each wheel's eta changes by exactly the integral of its command (summed steps: rounding of
+  // 10^4 additions, 1e-12 relative at most).
+  const RigidBody body = spacecraft();
+  const SystemState s0 = start(body);
+  const double h = 0.013, T = 130.0;
+  const SystemState s = run(body, commands(), h, T);
+  const V3 l0 = inertial_momentum(s0), l1 = inertial_momentum(s);
+  std::printf("[ lgvi     ] gyrostat 10^4 steps under motor torques: |L - L0| / |L0| = %.2e, eta_x error %.2e\n",
+              (l1 - l0).norm() / l0.norm(), s.eta[0][0] - s0.eta[0][0] - (0.02 * 1.3 - 0.03 * (T - 1.3)));
+  EXPECT_LT((l1 - l0).norm() / l0.norm(), 1e-13);
+  const double impulse_x = 0.02 * 1.3 - 0.03 * (T - 1.3), impulse_skew = -0.01 * (T - 0.7);
+  EXPECT_NEAR(s.eta[0][0] - s0.eta[0][0], impulse_x, 1e-12 * std::abs(impulse_x));
+  EXPECT_NEAR(s.eta[0][3] - s0.eta[0][3], impulse_skew, 1e-12 * std::abs(impulse_skew));
+  EXPECT_EQ(s.eta[0][1], s0.eta[0][1]);
+  EXPECT_EQ(s.eta[0][2], s0.eta[0][2]);
+  // The wheels' momentum (inertial frame) did change, by a tenth of the total at least: the body's own,
+  // J_s omega, changed by the opposite to the same round-off (the total's conservation above).
+  const lgvi::Wheels& wheels = body.wheels();
+  const V3 wheels0 = s0.q[0].act(wheels.momentum(s0.eta[0].data())), wheels1 = s.q[0].act(wheels.momentum(s.eta[0].data()));
+  EXPECT_GT((wheels1 - wheels0).norm(), 0.1 * l0.norm());
+}
+
+TEST(Gyrostat, TheEnergyBalanceClosesAtSecondOrder) {
+  // Free: E bounded, its error falling by 4 per halving; with the commands, E - E0 - W (W the motor
+  // work, wheel_work) falls by 4 too (within 10 %: the largest of an oscillating error), where E alone
+  // changes by the work, ~1e2 times more.
+  const RigidBody body = spacecraft();
+  const System sys(body);
+  const double e0 = lgvi::kinetic_energy(start(body), sys);
+  for (const bool torques : {false, true}) {
+    const std::vector<WheelTorque> u = torques ? commands() : std::vector<WheelTorque>{};
+    double previous = 0.0;
+    for (const double h : {0.05, 0.025}) {
+      double work = 0.0;
+      const SystemState s = run(body, u, h, 4.0, &work);
+      const double e = std::abs(lgvi::kinetic_energy(s, sys) - e0 - work);
+      std::printf("[ lgvi     ] gyrostat energy, torques %d, h %.3f: |E - E0 - W| = %.3e, W = %.3e\n", torques, h, e, work);
+      if (torques) {
+        EXPECT_GT(std::abs(work), 100.0 * e);
+      }
+      if (previous > 0.0) {
+        EXPECT_NEAR(previous / e, 4.0, 0.4) << "torques " << torques;
+      }
+      previous = e;
+    }
+  }
+}
+
+TEST(Gyrostat, LimitsClipTheTorqueAndStopAWheelAtItsSpeed) {
+  // A wheel limited to 0.01 N m receives 0.01 h per step of a 0.05 command; with max_speed 60 rad/s it
+  // stops accelerating once its speed reaches 60 (within the last step's increment).
+  const RigidBody body = RigidBody(100.0, V3(10.0, 15.0, 20.0).asDiagonal().toDenseMatrix())
+                             .with_wheels({wheel(V3::UnitZ(), 0.05, 0.01, 60.0, "z")});
+  Gyrostat stepper(System(body), Free::uniform(lgvi::NoPotential{}, 1));
+  stepper.set_wheel_torques({{0, 0, HeldTorque::constant(0.05)}});
+  SystemState s(1);
+  s.eta.assign(1, {0.0});
+  stepper.initialize(s, 0.0);
+  const double h = 0.1;
+  double top = 0.0;
+  for (int k = 0; k < 6000; ++k) {
+    stepper.step(s, k * h, h);
+    const double impulse = stepper.last_wheel_impulses()[0][0];
+    // 0.01 x ((t + h) - t), the interval's length as rounded near t <= 600: within 0.01 ulp(600) of 0.01 h.
+    EXPECT_TRUE(impulse == 0.0 || std::abs(impulse - 0.01 * h) <= 2e-15) << impulse;
+    const V3 omega = body.wheels().body_rate(s.w[0], s.eta[0].data());
+    top = std::max(top, body.wheels().relative_speed(0, s.eta[0].data(), omega));
+  }
+  // 0.01 N m into j = 0.05 with the body reacting: Omega' = u (1/j + 1/(J_z - j)) = 0.2005 rad/s^2, 60 rad/s
+  // after ~300 s of the 600 s; then held at the limit, at most one step's increment 0.02 above.
+  EXPECT_GE(top, 60.0);
+  EXPECT_LE(top, 60.0 + 0.0201);
+}
+
+TEST(Gyrostat, HeldTorqueIntegratesExactlyAcrossSwitches) {
+  const HeldTorque u({0.0, 1.0, 2.5}, {2.0, -1.0, 4.0});
+  EXPECT_EQ(u.at(0.5), 2.0);
+  EXPECT_EQ(u.at(1.0), -1.0);  // a switch on a boundary: the new value from there on
+  EXPECT_EQ(u.at(-1.0), 2.0);
+  EXPECT_EQ(u.at(9.0), 4.0);
+  EXPECT_DOUBLE_EQ(u.impulse(0.5, 3.0), 2.0 * 0.5 - 1.0 * 1.5 + 4.0 * 0.5);
+  EXPECT_DOUBLE_EQ(u.impulse(0.0, 1.0), 2.0);  // ends on a switch: no part of the next value
+  EXPECT_DOUBLE_EQ(u.impulse(0.5, 3.0, 1.5), 1.5 * 0.5 - 1.0 * 1.5 + 1.5 * 0.5);  // clipped to +-1.5
+  EXPECT_THROW(HeldTorque({0.0, 0.0}, {1.0, 2.0}), lgvi::InvalidInput);
+  EXPECT_THROW(HeldTorque({0.0}, {NAN}), lgvi::InvalidInput);
+}
+
+TEST(Gyrostat, BadWheelsAreOneClearError) {
+  const RigidBody rigid(100.0, V3(10.0, 15.0, 20.0).asDiagonal().toDenseMatrix());
+  auto message = [&](Wheel w) {
+    try {
+      (void)rigid.with_wheels({w}, "body");
+    } catch (const lgvi::InvalidInput& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message(wheel(V3::Zero(), 0.1)).find("body.wheel[0].axis: must be a finite, non-zero vector"), std::string::npos);
+  EXPECT_NE(message(wheel(V3(1.0, 1.0, 0.0), 0.1)).find("body.wheel[0].axis: must be a unit vector"), std::string::npos);
+  EXPECT_NE(message(wheel(V3::UnitX(), -0.1)).find("body.wheel[0].inertia: must be a finite number > 0"), std::string::npos);
+  EXPECT_NE(message(wheel(V3::UnitX(), 12.0)).find("body.wheel[0].inertia: 12.0"), std::string::npos);
+  EXPECT_NE(message(wheel(V3::UnitX(), 0.1, -1.0)).find("body.wheel[0].max_torque: must be > 0"), std::string::npos);
+  EXPECT_NE(message(wheel(V3::UnitX(), 0.1, 1.0, 0.0)).find("body.wheel[0].max_speed: must be > 0"), std::string::npos);
+  // Three wheels each below its axis's moment, together leaving J - sum j a a^T indefinite about x.
+  const V3 a = V3(1.0, 0.1, 0.0).normalized(), b = V3(1.0, -0.1, 0.0).normalized();
+  EXPECT_THROW((void)rigid.with_wheels({wheel(a, 9.0), wheel(b, 9.0)}), lgvi::InvalidInput);
+  // A linear body takes none.
+  const RigidBody rod = RigidBody::from_balls({{V3(-1.0, 0.0, 0.0), 1.0, 0.0, 1}, {V3(1.0, 0.0, 0.0), 1.0, 0.0, 1}});
+  EXPECT_THROW((void)rod.with_wheels({wheel(V3::UnitY(), 0.01)}), lgvi::InvalidInput);
+}
+
+TEST(Gyrostat, NoWheelsIsTheRigidBodyBitForBit) {
+  // with_wheels({}) is the body itself: the same step, to the last bit, as a body never given wheels.
+  const RigidBody rigid(100.0, V3(10.0, 15.0, 20.0).asDiagonal().toDenseMatrix());
+  const RigidBody same = rigid.with_wheels({});
+  EXPECT_FALSE(same.has_wheels());
+  SystemState a(1), b(1);
+  a.w[0] = b.w[0] = V3(1.0, -2.0, 3.0);
+  Gyrostat sa(System(rigid), Free::uniform(lgvi::NoPotential{}, 1)), sb(System(same), Free::uniform(lgvi::NoPotential{}, 1));
+  sa.initialize(a, 0.0);
+  sb.initialize(b, 0.0);
+  for (int k = 0; k < 100; ++k) {
+    sa.step(a, 0.1 * k, 0.1);
+    sb.step(b, 0.1 * k, 0.1);
+  }
+  EXPECT_EQ(a.q[0].w(), b.q[0].w());
+  EXPECT_EQ(a.w[0], b.w[0]);
+}
+
+}  // namespace
