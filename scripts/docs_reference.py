@@ -54,6 +54,13 @@ DESCRIPTIONS = {
     "body.semi_axes": "[a, b, c]: the ellipsoid's semi-axes along the body axes",
     "body.density": "number > 0: the shape's density (instead of mass)",
     # balls
+    "body.wheel": "array of tables [[body.wheel]]: reaction wheels (the body a gyrostat; its inertia is then the whole body's with the wheels locked)",
+    "body.wheel.axis": "[x, y, z]: the wheel's spin axis in body axes, a unit vector",
+    "body.wheel.inertia": "number > 0: the wheel's moment j about its axis (below the body's moment about that axis)",
+    "body.wheel.speed": "number: the wheel's initial speed relative to the body, rad/s (required; 0 at rest)",
+    "body.wheel.max_torque": "number > 0, optional: the motor torque is clipped to +-max_torque",
+    "body.wheel.max_speed": "number > 0, optional: a wheel at this speed relative to the body gets no torque that would speed it up",
+    "body.wheel.name": "string, default wheel0, wheel1, ...: names the wheel in [[forcing]] and its trajectory columns NAME.speed, NAME.momentum, NAME.torque",
     "body.ball.position": "[x, y, z]: the ball's centre, body frame (the centre of mass is moved to the origin)",
     "body.ball.mass": "number > 0: the ball's mass",
     "body.ball.radius": "number >= 0: the ball's radius (0: a point mass)",
@@ -146,11 +153,12 @@ DESCRIPTIONS = {
     "import.periodic": "[bool, bool, bool] per axis of the file's box (default all true)",
     "import.checksum": "string, written by the run into its copy of the scenario: the data file's FNV-1a checksum; a changed file is refused",
     # [[forcing]]
-    "forcing.kind": "\"torque\" | \"force\" | \"damping\" | \"attitude-control\"",
+    "forcing.kind": "\"torque\" | \"force\" | \"damping\" | \"attitude-control\" | \"wheel-torque\" (a motor torque on a [[body.wheel]])",
+    "forcing.wheel": "wheel-torque: the wheel, by its name or its index from 0",
     "forcing.body": "string: the body it acts on (default every body)",
     "forcing.frame": "torque: \"body\" (default) | \"inertial\"; force: \"inertial\" (default) | \"body\"",
-    "forcing.value": "[a, b, c]: a constant torque or force (or table)",
-    "forcing.table": "a CSV file (t, a, b, c; relative to the scenario) or rows [[t, a, b, c], ...]: interpolated linearly; must cover the run",
+    "forcing.value": "[a, b, c]: a constant torque or force (or table); wheel-torque: a number, N m",
+    "forcing.table": "a CSV file (t, a, b, c; relative to the scenario) or rows [[t, a, b, c], ...]: interpolated linearly; must cover the run. wheel-torque: rows [[t, u], ...] from t = 0, each held until the next (zero-order hold)",
     "forcing.c": "damping: body torque -c Omega",
     "forcing.c_linear": "damping: force -c_linear v",
     "forcing.target": "attitude-control: target quaternion (scalar first)",
@@ -158,6 +166,7 @@ DESCRIPTIONS = {
     "forcing.k_d": "attitude-control: derivative gain",
     "forcing.max_torque": "attitude-control, optional: |M| scaled down to this",
     "forcing.period": "attitude-control, optional: sampled at t = n period, held in between",
+    "forcing.actuator": "attitude-control: \"torque\" (default: the torque acts on the body) | \"wheels\" (the body's [[body.wheel]] make it, u = -A^+ M)",
     # sweep files
     "sweep:.ensemble": "table: the ensemble",
     "sweep:.vary": "array of tables [[vary]]: the varied keys",
@@ -189,7 +198,7 @@ INTERACTION_DESCRIPTIONS = {
     "pair": "lennard-jones: [[interaction.pair]] tables, each types = [i, j], epsilon, sigma: one pair of site types' coefficients",
 }
 
-ARRAYS_OF_TABLES = {"body.ball", "bodies", "forcing", "vary"}
+ARRAYS_OF_TABLES = {"body.ball", "body.wheel", "bodies", "forcing", "vary"}
 INLINE_TABLES = {"initial.orbit", "initial.attitude", "vary.normal", "vary.uniform"}
 
 CALL = re.compile(r"only_keys\(\s*([^,]+),\s*([^,]+),\s*(\{[^}]*\}|keys)\s*\)", re.S)
@@ -207,6 +216,8 @@ def _label(prefix_expr, keys, source, pos):
     before = source[:pos]
     if p == "ball":
         return "body.ball", None
+    if p == "prefix" and "axis" in keys:
+        return "body.wheel", None
     if p == "prefix" and "name" in keys:
         return "bodies", None
     if p == "prefix" and "kind" in keys:

@@ -68,6 +68,12 @@ struct RunStatistics {
   /// contact_episodes counts them all.
   std::vector<ContactEpisode> contacts;
   ThermoStatistics thermo;  ///< a molecular run's temperature and pressure (written frames only)
+  /// Per reaction wheel of the body (in its order): the largest |speed| relative to the body and |torque|
+  /// applied, and the time it spent at a limit (its torque clipped to max_torque, or held at max_speed).
+  struct WheelStatistics {
+    double max_speed = 0.0, max_torque = 0.0, time_limited = 0.0;
+  };
+  std::vector<WheelStatistics> wheels;
   std::int64_t contact_episodes = 0;
   static constexpr std::size_t max_listed_contacts = 10000;
 };

@@ -102,6 +102,14 @@ decltype(auto) with_stepper(const Scenario& sc, const ScenarioSystemPotential& p
                                               " and ", false) +
                            " do)");
     }
+    if (!sc.wheel_torques.empty() || sc.wheel_control) {  // the reader allows them with "lgvi" only
+      if constexpr (requires(Stepper& s, std::vector<WheelTorque> u) { s.set_wheel_torques(std::move(u)); }) {
+        stepper.set_wheel_torques(sc.wheel_torques);
+        if (sc.wheel_control) stepper.set_wheel_control(*sc.wheel_control);
+      } else {
+        throw InvalidInput("forcing: integrator.method \"" + std::string(traits.name) + "\" turns no reaction wheels");
+      }
+    }
     if constexpr (traits.composable()) {
       if (!i.composition.is_plain()) {
         ComposedStepper<Stepper> composed(std::move(stepper), i.composition);

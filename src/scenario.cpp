@@ -159,10 +159,52 @@ RigidBody read_body_table(const Reader& r, const toml::table& t, const std::stri
   return checked([&] { return RigidBody::from_balls(std::move(balls)); });
 }
 
-RigidBody read_body(const Reader& r, const toml::table& root) {
+/// The body's [[body.wheel]] tables: the wheels (axis, inertia, max_torque, max_speed, name) on `body`,
+/// and each wheel's initial speed relative to the body (`speed`, rad/s) in `speeds`.
+RigidBody read_wheels(const Reader& r, const toml::table& t, const RigidBody& body, std::vector<double>& speeds) {
+  const toml::array* arr = t.get("wheel")->as_array();
+  if (!arr || arr->empty() || !arr->is_array_of_tables()) r.fail("body.wheel", "must be one or more [[body.wheel]] tables");
+  if (arr->size() > 64) r.fail("body.wheel", "more than 64 wheels");
+  std::vector<Wheel> wheels;
+  for (std::size_t i = 0; i < arr->size(); ++i) {
+    const toml::table& w = *arr->get(i)->as_table();
+    const std::string prefix = "body.wheel[" + std::to_string(i) + "]";
+    r.only_keys(w, prefix, {"axis", "inertia", "speed", "max_torque", "max_speed", "name"});
+    Wheel wheel;
+    wheel.axis = r.vector<3>(w, prefix, "axis");
+    wheel.inertia = r.number(w, prefix, "inertia");
+    if (!w.contains("speed"))
+      r.fail(prefix + ".speed", "missing: the wheel's initial speed relative to the body, rad/s (0 for a wheel at rest)");
+    speeds.push_back(r.number(w, prefix, "speed"));
+    if (w.contains("max_torque")) wheel.max_torque = r.number(w, prefix, "max_torque");
+    if (w.contains("max_speed")) wheel.max_speed = r.number(w, prefix, "max_speed");
+    wheel.name = "wheel" + std::to_string(i);
+    if (const toml::node* n = w.get("name")) {
+      if (!n->is_string()) r.fail(prefix + ".name", "must be a string");
+      wheel.name = n->value<std::string>().value();
+    }
+    if (wheel.name.empty() || wheel.name.find_first_of(",\"\n") != std::string::npos)
+      r.fail(prefix + ".name", "must be a non-empty name without commas or quotes (it names trajectory columns)");
+    for (const Wheel& other : wheels)
+      if (other.name == wheel.name) r.fail(prefix + ".name", "\"" + wheel.name + "\" names another wheel too");
+    wheels.push_back(std::move(wheel));
+  }
+  try {
+    return body.with_wheels(std::move(wheels), "body");
+  } catch (const InvalidInput& e) {
+    // The library's "body.wheel[i].key: what", as the reader names keys.
+    const std::string message = e.what();
+    const std::size_t colon = message.find(": ");
+    if (colon == std::string::npos) r.fail("body.wheel", message);
+    r.fail(message.substr(0, colon), message.substr(colon + 2));
+  }
+}
+
+RigidBody read_body(const Reader& r, const toml::table& root, std::vector<double>& wheel_speeds) {
   const toml::table& t = r.table(root, "", "body");
-  r.only_keys(t, "body", {"mass", "inertia", "ball", "physical", "radius", "shape", "semi_axes", "density"});
-  return read_body_table(r, t, "body");
+  r.only_keys(t, "body", {"mass", "inertia", "ball", "physical", "radius", "shape", "semi_axes", "density", "wheel"});
+  const RigidBody body = read_body_table(r, t, "body");
+  return t.contains("wheel") ? read_wheels(r, t, body, wheel_speeds) : body;
 }
 
 PotentialSpec read_potential(const Reader& r, const toml::table& root) {
@@ -501,6 +543,9 @@ void read_bodies(const Reader& r, const toml::table& root, BodyList& bodies, std
   for (std::size_t i = 0; i < arr->size(); ++i) {
     const toml::table& t = *arr->get(i)->as_table();
     const std::string prefix = "bodies[" + std::to_string(i) + "]";
+    if (t.contains("wheel"))
+      r.fail(prefix + ".wheel", "reaction wheels are read for a single [body] so far (the library takes them on any "
+                                "body: RigidBody::with_wheels)");
     r.only_keys(t, prefix, {"name", "mass", "inertia", "ball", "physical", "radius", "shape", "semi_axes", "density",
                             "position", "quaternion", "momentum", "velocity", "w", "omega", "count", "spacing", "seed",
                             "temperature"});
@@ -808,8 +853,58 @@ void read_profile_csv(const Reader& r, const std::string& key, const std::filesy
 /// `value = [a, b, c]` or `table` = a CSV file (t, a, b, c; relative to the
 /// scenario file) or inline rows [[t, a, b, c], ...]; file tables are inlined
 /// into *inlined (the run's copy of the scenario is then self-contained).
+/// A [[forcing]] kind = "wheel-torque" table: a motor torque on one of body 0's wheels (`wheel`, its name or
+/// index), `value` (N m) or `table` = [[t, u], ...] covering [0, duration], held between rows.
+WheelTorque read_wheel_torque(const Reader& r, const toml::table& t, const std::string& prefix, const System& system,
+                              double duration) {
+  r.only_keys(t, prefix, {"kind", "wheel", "value", "table"});
+  const Wheels& wheels = system.body(0).wheels();
+  if (system.size() != 1 || wheels.empty())
+    r.fail(prefix + ".kind", "\"wheel-torque\" turns a reaction wheel: give the body [[body.wheel]] tables");
+  WheelTorque u;
+  const toml::node* which = t.get("wheel");
+  if (!which) r.fail(prefix + ".wheel", "missing: the wheel's name, or its index from 0");
+  if (which->is_string()) {
+    const std::string name = which->value<std::string>().value();
+    std::size_t i = 0;
+    while (i < wheels.size() && wheels[i].name != name) ++i;
+    if (i == wheels.size()) r.fail(prefix + ".wheel", "no wheel is named \"" + printable(name) + "\"");
+    u.wheel = i;
+  } else {
+    const std::int64_t i = r.integer(t, prefix, "wheel");
+    if (i < 0 || static_cast<std::size_t>(i) >= wheels.size())
+      r.fail(prefix + ".wheel", "must be a wheel's name or an index in [0, " + std::to_string(wheels.size() - 1) + "]");
+    u.wheel = static_cast<std::size_t>(i);
+  }
+  if (t.contains("value") == t.contains("table"))
+    r.fail(prefix, "give exactly one of value = u (N m, constant) or table = [[t, u], ...] (held between rows)");
+  if (t.contains("value")) {
+    u.torque = HeldTorque::constant(r.number(t, prefix, "value"));
+    return u;
+  }
+  const std::string key = prefix + ".table";
+  const toml::array* rows = t.get("table")->as_array();
+  if (!rows || rows->empty()) r.fail(key, "must be rows [[t, u], ...]");
+  std::vector<double> times, values;
+  for (std::size_t k = 0; k < rows->size(); ++k) {
+    const Eigen::Vector2d row = r.vector<2>(*rows->get(k), key + "[" + std::to_string(k) + "]");
+    times.push_back(row(0));
+    values.push_back(row(1));
+  }
+  try {
+    u.torque = HeldTorque(times, values);
+  } catch (const InvalidInput& e) {
+    r.fail(key, e.what());
+  }
+  if (times.front() > 0.0)
+    r.fail(key, "starts at t = " + std::to_string(times.front()) + "; the run needs a command from t = 0");
+  (void)duration;  // the last row is held to the end
+  return u;
+}
+
 ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system, double duration,
-                        const std::filesystem::path& folder, bool& inlined) {
+                        const std::filesystem::path& folder, bool& inlined, std::vector<WheelTorque>& wheel_torques,
+                        std::optional<WheelAttitudeControl>& wheel_control) {
   ForcingSet set;
   toml::node* node = root.get("forcing");
   if (!node) return set;
@@ -818,7 +913,11 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
   for (std::size_t i = 0; i < arr->size(); ++i) {
     toml::table& t = *arr->get(i)->as_table();
     const std::string prefix = "forcing[" + std::to_string(i) + "]";
-    const std::string kind = r.string(t, prefix, "kind", {"torque", "force", "damping", "attitude-control"});
+    const std::string kind = r.string(t, prefix, "kind", {"torque", "force", "damping", "attitude-control", "wheel-torque"});
+    if (kind == "wheel-torque") {
+      wheel_torques.push_back(read_wheel_torque(r, t, prefix, system, duration));
+      continue;
+    }
     std::size_t body = ForcingSet::all_bodies;
     if (const toml::node* b = t.get("body")) {
       if (!b->is_string()) r.fail(prefix + ".body", "must be a body's name (a string)");
@@ -892,7 +991,7 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
         r.fail(prefix, "give c > 0 (body torque -c Omega) and/or c_linear > 0 (force -c_linear v)");
       set.add(d, body);
     } else {
-      r.only_keys(t, prefix, {"kind", "body", "target", "k_p", "k_d", "max_torque", "period"});
+      r.only_keys(t, prefix, {"kind", "body", "target", "k_p", "k_d", "max_torque", "period", "actuator"});
       AttitudeControl c;
       const Vector4<double> q = r.vector<4>(t, prefix, "target");
       try {
@@ -911,6 +1010,19 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
       if (t.contains("period")) {
         c.period = r.number(t, prefix, "period");
         if (!(c.period > 0.0)) r.fail(prefix + ".period", "must be > 0 (leave it out for a continuous controller)");
+      }
+      if (t.contains("actuator") && r.string(t, prefix, "actuator", {"torque", "wheels"}) == "wheels") {
+        // The body's reaction wheels make the torque: u = -A^+ M over them (gyrostat.hpp).
+        if (system.size() != 1 || !system.body(0).has_wheels())
+          r.fail(prefix + ".actuator", "\"wheels\" turns the body with its reaction wheels: give it [[body.wheel]] "
+                                       "tables");
+        if (wheel_control) r.fail(prefix + ".actuator", "one attitude controller drives the wheels; give only one");
+        try {
+          wheel_control = WheelAttitudeControl(c, system.body(0).wheels());
+        } catch (const InvalidInput& e) {
+          r.fail(prefix + ".actuator", e.what());
+        }
+        continue;
       }
       set.add(c, body);
     }
@@ -1161,6 +1273,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   BodyList bodies;
   std::vector<std::string> names;
   SystemState initial;
+  std::vector<double> wheel_speeds;  // [[body.wheel]] speed, per wheel
   Box box;
   int site_types = 1;  // the data file's atom types (declared, used or not), or the balls' largest type
   FileIds file_ids;
@@ -1169,12 +1282,31 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   } else if (bodies_format) {
     read_bodies(r, root, bodies, names, initial);
   } else {
-    bodies.kinds.push_back(read_body(r, root));
+    bodies.kinds.push_back(read_body(r, root, wheel_speeds));
     bodies.kind.push_back(0);
   }
   PotentialSpec potential = read_potential(r, root);
   const std::string converted = bodies_format ? std::string() : convert_orbit_attitude(r, root, bodies[0], potential);
   if (!bodies_format) initial = SystemState(read_initial(r, root, bodies[0]));
+  if (!wheel_speeds.empty()) {
+    // The wheels' axial momenta eta_i = j_i (a_i.omega + Omega_i) from their speeds Omega_i and the body's rate:
+    // [initial] omega is that rate, and w = 2 (J omega + sum_i j_i Omega_i a_i) (J with the wheels locked); a given
+    // w is the total angular momentum of body and wheels, omega = J^-1 (w/2 - sum_i j_i Omega_i a_i).
+    const RigidBody& body = bodies[0];
+    const Wheels& wheels = body.wheels();
+    Vector3<double> relative = Vector3<double>::Zero();
+    for (std::size_t i = 0; i < wheels.size(); ++i) relative += wheels[i].inertia * wheel_speeds[i] * wheels[i].axis;
+    const toml::table& init = *root.get_as<toml::table>("initial");
+    Vector3<double> omega;
+    if (init.contains("omega")) {
+      omega = r.vector<3>(init, "initial", "omega");
+      initial.w[0] = 2.0 * (body.inertia() * omega + relative);
+    } else {
+      omega = body.inertia_inverse() * (0.5 * initial.w[0] - relative);
+    }
+    initial.eta.assign(1, std::vector<double>(wheels.size()));
+    for (std::size_t i = 0; i < wheels.size(); ++i) initial.eta[0][i] = wheels.axial_momentum(i, wheel_speeds[i], omega);
+  }
   for (const RigidBody& kind : bodies.kinds)
     for (const Ball& ball : kind.balls()) site_types = std::max(site_types, ball.type);
   const InteractionSpec interaction = read_interaction(r, root, site_types);
@@ -1310,7 +1442,24 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   sc.forcing = read_forcing(r, root, sc.system,
                             integrator.adaptive() ? integrator.duration
                                                   : static_cast<double>(integrator.steps) * integrator.step,
-                            std::filesystem::path(name).parent_path(), inlined);
+                            std::filesystem::path(name).parent_path(), inlined, sc.wheel_torques, sc.wheel_control);
+  if (sc.wheel_control && !sc.wheel_torques.empty())
+    r.fail("forcing", "attitude control through the wheels (actuator = \"wheels\") drives every wheel: give no "
+                      "kind = \"wheel-torque\" with it");
+  if (sc.system.body(0).has_wheels()) {
+    // The gyrostat step (wheels.hpp) is the Hamiltonian LGVI's, at one step size; a forcing that reads the
+    // momenta would take the rigid body's rate J^-1 w / 2 for the gyrostat's.
+    if (integrator.method.traits().name != std::string_view("lgvi"))
+      r.fail("integrator.method", "a body with reaction wheels ([[body.wheel]]) is stepped by \"lgvi\" only");
+    if (integrator.composition.gamma().size() != 1)
+      r.fail("integrator.order", "a body with reaction wheels takes the plain step (order 2) so far");
+    if (integrator.adaptive())
+      r.fail("integrator.time_transform", "a body with reaction wheels takes a fixed step so far");
+    if (!sc.forcing.empty())
+      r.fail("forcing", "a body with reaction wheels takes [[forcing]] kind = \"wheel-torque\", or "
+                        "\"attitude-control\" with actuator = \"wheels\", only so far (other forcing reads the "
+                        "body's rate as a rigid body's)");
+  }
   if (!sc.forcing.empty() && !integrator.method.traits().accepts_forcing)
     r.fail("forcing", std::string("integrator.method \"") + to_string(integrator.method) +
                           "\" does not take [[forcing]]; the discrete Lagrange-d'Alembert forcing is built into " +
@@ -1353,16 +1502,18 @@ Scenario read_scenario(const std::string& path) {
 
 ConservationLaws conservation_laws(const Scenario& sc) {
   ConservationLaws laws;
-  laws.forced = !sc.forcing.empty();
+  // Motor torques on reaction wheels do work but are internal: they keep both momenta.
+  const bool external = !sc.forcing.empty();
+  laws.forced = external || !sc.wheel_torques.empty() || sc.wheel_control.has_value();
   const PotentialKind k = sc.potential.kind;
   // A periodic box is not invariant under rotations: no angular momentum.
   if (sc.system.box().any_periodic())
     laws.angular_momentum = ConservationLaws::Angular::NotConserved;
-  else if (!laws.forced && (k == PotentialKind::None || (k == PotentialKind::Central && sc.potential.j2 == 0.0)))
+  else if (!external && (k == PotentialKind::None || (k == PotentialKind::Central && sc.potential.j2 == 0.0)))
     laws.angular_momentum = ConservationLaws::Angular::Conserved;
-  else if (!laws.forced && k == PotentialKind::Central)
+  else if (!external && k == PotentialKind::Central)
     laws.angular_momentum = ConservationLaws::Angular::AlongPole;
-  laws.linear_momentum = !laws.forced && k == PotentialKind::None;
+  laws.linear_momentum = !external && k == PotentialKind::None;
   return laws;
 }
 

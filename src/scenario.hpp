@@ -6,6 +6,7 @@
 #include <lgvi/composition.hpp>
 #include <lgvi/contact.hpp>
 #include <lgvi/forcing.hpp>
+#include <lgvi/gyrostat.hpp>
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/rotation_solver.hpp>
 #include <lgvi/state.hpp>
@@ -118,6 +119,12 @@ struct Scenario {
   PotentialSpec potential;  ///< the external field, acting on every body
   InteractionSpec interaction;
   ForcingSet forcing;  ///< [[forcing]]: wrenches besides the potential (empty: none)
+  /// [[forcing]] kind = "wheel-torque": motor torques on the body's reaction wheels ([[body.wheel]],
+  /// gyrostat.hpp), internal torques (not in `forcing`, which holds external wrenches).
+  std::vector<WheelTorque> wheel_torques;
+  /// [[forcing]] kind = "attitude-control" with actuator = "wheels": the controller turning the body with its
+  /// reaction wheels (gyrostat.hpp); none otherwise.
+  std::optional<WheelAttitudeControl> wheel_control;
   SystemState initial_state;
   /// Written with [[bodies]] (trajectories in the long, per-body format) or
   /// with [body] + [initial] (one body, the single-body format).

@@ -122,7 +122,9 @@ void show_run(const std::string& dir, std::ostream& out) {
   row("final position", text(path(summary, {"final", "position"})));
   row("final quaternion", text(path(summary, {"final", "quaternion"})) + "  (scalar first)");
   row("final momentum", text(path(summary, {"final", "momentum"})));
-  row("final w = 2 J Omega", text(path(summary, {"final", "w"})));
+  // With reaction wheels w = 2 Pi is the total angular momentum of body and wheels (body axes).
+  row(path(summary, {"setup", "body", "wheels"}) ? "final w = 2 Pi" : "final w = 2 J Omega",
+      text(path(summary, {"final", "w"})));
 }
 
 }  // namespace lgvi::app

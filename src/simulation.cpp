@@ -88,10 +88,17 @@ std::int64_t degrees_of_freedom(const Scenario& s) {
 }
 
 TrajectoryLayout scenario_layout(const Scenario& s) {
-  const bool forced = !s.forcing.empty();
+  const bool forced = conservation_laws(s).forced;  // a forcing or motor torques: the work column
   TrajectoryLayout layout =
       s.bodies_format ? TrajectoryLayout::long_format(static_cast<std::int64_t>(s.bodies()), forced, thermo_columns(s))
                       : TrajectoryLayout::single_body(forced);
+  // A body with reaction wheels: per wheel its speed relative to the body, its axial momentum and the torque
+  // applied over the step from the row's time, after the forced columns.
+  if (!s.bodies_format)
+    for (const Wheel& w : s.body().wheels().list()) {
+      layout.header += "," + w.name + ".speed," + w.name + ".momentum," + w.name + ".torque";
+      layout.columns += 3;
+    }
   if (!holds_columns(s.output_format)) layout.shapes = body_shapes(s.system);
   if (writes_file_ids(s.output_format)) layout.ids = s.file_ids;
   // An adaptive run's rows are not at multiples of a step: 0 (the dump numbers its frames).
@@ -206,6 +213,46 @@ struct Recorder {
   ThermoColumns thermo = ThermoColumns::none;
   /// The temperature's degrees of freedom (counted once: O(N)).
   std::int64_t dof = degrees_of_freedom(scenario);
+  /// The energy error is E - E0 - W (a forcing, or motor torques on reaction wheels).
+  bool forced = conservation_laws(scenario).forced;
+  std::vector<double> row_buffer = {};  ///< a single-body row with its wheels' columns
+  /// A copy of the scenario's wheel controller, sampled on the same states as the stepper's: its commands.
+  std::optional<WheelAttitudeControl> wheel_control = scenario.wheel_control;
+
+  /// Body 0's wheels at this state (a [body] with [[body.wheel]]): into the statistics, and their columns
+  /// (speed, momentum, torque per wheel) after `base` into row_buffer. The torque is the command at t
+  /// after the limits, as the step from t applies it (lgvi.hpp's kick_wheels).
+  void observe_wheels(const SystemStepInfo& i, const double* base, int base_columns) {
+    const Wheels& wheels = scenario.body().wheels();
+    const SystemState& s = i.state;
+    if (stats.wheels.size() != wheels.size()) stats.wheels.assign(wheels.size(), {});
+    std::vector<double> torque(wheels.size(), 0.0);
+    std::vector<bool> limited(wheels.size(), false);
+    const Vector3<double> omega = wheels.body_rate(s.w[0], s.eta[0].data());
+    for (const WheelTorque& u : scenario.wheel_torques) torque[u.wheel] += u.torque.at(i.t);
+    if (wheel_control) {
+      if (i.k == 0) wheel_control->reset();
+      wheel_control->sample(i.t, s.q[0], omega);
+      for (std::size_t w = 0; w < wheels.size(); ++w) torque[w] += wheel_control->command()[w];
+    }
+    row_buffer.assign(base, base + base_columns);
+    const double h = scenario.integrator.step;
+    for (std::size_t w = 0; w < wheels.size(); ++w) {
+      const Wheel& wheel = wheels[w];
+      const double speed = wheels.relative_speed(w, s.eta[0].data(), omega);
+      double u = std::clamp(torque[w], -wheel.max_torque, wheel.max_torque);
+      limited[w] = u != torque[w];
+      if (std::abs(speed) >= wheel.max_speed && u * speed > 0.0) {
+        u = 0.0;
+        limited[w] = true;
+      }
+      RunStatistics::WheelStatistics& st = stats.wheels[w];
+      st.max_speed = std::max(st.max_speed, std::abs(speed));
+      st.max_torque = std::max(st.max_torque, std::abs(u));
+      if (limited[w] && !scenario.integrator.ends(i.k, i.t)) st.time_limited += h;
+      row_buffer.insert(row_buffer.end(), {speed, s.eta[0][w], u});
+    }
+  }
 
   /// The kinetic temperature and the pressure of a written frame (thermo_columns),
   /// into the statistics: T = 2 K / (k_B n_f), n_f = 6 N - 3 (LAMMPS's count for
@@ -267,8 +314,7 @@ struct Recorder {
     double kinetic = 0.0, rot_energy = 0.0, dq = 0.0;
     Vector3<double> L = Vector3<double>::Zero(), P = Vector3<double>::Zero(), spin = Vector3<double>::Zero();
     for (std::size_t a = 0; a < n; ++a) {
-      const RigidBodyState body = s.body(a);
-      const double ke = kinetic_energy(body, sys.body(a));
+      const double ke = kinetic_energy(s, sys, a);
       // The spin R_a pi_a, pi_a = w_a / 2: the rotational part of
       // angular_momentum(body), x_a x p_a + R_a (w_a / 2), and the spin's sum.
       const Vector3<double> pi = 0.5 * s.w[a];
@@ -286,7 +332,8 @@ struct Recorder {
         P += s.p[a];
         if (std::abs(dq_a) > std::abs(dq)) dq = dq_a;
       }
-      rot_energy += 0.5 * pi.dot(sys.body(a).inertia_inverse() * pi);
+      rot_energy += sys.body(a).has_wheels() ? ke - s.p[a].squaredNorm() / (2.0 * sys.body(a).mass())
+                                             : 0.5 * pi.dot(sys.body(a).inertia_inverse() * pi);
       spin += spin_a;
     }
     const double energy = kinetic + i.evaluation.energy;  // total_energy(s, sys, i.evaluation)
@@ -306,7 +353,6 @@ struct Recorder {
     }
     // With a forcing, the energy error is E - E0 - W: the integrator's own
     // error, with the work W done by the forcing taken out (forcing.hpp).
-    const bool forced = !scenario.forcing.empty();
     const double de = forced ? energy - stats.energy0 - i.work : energy - stats.energy0;
     const double dl = (L - stats.momentum0).norm();
     stats.work = i.work;
@@ -333,9 +379,20 @@ struct Recorder {
     stats.last_t = i.t;
     stats.last_k = i.k;
     stats.observed = true;
-    if (i.k % scenario.output_every != 0 && !scenario.integrator.ends(i.k, i.t) && !contact_stop) return;
+    const bool written = i.k % scenario.output_every == 0 || scenario.integrator.ends(i.k, i.t) || contact_stop;
+    const bool wheels = !scenario.bodies_format && scenario.body().has_wheels();
+    if (wheels && !written) {
+      const SingleBodyRow row(i.t, s.body(0), energy, de, dq, L, dl, forced ? std::optional(i.work) : std::nullopt);
+      observe_wheels(i, row.values, row.columns);  // every step: the statistics
+    }
+    if (!written) return;
     if (!scenario.bodies_format) {
       const SingleBodyRow row(i.t, s.body(0), energy, de, dq, L, dl, forced ? std::optional(i.work) : std::nullopt);
+      if (wheels) {
+        observe_wheels(i, row.values, row.columns);
+        sink.row(row_buffer.data());
+        return;
+      }
       sink.row(row.values);  // the layout's columns: the work only when forced
       return;
     }
@@ -506,6 +563,10 @@ SimulationResult simulate_with(const Scenario& sc, const CallablePotential* fiel
                                const SimulationOptions& opt) {
   if (opt.checkpoint_every > 0 && opt.checkpoint_path.empty())
     throw InvalidInput("checkpoint_every is set but no checkpoint path is given");
+  // A checkpoint does not hold the wheels' momenta yet (SystemState::eta): refused rather than resumed wrong.
+  if ((opt.checkpoint_every > 0 || opt.resume) && !sc.bodies_format && sc.body().has_wheels())
+    throw InvalidInput("--checkpoint-every: a run with reaction wheels ([[body.wheel]]) cannot be checkpointed "
+                       "or resumed yet");
   std::int64_t count = 0;
   const ScenarioSystemPotential potential = scenario_system_potential(sc, field, &count);
   SimulationResult r = with_stepper(sc, potential, scenario_parallelism(sc),

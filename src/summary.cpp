@@ -38,6 +38,16 @@ Json body_json(const RigidBody& b) {
   if (b.rotational_dof() == 2) o["linear_axis"] = to_vector(b.linear_axis());
   if (b.extent() == Extent::Sphere) o["radius"] = b.semi_axes().x();
   if (b.extent() == Extent::Ellipsoid) o["semi_axes"] = to_vector(b.semi_axes());
+  if (b.has_wheels()) {  // the reaction wheels (inertia above: the whole body's, wheels locked)
+    Json wheels = Json::array();
+    for (const Wheel& w : b.wheels().list()) {
+      Json j = {{"name", w.name}, {"axis", to_vector(w.axis)}, {"inertia", w.inertia}};
+      if (std::isfinite(w.max_torque)) j["max_torque"] = w.max_torque;
+      if (std::isfinite(w.max_speed)) j["max_speed"] = w.max_speed;
+      wheels.push_back(std::move(j));
+    }
+    o["wheels"] = std::move(wheels);
+  }
   return o;
 }
 
@@ -243,6 +253,22 @@ auto with_summary(const Scenario& sc, const SimulationResult& r, Use&& use) {
     s["work"] = st.work;
     s["energy_error_is"] = "E - E0 - work";
     s["momentum_error_is"] = "the change of L and P, which the forcing does not conserve";
+  } else if (!sc.wheel_torques.empty() || sc.wheel_control) {
+    // Motor torques do work, but are internal: both momenta are still conserved (errors, not changes).
+    s["work"] = st.work;
+    s["energy_error_is"] = "E - E0 - work";
+  }
+  if (!sc.bodies_format && sc.body().has_wheels() && !st.wheels.empty()) {
+    const Wheels& wheels = sc.body().wheels();
+    Json list = Json::array();
+    for (std::size_t w = 0; w < wheels.size(); ++w) {
+      const RunStatistics::WheelStatistics& ws = st.wheels[w];
+      list.push_back({{"name", wheels[w].name},
+                      {"max_abs_speed", ws.max_speed},
+                      {"max_abs_torque", ws.max_torque},
+                      {"time_at_a_limit", ws.time_limited}});
+    }
+    s["wheels"] = std::move(list);
   }
   if (const ThermoColumns thermo = thermo_columns(sc); thermo != ThermoColumns::none) {
     // Over the written frames (the trajectory's temperature and pressure columns).

@@ -170,6 +170,16 @@ struct AttitudeControl {
     if (n > max_torque) m *= max_torque / n;
     return {Vector3<double>::Zero(), m};
   }
+  /// The same law for a body whose rate omega is given (a gyrostat's, wheels.hpp: not J^-1 w / 2):
+  /// M = -k_p sgn(e_s) e_v - k_d omega, scaled down to max_torque.
+  Vector3<double> torque_for(const S3d& q, const Vector3<double>& omega) const {
+    const S3d e = target.inverse() * q;
+    const double sign = e.w() < 0.0 ? -1.0 : 1.0;
+    Vector3<double> m = (-k_p * sign) * e.vec() - k_d * omega;
+    const double n = m.norm();
+    if (n > max_torque) m *= max_torque / n;
+    return m;
+  }
 };
 
 /// A user's forcing, e.g. written in Python: f(t, body index, state of that

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <lgvi/error.hpp>
+#include <lgvi/forcing.hpp>
 #include <lgvi/rotation_solver.hpp>
 #include <lgvi/s3.hpp>
 #include <lgvi/wheels.hpp>
@@ -115,6 +116,55 @@ class HeldTorque {
   }
   std::vector<double> t_{0.0};
   std::vector<double> u_{0.0};
+};
+
+/// Attitude control through a body's reaction wheels: the attitude controller's law (AttitudeControl,
+/// forcing.hpp: PD toward a target quaternion, |M| limited) on the gyrostat's own rate, sampled at t =
+/// n period (every step for period 0) and held, its body torque M distributed over the wheels as motor
+/// torques u = -A^+ M (A = [a_1 ... a_k], A^+ = A^T (A A^T)^-1, the least-norm split), which the step
+/// then clips to each wheel's limits. A copy sampled on the same states gives the same commands bit for
+/// bit (the recorder's columns). Needs axes that span space (checked: InvalidInput).
+class WheelAttitudeControl {
+ public:
+  WheelAttitudeControl() = default;
+  WheelAttitudeControl(const AttitudeControl& law, const Wheels& wheels) : law_(law) {
+    Eigen::Matrix<double, 3, Eigen::Dynamic> a(3, static_cast<Eigen::Index>(wheels.size()));
+    for (std::size_t i = 0; i < wheels.size(); ++i) a.col(static_cast<Eigen::Index>(i)) = wheels[i].axis;
+    const Matrix3<double> gram = a * a.transpose();
+    Eigen::LLT<Matrix3<double>> llt(gram);
+    if (wheels.size() < 3 || llt.info() != Eigen::Success || gram.determinant() < 1e-12 * std::pow(gram.trace(), 3))
+      throw InvalidInput("the wheels' axes do not span space: three directions at least are needed to turn the body "
+                         "about any axis");
+    split_ = -(a.transpose() * gram.inverse());
+    command_.assign(wheels.size(), 0.0);
+  }
+  /// At a step from t: samples when t reaches the next sample time (the state's attitude q and rate omega).
+  void sample(double t, const S3d& q, const Vector3<double>& omega) {
+    if (law_.period > 0.0) {
+      const double slot = t / law_.period + 1e-9;
+      if (sampled_ && slot < static_cast<double>(next_sample_)) return;
+      next_sample_ = static_cast<std::int64_t>(std::floor(slot)) + 1;
+    }
+    sampled_ = true;
+    const Eigen::VectorXd u = split_ * law_.torque_for(q, omega);
+    for (std::size_t i = 0; i < command_.size(); ++i) command_[i] = u(static_cast<Eigen::Index>(i));
+  }
+  /// Forgets the samples (a run starting anew).
+  void reset() {
+    sampled_ = false;
+    next_sample_ = 0;
+    std::fill(command_.begin(), command_.end(), 0.0);
+  }
+  /// The motor torque command of each wheel (N m), before the wheels' limits.
+  const std::vector<double>& command() const { return command_; }
+  const AttitudeControl& law() const { return law_; }
+
+ private:
+  AttitudeControl law_;
+  Eigen::Matrix<double, Eigen::Dynamic, 3> split_;
+  std::vector<double> command_;
+  std::int64_t next_sample_ = 0;
+  bool sampled_ = false;
 };
 
 /// A motor torque command on wheel `wheel` of body `body` (the stepper's set_wheel_torques).

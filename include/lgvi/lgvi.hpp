@@ -113,9 +113,16 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
         throw InvalidInput("wheel torque: body " + std::to_string(u.body) + " has no wheel " + std::to_string(u.wheel));
     wheel_torques_ = std::move(torques);
   }
+  /// Attitude control of body 0 through its wheels (gyrostat.hpp): its sampled, held commands drive
+  /// every wheel of that body (with no set_wheel_torques for it). Before initialize().
+  void set_wheel_control(WheelAttitudeControl control) { wheel_control_ = std::move(control); }
+
   /// The work of the motor torques since initialize(): sum over steps and
   /// wheels of impulse x the wheel's mean relative speed at the step's ends.
   double wheel_work() const { return wheel_work_; }
+  /// The work of everything besides the potential: the forcing's and the motor torques' (E - E0 - W is
+  /// then the integrator's error; integrate.hpp reports it).
+  double forcing_work() const { return gyrostats_.empty() ? Base::forcing_work() : Base::forcing_work() + wheel_work_; }
   /// The impulse each wheel received in the last step (body, wheel), after
   /// the limits: its mean applied torque is this / h.
   const std::vector<std::vector<double>>& last_wheel_impulses() const { return wheel_impulse_; }
@@ -123,6 +130,7 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
   void initialize(const SystemState& s, double t) {
     Base::initialize(s, t);
     wheel_work_ = 0.0;
+    if (wheel_control_) wheel_control_->reset();
     if (!gyrostats_.empty() && s.eta.size() != s.size())
       throw InvalidInput("state: bodies with reaction wheels need their momenta eta (SystemState::eta)");
   }
@@ -256,6 +264,15 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
       if (std::abs(speed) >= wheel.max_speed && impulse * speed > 0.0) impulse = 0.0;
       wheel_impulse_[u.body][u.wheel] += impulse;
     }
+    if (wheel_control_) {
+      const Wheels& wheels = sys.body(0).wheels();
+      wheel_control_->sample(t, s.q[0], wheels.body_rate(s.w[0], s.eta[0].data()));
+      for (std::size_t i = 0; i < wheels.size(); ++i) {
+        const double u = std::clamp(wheel_control_->command()[i], -wheels[i].max_torque, wheels[i].max_torque);
+        const double speed = wheel_speed_[0][i];
+        wheel_impulse_[0][i] += std::abs(speed) >= wheels[i].max_speed && u * speed > 0.0 ? 0.0 : u * h;
+      }
+    }
     for (std::size_t a = 0; a < sys.size(); ++a)
       for (std::size_t i = 0; i < wheel_impulse_[a].size(); ++i) s.eta[a][i] += 0.5 * wheel_impulse_[a][i];
   }
@@ -279,6 +296,7 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
   bool batched_ = false;  ///< the rotation solves in RotationSolveBatch (step)
   std::vector<std::optional<GyrostatRotationSolver>> gyrostats_;  ///< per body (empty: no body has wheels)
   std::vector<WheelTorque> wheel_torques_;
+  std::optional<WheelAttitudeControl> wheel_control_;
   std::vector<std::vector<double>> wheel_impulse_, wheel_speed_;  ///< per body and wheel, this step's
   double wheel_work_ = 0.0;
 };

@@ -218,6 +218,10 @@ class Result:
     @property
     def t(self) -> npt.NDArray[np.float64]: ...
     @property
+    def wheels(self) -> Dict[str, Dict[str, npt.NDArray[np.float64]]]:
+        """name -> {"speed", "momentum", "torque"} -> (N,) arrays; {} without reaction wheels."""
+        ...
+    @property
     def x(self) -> npt.NDArray[np.float64]: ...
     @property
     def q(self) -> npt.NDArray[np.float64]:

@@ -12,7 +12,7 @@ import numpy as np
 from . import _check, _core
 from . import forcing as _forcing
 from . import potential as _potential
-from ._result import BODIES_COLUMNS, Result, SystemResult
+from ._result import Result, SystemResult
 from ._toml import scenario_text as _toml_text, toml_value as _toml_value
 
 __version__ = _core.__version__
@@ -1001,7 +1001,7 @@ def simulate(scenario, potential=None, *, forcing=None, check=True):
     summary = json.loads(summary_text)
     if core_pot is not None:
         summary["setup"]["potential"] = {"kind": "python", "function": repr(potential)}
-    many = data.shape[1] >= len(BODIES_COLUMNS)  # a [[bodies]] scenario: the long format (26 or 27 columns)
+    many = "bodies" in summary.get("setup", {})  # a [[bodies]] scenario: the long format
     result = SystemResult(data, summary, sc.toml) if many else Result(data, summary, sc.toml)
     if not completed and check:
         e = IntegrationError(error)

@@ -28,6 +28,32 @@ FORCED_BODIES_COLUMNS = BODIES_COLUMNS + (WORK,)
 THERMO_COLUMNS = ("temperature", "pressure")
 
 
+#: The columns a body with reaction wheels adds at the end, per wheel NAME (the summary's setup.body.wheels,
+#: in order): its speed relative to the body, its axial momentum and the torque applied over the step from
+#: the row's time.
+WHEEL_QUANTITIES = ("speed", "momentum", "torque")
+
+
+def wheel_columns(summary):
+    """The wheel columns of a single-body run with reaction wheels ("NAME.speed", ...), () without."""
+    wheels = body_of(summary).get("wheels") or []
+    return tuple(f"{w['name']}.{q}" for w in wheels for q in WHEEL_QUANTITIES)
+
+
+def single_columns(names):
+    """The single-body layout's column names as a tuple if ``names`` are one of its layouts (COLUMNS, then
+    "work" when forced, then any reaction wheels' NAME.speed, NAME.momentum, NAME.torque), else None."""
+    names = tuple(names)
+    if names[:len(COLUMNS)] != COLUMNS:
+        return None
+    tail = names[len(COLUMNS):]
+    if tail[:1] == (WORK,):
+        tail = tail[1:]
+    if len(tail) % 3 or any(not n.endswith("." + WHEEL_QUANTITIES[i % 3]) for i, n in enumerate(tail)):
+        return None
+    return names
+
+
 def bodies_columns(names):
     """The long format's column names as a tuple if ``names`` are one of its layouts (BODIES_COLUMNS, then "work"
     when forced, then "temperature" and "pressure" or "temperature" alone), else None."""

@@ -20,8 +20,8 @@ import zipfile
 
 import numpy as np
 
-from ._columns import bodies_columns
-from ._result import COLUMNS, FORCED_COLUMNS, Result, SystemResult
+from ._columns import bodies_columns, single_columns
+from ._result import COLUMNS, Result, SystemResult
 
 TRAJECTORY_FILES = ("trajectory.csv", "trajectory.npz", "trajectory.h5")
 
@@ -37,9 +37,9 @@ def _text(value):
 
 def _check_columns(names, path):
     names = [_text(n).strip() for n in names]
-    if tuple(names) not in (COLUMNS, FORCED_COLUMNS):
+    if single_columns(names) is None:
         raise ValueError(f"{path}: columns are {','.join(names)}; expected {','.join(COLUMNS)} (and work, "
-                         f"for a forced scenario)")
+                         f"for a forced scenario, and the reaction wheels' columns)")
 
 
 def _read_side_file(folder, name):

@@ -10,8 +10,8 @@ import numpy as np
 
 from . import _attitude
 from ._columns import (BODIES_COLUMNS, COLUMNS, FORCED_BODIES_COLUMNS, FORCED_COLUMNS, HEADER,  # noqa: F401
-                       THERMO_COLUMNS, bodies_columns, bodies_columns_of,
-                       body_of)
+                       THERMO_COLUMNS, WHEEL_QUANTITIES, bodies_columns, bodies_columns_of,
+                       body_of, wheel_columns)
 
 
 class _RunSummary:
@@ -87,12 +87,16 @@ class Result(_RunSummary, _Attitude):
 
     def __init__(self, data, summary=None, scenario_toml=None, source=None):
         data = np.asarray(data, dtype=float)
-        if data.ndim != 2 or data.shape[1] not in (len(COLUMNS), len(FORCED_COLUMNS)):
+        wheels = wheel_columns(summary or {})
+        widths = (len(COLUMNS), len(FORCED_COLUMNS)) if not wheels else (len(FORCED_COLUMNS) + len(wheels),)
+        if data.ndim != 2 or data.shape[1] not in widths:
             raise ValueError(f"data: must have shape (N, {len(COLUMNS)}), or (N, {len(FORCED_COLUMNS)}) with the "
-                             f"forcing's work, got shape {data.shape}")
-        #: The (N, 21) table; (N, 22) with the column "work" for a forced scenario.
+                             f"forcing's work, or those and the reaction wheels' columns the summary names, got shape "
+                             f"{data.shape}")
+        #: The (N, 21) table; (N, 22) with the column "work" for a forced scenario; then 3 per reaction wheel.
         self.data = data
-        names = FORCED_COLUMNS if data.shape[1] == len(FORCED_COLUMNS) else COLUMNS
+        names = (FORCED_COLUMNS + wheels if wheels else
+                 FORCED_COLUMNS if data.shape[1] == len(FORCED_COLUMNS) else COLUMNS)
         #: Column name -> 1-D array (views into data), in the CSV header's order.
         self.columns = {name: data[:, i] for i, name in enumerate(names)}
         #: The summary dict (the CLI's summary.json).
@@ -107,6 +111,15 @@ class Result(_RunSummary, _Attitude):
     def t(self):
         """Time t_k = k h of each row, shape (N,)."""
         return self.data[:, 0]
+
+    @property
+    def wheels(self):
+        """The reaction wheels' columns: name -> {"speed", "momentum", "torque"} -> (N,) arrays (speed relative
+        to the body, axial momentum, the torque applied over the step from the row's time); {} without wheels."""
+        out = {}
+        for w in body_of(self.summary).get("wheels") or []:
+            out[w["name"]] = {q: self.columns[f"{w['name']}.{q}"] for q in WHEEL_QUANTITIES}
+        return out
 
     @property
     def x(self):

@@ -505,7 +505,32 @@ def draw_figures(source, out_dir=None):
     title += f", relative {_max_abs(err) / l0:.3e})" if l0 > 0.0 else ")"
     _error_plot(plt, t, err, "|L(t) - L(0)|", title, "momentum_error.png",
                 out_dir, written, scale=l0 if l0 > 0.0 else None)
+    _wheels(plt, c, summary, out_dir, written)
     return written
+
+
+def _wheels(plt, c, summary, out_dir, written):
+    """wheels.png for a body with reaction wheels: each wheel's speed relative to the body, and the torque
+    applied to it, against t (the limits dashed where the summary gives them)."""
+    wheels = body_of(summary).get("wheels") or []
+    if not wheels:
+        return
+    t = c["t"]
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(FIGSIZE[0], FIGSIZE[1] * 1.4), sharex=True)
+    for w in wheels:
+        name = w["name"]
+        line, = top.plot(t, c[f"{name}.speed"], lw=0.9, label=name)
+        bottom.step(t, c[f"{name}.torque"], where="post", lw=0.9, color=line.get_color(), label=name)
+        for ax, key in ((top, "max_speed"), (bottom, "max_torque")):
+            if key in w:
+                for sign in (1, -1):
+                    ax.axhline(sign * w[key], color=line.get_color(), lw=0.6, ls="--")
+    top.set_ylabel("speed relative to the body (rad/s)")
+    top.set_title("Reaction wheels: speeds, and the torques applied (limits dashed)")
+    bottom.set_ylabel("motor torque (N m)")
+    bottom.set_xlabel("t")
+    top.legend(loc="best", fontsize="small")
+    _save(fig, out_dir, "wheels.png", written)
 
 
 def main(argv=None):
