@@ -318,6 +318,9 @@ std::unique_ptr<AnyStepper> make_stepper(const Scenario& sc, const CallablePoten
   if (sc.integrator.adaptive())
     throw py::value_error("scenario: Stepper takes fixed steps (its t is k h); this scenario has [integrator] "
                           "time_transform = \"potential\" (use lgvi.simulate, which runs it)");
+  if (sc.body().has_wheels())
+    throw py::value_error("scenario: Stepper steps a rigid body's state (x, q, p, w); this body has reaction wheels "
+                          "([[body.wheel]]), whose momenta it does not hold yet (use lgvi.simulate, which runs it)");
   auto evaluations = std::make_shared<std::int64_t>(0);
   const lgvi::app::ScenarioSystemPotential pot =
       lgvi::app::scenario_system_potential(sc, field, evaluations.get());

@@ -138,6 +138,15 @@ def test_bad_wheels_are_one_line_naming_the_key(tmp_path, change, key, words):
     assert not (tmp_path / "out" / "trajectory.csv").exists()
 
 
+def test_compare_and_the_stepping_object_refuse_a_gyrostat(tmp_path):
+    # Both would step the body as a rigid one (other methods, references; a state without the wheels' momenta).
+    import lgvi
+    proc = subprocess.run([BINARY, "compare", str(SLEW), "--out", str(tmp_path / "cmp")], capture_output=True, text=True)
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and "reaction wheels" in proc.stderr, proc.stderr
+    with pytest.raises(ValueError, match="reaction wheels"):
+        lgvi.Stepper(lgvi.Scenario.from_toml(SLEW))
+
+
 def test_wheels_elsewhere_are_refused_with_the_reason(tmp_path):
     # A wheel torque without wheels; wheels on [[bodies]] (not yet read there); a checkpoint (not yet held).
     text = SLEW.read_text()
