@@ -429,8 +429,13 @@ std::string convert_orbit_attitude(const Reader& r, toml::table& root, const Rig
       const double n = h.norm() / x.squaredNorm();
       const Matrix3<double> A = axis_matrix(2, pitch) * axis_matrix(1, roll) * axis_matrix(0, yaw);
       const Vector3<double> omega = A.transpose() * Vector3<double>(0.0, 0.0, n);
-      const Vector3<double> w = 2.0 * body.inertia() * omega;
-      t->insert_or_assign("w", toml_vector(w));
+      // A body with reaction wheels: its rate (the wheels' momenta add to w, parse_scenario).
+      if (body.has_wheels()) {
+        t->insert_or_assign("omega", toml_vector(omega));
+      } else {
+        const Vector3<double> w = 2.0 * body.inertia() * omega;
+        t->insert_or_assign("w", toml_vector(w));
+      }
     } else if (!t->contains("w") && !t->contains("omega")) {
       r.fail("initial.attitude", "give rate = \"orbit\" (the body turns with the LVLH frame) or initial.omega = "
                                  "[...] (body angular velocity, body frame)");
@@ -915,7 +920,13 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
     const std::string prefix = "forcing[" + std::to_string(i) + "]";
     const std::string kind = r.string(t, prefix, "kind", {"torque", "force", "damping", "attitude-control", "wheel-torque"});
     if (kind == "wheel-torque") {
-      wheel_torques.push_back(read_wheel_torque(r, t, prefix, system, duration));
+      // One command per wheel: the motor's limits apply to what it is commanded, as one torque.
+      WheelTorque u = read_wheel_torque(r, t, prefix, system, duration);
+      for (const WheelTorque& other : wheel_torques)
+        if (other.wheel == u.wheel)
+          r.fail(prefix + ".wheel", "wheel \"" + system.body(0).wheels()[u.wheel].name + "\" has a wheel-torque "
+                                    "already; give one command per wheel (a table can hold every change)");
+      wheel_torques.push_back(std::move(u));
       continue;
     }
     std::size_t body = ForcingSet::all_bodies;
@@ -1455,6 +1466,8 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
       r.fail("integrator.order", "a body with reaction wheels takes the plain step (order 2) so far");
     if (integrator.adaptive())
       r.fail("integrator.time_transform", "a body with reaction wheels takes a fixed step so far");
+    if (integrator.solver.kind != SolverKind::Newton)
+      r.fail("integrator.solver", "a body with reaction wheels is solved by \"newton\" (the Cayley chart) only so far");
     if (!sc.forcing.empty())
       r.fail("forcing", "a body with reaction wheels takes [[forcing]] kind = \"wheel-torque\", or "
                         "\"attitude-control\" with actuator = \"wheels\", only so far (other forcing reads the "

@@ -79,8 +79,10 @@ void show_run(const std::string& dir, std::ostream& out) {
   const Json* energy_error_is = field("energy_error_is");
   if (energy_error_is && energy_error_is->is_string() && energy_error_is->get<std::string>() == "E - E0 - work" &&
       work && work->is_number())
-    row("energy", fmt::format("E0 = {}, max |E - E0 - W| = {:.3e} (W: the forcing's work, {:.6g} at the end)",
-                              text(field("initial_energy")), number(field("max_abs_energy_error")), number(work)));
+    row("energy", fmt::format("E0 = {}, max |E - E0 - W| = {:.3e} (W: the {} work, {:.6g} at the end)",
+                              text(field("initial_energy")), number(field("max_abs_energy_error")),
+                              // Motor torques on reaction wheels alone: no external forcing (momentum_error_is).
+                              field("wheels") && !field("momentum_error_is") ? "motors'" : "forcing's", number(work)));
   else
     row("energy", fmt::format("E0 = {}, max |E - E0| = {:.3e}", text(field("initial_energy")),
                               number(field("max_abs_energy_error"))));

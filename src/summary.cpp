@@ -260,13 +260,21 @@ auto with_summary(const Scenario& sc, const SimulationResult& r, Use&& use) {
   }
   if (!sc.bodies_format && sc.body().has_wheels() && !st.wheels.empty()) {
     const Wheels& wheels = sc.body().wheels();
+    const SystemState& end = r.final_state;
+    const bool has_end = end.eta.size() == 1 && end.eta[0].size() == wheels.size();
+    const Vector3<double> omega = has_end ? wheels.body_rate(end.w[0], end.eta[0].data()) : Vector3<double>::Zero();
     Json list = Json::array();
     for (std::size_t w = 0; w < wheels.size(); ++w) {
       const RunStatistics::WheelStatistics& ws = st.wheels[w];
-      list.push_back({{"name", wheels[w].name},
-                      {"max_abs_speed", ws.max_speed},
-                      {"max_abs_torque", ws.max_torque},
-                      {"time_at_a_limit", ws.time_limited}});
+      Json entry = {{"name", wheels[w].name},
+                    {"max_abs_speed", ws.max_speed},
+                    {"max_abs_torque", ws.max_torque},
+                    {"time_at_a_limit", ws.time_limited}};
+      if (has_end) {  // with "final": the state a run continuing from it needs
+        entry["final_speed"] = wheels.relative_speed(w, end.eta[0].data(), omega);
+        entry["final_momentum"] = end.eta[0][w];
+      }
+      list.push_back(std::move(entry));
     }
     s["wheels"] = std::move(list);
   }

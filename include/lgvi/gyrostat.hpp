@@ -25,7 +25,7 @@ namespace lgvi {
 ///   r(u) = J_s u + u x J_s u + s (c + u x c) - s^2 b = s^2 (P(J_s f_v + c) - b),
 ///   dr/du = J_s + hat(u) J_s - hat(J_s u) - s hat(c) + (c + u x c) u^T / s - 2 b u^T.
 /// With c = 0 it is the rigid body's equation (RotationEquation's Cayley
-/// residual). Stops when |r| <= tolerance (|b| + |c| s) or the update is
+/// residual). Stops when |r| <= tolerance (|b| + |c|) s^2 or the update is
 /// below tolerance |u|; throws StepFailure when it does not converge.
 class GyrostatRotationSolver {
  public:

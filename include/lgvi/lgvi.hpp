@@ -115,7 +115,11 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
   }
   /// Attitude control of body 0 through its wheels (gyrostat.hpp): its sampled, held commands drive
   /// every wheel of that body (with no set_wheel_torques for it). Before initialize().
-  void set_wheel_control(WheelAttitudeControl control) { wheel_control_ = std::move(control); }
+  void set_wheel_control(WheelAttitudeControl control) {
+    if (!gyrostat(0) || control.command().size() != this->system_.body(0).wheels().size())
+      throw InvalidInput("wheel control: body 0 has no reaction wheels, or not as many as the controller was built for");
+    wheel_control_ = std::move(control);
+  }
 
   /// The work of the motor torques since initialize(): sum over steps and
   /// wheels of impulse x the wheel's mean relative speed at the step's ends.
@@ -131,8 +135,15 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
     Base::initialize(s, t);
     wheel_work_ = 0.0;
     if (wheel_control_) wheel_control_->reset();
-    if (!gyrostats_.empty() && s.eta.size() != s.size())
-      throw InvalidInput("state: bodies with reaction wheels need their momenta eta (SystemState::eta)");
+    if (!gyrostats_.empty()) {
+      if (s.eta.size() != s.size())
+        throw InvalidInput("state: bodies with reaction wheels need their momenta eta (SystemState::eta)");
+      for (std::size_t a = 0; a < s.size(); ++a)
+        if (s.eta[a].size() != this->system_.body(a).wheels().size())
+          throw InvalidInput("state: eta[" + std::to_string(a) + "] has " + std::to_string(s.eta[a].size()) +
+                             " momenta; body " + std::to_string(a) + " has " +
+                             std::to_string(this->system_.body(a).wheels().size()) + " wheels");
+    }
   }
 
 
@@ -284,6 +295,8 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
     const Wheels& wheels = this->system_.body(a).wheels();
     std::vector<double>& eta = s.eta[a];
     for (std::size_t i = 0; i < wheels.size(); ++i) eta[i] += 0.5 * wheel_impulse_[a][i];
+    for (const double e : eta)
+      if (!std::isfinite(e)) throw StepFailure("a reaction wheel's momentum is not finite", "check the motor commands");
     const Vector3<double> omega = wheels.body_rate(s.w[a], eta.data());
     double work = 0.0;
     for (std::size_t i = 0; i < wheels.size(); ++i)

@@ -650,7 +650,11 @@ class Scenario:
 
     @property
     def omega(self):
-        """Initial body angular velocity Omega0 = J^-1 w0 / 2 (3,)."""
+        """Initial body angular velocity Omega0 = J^-1 w0 / 2 (3,); for a body with reaction wheels, whose w0 holds
+        the wheels' momentum too, use lgvi.simulate's Result.omega."""
+        if "wheel" in (self.document.get("body") or {}):
+            raise ValueError("omega: this body has reaction wheels; its rate is J_s^-1 (w0/2 - h_w) (Result.omega of "
+                             "lgvi.simulate gives it)")
         return 0.5 * (self._core.body.inertia_inverse @ self._core.w)
 
     @property

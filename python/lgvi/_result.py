@@ -88,15 +88,14 @@ class Result(_RunSummary, _Attitude):
     def __init__(self, data, summary=None, scenario_toml=None, source=None):
         data = np.asarray(data, dtype=float)
         wheels = wheel_columns(summary or {})
-        widths = (len(COLUMNS), len(FORCED_COLUMNS)) if not wheels else (len(FORCED_COLUMNS) + len(wheels),)
+        widths = (len(COLUMNS) + len(wheels), len(FORCED_COLUMNS) + len(wheels))
         if data.ndim != 2 or data.shape[1] not in widths:
             raise ValueError(f"data: must have shape (N, {len(COLUMNS)}), or (N, {len(FORCED_COLUMNS)}) with the "
                              f"forcing's work, or those and the reaction wheels' columns the summary names, got shape "
                              f"{data.shape}")
         #: The (N, 21) table; (N, 22) with the column "work" for a forced scenario; then 3 per reaction wheel.
         self.data = data
-        names = (FORCED_COLUMNS + wheels if wheels else
-                 FORCED_COLUMNS if data.shape[1] == len(FORCED_COLUMNS) else COLUMNS)
+        names = (FORCED_COLUMNS if data.shape[1] == len(FORCED_COLUMNS) + len(wheels) else COLUMNS) + wheels
         #: Column name -> 1-D array (views into data), in the CSV header's order.
         self.columns = {name: data[:, i] for i, name in enumerate(names)}
         #: The summary dict (the CLI's summary.json).
@@ -169,12 +168,19 @@ class Result(_RunSummary, _Attitude):
     @property
     def omega(self):
         """Body angular velocity Omega = J^-1 w / 2, shape (N, 3) (needs the body's inertia in the summary; J's
-        pseudo-inverse for a linear body or a point, which has no rotation about its axis)."""
+        pseudo-inverse for a linear body or a point, which has no rotation about its axis). With reaction wheels,
+        Omega = J_s^-1 (w / 2 - h_w): J_s = J - sum_i j_i a_i a_i^T, h_w = sum_i eta_i a_i (the momentum columns)."""
         body = body_of(self.summary)
         inertia = body.get("inertia")
         if inertia is None:
             raise ValueError("omega: the summary has no body inertia (setup.body.inertia)")
         inertia = np.asarray(inertia, dtype=float)
+        wheels = body.get("wheels") or []
+        if wheels:
+            axes = np.array([w["axis"] for w in wheels], dtype=float)
+            reduced = inertia - sum(w["inertia"] * np.outer(a, a) for w, a in zip(wheels, axes))
+            h_w = np.column_stack([self.columns[f"{w['name']}.momentum"] for w in wheels]) @ axes
+            return np.linalg.solve(reduced, (0.5 * self.w - h_w).T).T
         if body.get("rotational_dof", 3) != 3:
             return 0.5 * (np.linalg.pinv(inertia) @ self.w.T).T
         return 0.5 * np.linalg.solve(inertia, self.w.T).T
@@ -191,8 +197,8 @@ class Result(_RunSummary, _Attitude):
         digits, exact round trip), summary.json and, if known, scenario.toml.
         `lgvi.load` and `python3 -m lgvi.plot` read it. Returns run_dir."""
         os.makedirs(run_dir, exist_ok=True)
-        np.savetxt(os.path.join(run_dir, "trajectory.csv"), self.data, fmt="%.17g", delimiter=",", header=HEADER,
-                   comments="")
+        np.savetxt(os.path.join(run_dir, "trajectory.csv"), self.data, fmt="%.17g", delimiter=",",
+                   header=",".join(self.columns), comments="")
         with open(os.path.join(run_dir, "summary.json"), "w", encoding="utf-8") as f:
             json.dump(self.summary, f, indent=2)
             f.write("\n")

@@ -226,3 +226,45 @@ def test_bad_wheel_control_is_one_line(tmp_path, edit, key, words):
     proc = run(path, tmp_path / "out")
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
     assert f"'{key}'" in proc.stderr and words in proc.stderr, proc.stderr
+
+
+def test_a_free_gyrostat_and_the_body_rate_with_wheels(tmp_path):
+    # No motor torque (not forced: no work column): the run, its load and simulate still carry the wheels.
+    # Result.omega is the gyrostat's rate J_s^-1 (w/2 - h_w): in the slew (L = 0) omega_z = -eta_z / J_s,z.
+    import lgvi
+    text = SLEW.read_text().split("[[forcing]]")[0] + "[output]\nevery = 10\n"
+    (tmp_path / "free.toml").write_text(text)
+    r, _ = run_and_load(tmp_path / "free.toml", tmp_path / "free")
+    assert "work" not in r.columns and list(r.wheels) == ["z"]
+    assert np.array_equal(lgvi.simulate(lgvi.Scenario.from_toml(tmp_path / "free.toml")).data, r.data)
+    slew, _ = run_and_load(SLEW, tmp_path / "slew")
+    omega = slew.omega
+    assert np.allclose(omega[:, 2], -slew.wheels["z"]["momentum"] / 19.95, rtol=1e-13, atol=1e-17)
+    assert np.abs(omega[:, :2]).max() == 0.0
+    # Saved and loaded back: the same columns (the header names every column).
+    slew.save(tmp_path / "saved")
+    assert np.array_equal(lgvi.load(tmp_path / "saved").data, slew.data)
+    # The summary's final wheel state: the last row's.
+    (w,) = slew.summary["wheels"]
+    assert w["final_momentum"] == slew.wheels["z"]["momentum"][-1] and w["final_speed"] == slew.wheels["z"]["speed"][-1]
+
+
+def test_an_orbit_rate_attitude_with_spinning_wheels_keeps_the_body_rate(tmp_path):
+    # attitude = { rate = "orbit" } sets the body's rate to the LVLH frame's whatever the wheels' speeds: a
+    # momentum-bias wheel adds its momentum to w, not a rate to the body.
+    import lgvi
+    base = SLEW_WHEELS.read_text().replace("duration = 300.0", "duration = 0.1")
+    (tmp_path / "a.toml").write_text(base)
+    (tmp_path / "b.toml").write_text(base.replace("speed = 0.0", "speed = 200.0", 1))
+    a, _ = run_and_load(tmp_path / "a.toml", tmp_path / "a")
+    b, _ = run_and_load(tmp_path / "b.toml", tmp_path / "b")
+    assert b.wheels["w1"]["speed"][0] == 200.0
+    assert np.allclose(b.omega[0], a.omega[0], rtol=0, atol=1e-15)
+    assert not np.allclose(b.w[0], a.w[0])  # the wheel's momentum is in w
+
+
+def test_one_command_per_wheel(tmp_path):
+    text = SLEW.read_text() + '[[forcing]]\nkind = "wheel-torque"\nwheel = 0\nvalue = 0.01\n'
+    (tmp_path / "twice.toml").write_text(text)
+    proc = run(tmp_path / "twice.toml", tmp_path / "out")
+    assert proc.returncode == 2 and "'forcing[1].wheel'" in proc.stderr and "one command per wheel" in proc.stderr
