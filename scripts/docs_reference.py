@@ -116,6 +116,8 @@ DESCRIPTIONS = {
     "initial.attitude.pitch": "degrees, default 0 (about the orbit normal, first)",
     "initial.attitude.yaw": "degrees, default 0 (about the radial axis, last)",
     "initial.attitude.rate": "\"orbit\": turn with the LVLH frame (or give initial.w / omega)",
+    "initial.attitude.error": "[qw, qx, qy, qz], default none: a body-frame rotation after roll, pitch and yaw "
+                              "(an ensemble's attitude_error_deg writes it); rate = \"orbit\" turns with it",
     # [integrator]
     "integrator.method": "one of the methods below (default \"lgvi\")",
     "integrator.solver": "one of the solvers below (default \"newton\")",
@@ -152,6 +154,16 @@ DESCRIPTIONS = {
     "import.radius": "number >= 0, or one per atom type (default 0: point masses): each atom a uniform ball",
     "import.periodic": "[bool, bool, bool] per axis of the file's box (default all true)",
     "import.checksum": "string, written by the run into its copy of the scenario: the data file's FNV-1a checksum; a changed file is refused",
+    # [[sensor]]
+    ".sensor": "array of tables [[sensor]]: what the attitude controller through the wheels reads at its samples "
+              "(it needs a period); at most one of each kind",
+    "sensor.kind": "\"gyro\" | \"star-tracker\"",
+    "sensor.noise_density": "gyro, rad/s/sqrt(Hz), default 0: white noise on the rate (angle random walk)",
+    "sensor.bias_walk": "gyro, rad/s^2/sqrt(Hz), default 0: the bias's random walk (rate random walk)",
+    "sensor.initial_bias": "gyro, [x, y, z] rad/s, default 0: the bias at t = 0",
+    "sensor.noise_arcsec": "star-tracker, [x, y, z] arcsec: the attitude noise's standard deviation per body axis",
+    "sensor.seed": "integer >= 0, default 0: the noise's seed (an ensemble draws one per member unless "
+                   "sensor_noise = \"shared\")",
     # [[forcing]]
     "forcing.kind": "\"torque\" | \"force\" | \"damping\" | \"attitude-control\" | \"wheel-torque\" (a motor torque on a [[body.wheel]])",
     "forcing.wheel": "wheel-torque: the wheel, by its name or its index from 0",
@@ -167,6 +179,7 @@ DESCRIPTIONS = {
     "forcing.max_torque": "attitude-control, optional: |M| scaled down to this",
     "forcing.period": "attitude-control, optional: sampled at t = n period, held in between",
     "forcing.actuator": "attitude-control: \"torque\" (default: the torque acts on the body) | \"wheels\" (the body's [[body.wheel]] make it, u = -A^+ M)",
+    "forcing.distribution": "attitude-control with actuator = \"wheels\", optional: one row [dx, dy, dz] per wheel, u = D M instead of -A^+ M (-A D must be the identity)",
     # sweep files
     "sweep:.ensemble": "table: the ensemble",
     "sweep:.vary": "array of tables [[vary]]: the varied keys",
@@ -174,12 +187,22 @@ DESCRIPTIONS = {
     "sweep:ensemble.members": "with random [[vary]]: how many members; with grids only: omitted (their product)",
     "sweep:ensemble.seed": "integer: every draw comes from (seed, member index)",
     "sweep:ensemble.trajectories": "\"none\" (default) | \"all\": keep each member's run folder in DIR/members/NNNNNN",
+    "sweep:ensemble.metrics": "[...] of \"pointing_error_deg\", \"settling_time\", \"max_wheel_torque\", "
+                              "\"max_wheel_speed\", \"saturation_time\", \"control_effort\": GNC columns of members.csv "
+                              "(pointing ones also write pointing_error.csv)",
+    "sweep:ensemble.settle_band_deg": "degrees in (0, 180): the band settling_time measures to (needed by it)",
+    "sweep:ensemble.sensor_noise": "\"per-member\" (default): each member's [[sensor]] seeds drawn from its index | "
+                                   "\"shared\": the base's seeds in every member",
     "sweep:vary.key": "the dotted scenario key to vary, e.g. \"initial.w\"; a body by name: \"bodies.primary.omega\"; "
-                      "a [[forcing]] entry by its index from 0: \"forcing.0.k_p\"",
+                      "a [[forcing]] entry by its index from 0: \"forcing.0.k_p\"; an array's element by its "
+                      "indices: \"body.inertia[0][0]\"",
     "sweep:vary.normal": "{mean, std}: normal draws",
     "sweep:vary.uniform": "{low, high}: uniform draws",
     "sweep:vary.values": "[...]: a grid; several grids: their product, the last key fastest",
     "sweep:vary.rotation": "\"uniform\": attitudes uniform over SO(3)",
+    "sweep:vary.attitude_error_deg": "SIGMA (degrees): attitude errors, rotations about uniformly random axes by "
+                                     "normal angles of standard deviation SIGMA, composed with a quaternion key "
+                                     "(or given to initial.attitude as its error)",
     "sweep:vary.normal.mean": "number or array: the mean",
     "sweep:vary.normal.std": "number or array of the same length: the standard deviation",
     "sweep:vary.uniform.low": "number or array: the lower bound",
@@ -198,7 +221,7 @@ INTERACTION_DESCRIPTIONS = {
     "pair": "lennard-jones: [[interaction.pair]] tables, each types = [i, j], epsilon, sigma: one pair of site types' coefficients",
 }
 
-ARRAYS_OF_TABLES = {"body.ball", "body.wheel", "bodies", "forcing", "vary"}
+ARRAYS_OF_TABLES = {"body.ball", "body.wheel", "bodies", "forcing", "vary", "sensor"}
 INLINE_TABLES = {"initial.orbit", "initial.attitude", "vary.normal", "vary.uniform"}
 
 CALL = re.compile(r"only_keys\(\s*([^,]+),\s*([^,]+),\s*(\{[^}]*\}|keys)\s*\)", re.S)
@@ -220,6 +243,8 @@ def _label(prefix_expr, keys, source, pos):
         return "body.wheel", None
     if p == "prefix" and "name" in keys:
         return "bodies", None
+    if p == "prefix" and ("noise_density" in keys or "noise_arcsec" in keys):
+        return "sensor", None
     if p == "prefix" and "kind" in keys:
         return "forcing", None
     if p == "p":
@@ -425,6 +450,7 @@ def outputs(core, binary):
         "an adaptive step (`scenarios/paper-close-pass.toml`)": ("run", ROOT / "scenarios" / "paper-close-pass.toml"),
         "a periodic molecular gas (`tests/cli/good/periodic-gas.toml`)":
             ("run", ROOT / "tests" / "cli" / "good" / "periodic-gas.toml"),
+        "a body with reaction wheels (`scenarios/slew-wheels.toml`)": ("run", ROOT / "scenarios" / "slew-wheels.toml"),
     }
     out += ["## `summary.json` keys", "",
             "Dotted paths; `NAME[]` is an array of objects (its elements' keys listed once). Runs are shortened "
@@ -475,7 +501,11 @@ def outputs(core, binary):
             "`members.csv` of an ensemble of the paper orbit varying `initial.quaternion` (the varied keys' "
             "columns follow `index`; a `[[bodies]]` base scenario has `NAME.x ...` per body for the final state): "
             + ", ".join(f"`{c}`" for c in header) + ".", "",
-            "The files of an ensemble folder (`--no-figures`): " + ", ".join(f"`{f}`" for f in files) + ".", ""]
+            "The files of an ensemble folder (`--no-figures`): " + ", ".join(f"`{f}`" for f in files) + ".", "",
+            "With `[ensemble] metrics` their columns follow `max_linear_momentum_error`, in the order given, and a "
+            "pointing metric adds `pointing_error.csv` (`index`, `t`, `pointing_error_deg`: each member's pointing "
+            "error at the base's output frames) ([Ensembles](../guide/ensembles.md#monte-carlo-for-guidance-"
+            "navigation-and-control)).", ""]
     return "\n".join(out) + "\n"
 
 

@@ -74,6 +74,9 @@ struct RunStatistics {
     double max_speed = 0.0, max_torque = 0.0, time_limited = 0.0;
   };
   std::vector<WheelStatistics> wheels;
+  /// Over the wheels and the steps: the motors' total torque impulse sum_i int |u_i| dt (N m s, the
+  /// control effort), and the time during which at least one wheel was at a limit.
+  double wheel_effort = 0.0, wheels_saturated_time = 0.0;
   std::int64_t contact_episodes = 0;
   static constexpr std::size_t max_listed_contacts = 10000;
 };

@@ -12,6 +12,7 @@
 #include "toml_writer.hpp"
 #include "trajectory_sink.hpp"
 
+#include <lgvi/counter_random.hpp>
 #include <lgvi/error.hpp>
 
 #include <fmt/format.h>
@@ -19,6 +20,7 @@
 #include <toml++/toml.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -32,6 +34,7 @@
 #include <map>
 #include <mutex>
 #include <numbers>
+#include <optional>
 #include <sstream>
 #include <thread>
 #include <unistd.h>
@@ -42,32 +45,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// ---------------------------------------------------------------------------
-// Counter-based random numbers: a draw is a function of (seed, member,
-// vary, component, stream) alone (SplitMix64's finalizer as the mixing
-// function; Steele, Lea & Flood 2014), so it does not depend on the order in
-// which members run or on where.
-
-std::uint64_t mix(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
-
-/// Uniform in (0, 1): 53 random bits, offset by half an ulp so neither end occurs.
-double uniform01(std::uint64_t seed, std::int64_t member, std::size_t vary, std::size_t component, int stream) {
-  const std::uint64_t key = (static_cast<std::uint64_t>(vary) << 40) ^ (static_cast<std::uint64_t>(component) << 8) ^
-                            static_cast<std::uint64_t>(stream);
-  const std::uint64_t h = mix(seed ^ mix(static_cast<std::uint64_t>(member) ^ mix(key)));
-  return (static_cast<double>(h >> 11) + 0.5) * 0x1p-53;
-}
-
-/// Standard normal by Box-Muller from streams 0 and 1.
-double normal01(std::uint64_t seed, std::int64_t member, std::size_t vary, std::size_t component) {
-  const double u1 = uniform01(seed, member, vary, component, 0), u2 = uniform01(seed, member, vary, component, 1);
-  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
-}
+// Draws: (seed, member, vary, component) -> a number (lgvi/counter_random.hpp), so that they do not
+// depend on the order in which members run or on where.
+using counter_random::normal01;
+using counter_random::uniform01;
 
 /// Appends ",v" to a CSV row (fmt::format_to: no temporary strings).
 void append_number(std::string& row, double v) { fmt::format_to(std::back_inserter(row), ",{:.17g}", v); }
@@ -162,16 +143,17 @@ toml::table* key_table(toml::table& root, const std::vector<std::string>& parts,
 
 VarySpec read_vary(const TomlReader& r, const toml::table& v, std::size_t index, bool& random) {
   const std::string p = "vary[" + std::to_string(index) + "]";
-  r.only_keys(v, p, {"key", "normal", "uniform", "values", "rotation"});
+  r.only_keys(v, p, {"key", "normal", "uniform", "values", "rotation", "attitude_error_deg"});
   VarySpec s;
   const auto key = v["key"].value<std::string>();
   if (!key || key->empty()) r.fail(p + ".key", "missing: the dotted scenario key to vary, e.g. \"initial.omega\"");
   s.key = *key;
   const int given = static_cast<int>(v.contains("normal")) + static_cast<int>(v.contains("uniform")) +
-                    static_cast<int>(v.contains("values")) + static_cast<int>(v.contains("rotation"));
+                    static_cast<int>(v.contains("values")) + static_cast<int>(v.contains("rotation")) +
+                    static_cast<int>(v.contains("attitude_error_deg"));
   if (given != 1)
-    r.fail(p, "give exactly one of normal = {mean, std}, uniform = {low, high}, values = [...] (a grid) or "
-              "rotation = \"uniform\" (random attitudes)");
+    r.fail(p, "give exactly one of normal = {mean, std}, uniform = {low, high}, values = [...] (a grid), "
+              "rotation = \"uniform\" (random attitudes) or attitude_error_deg = SIGMA (attitude errors)");
   auto pair = [&](const char* what, const char* first, const char* second) {
     const toml::table* t = v[what].as_table();
     const std::string q = p + "." + what;
@@ -201,6 +183,13 @@ VarySpec read_vary(const TomlReader& r, const toml::table& v, std::size_t index,
     if (v["rotation"].value<std::string>() != "uniform")
       r.fail(p + ".rotation", "must be \"uniform\" (attitudes drawn uniformly over SO(3))");
     s.kind = VarySpec::Kind::RandomRotation;
+    random = true;
+  } else if (v.contains("attitude_error_deg")) {
+    const double sigma = r.number(v, p, "attitude_error_deg");
+    if (!(sigma >= 0.0 && sigma <= 180.0))
+      r.fail(p + ".attitude_error_deg", "must be in [0, 180]: the standard deviation of the error angle, in degrees");
+    s.kind = VarySpec::Kind::AttitudeError;
+    s.a = {sigma};
     random = true;
   } else {
     s.kind = VarySpec::Kind::Values;
@@ -245,23 +234,114 @@ std::vector<double> draw(const VarySpec& s, std::uint64_t seed, std::int64_t mem
       out = {b * std::cos(t3), a * std::sin(t2), a * std::cos(t2), b * std::sin(t3)};
       break;
     }
+    case VarySpec::Kind::AttitudeError: {
+      // The axis uniform on the unit sphere (z = cos(polar angle) uniform in [-1, 1], the azimuth
+      // uniform), the angle normal with the given standard deviation (Box-Muller on component 2's
+      // streams); a negative angle is the positive one about the opposite axis.
+      const double z = 2.0 * uniform01(seed, member, v, 0, 0) - 1.0;
+      const double phi = 2.0 * std::numbers::pi * uniform01(seed, member, v, 1, 0);
+      const double rho = std::sqrt(std::max(0.0, 1.0 - z * z));
+      const double angle = s.a[0] * normal01(seed, member, v, 2);
+      const double sign = angle < 0.0 ? -1.0 : 1.0;
+      out = {std::abs(angle), sign * rho * std::cos(phi), sign * rho * std::sin(phi), sign * z};
+      break;
+    }
     case VarySpec::Kind::Values: out = s.values[grid_index]; break;
   }
   return out;
 }
 
+/// The rotation an AttitudeError's values (angle in degrees, unit axis) stand for, scalar first.
+std::array<double, 4> error_quaternion(const std::vector<double>& value) {
+  const double half = 0.5 * value[0] * std::numbers::pi / 180.0, s = std::sin(half);
+  return {std::cos(half), s * value[1], s * value[2], s * value[3]};
+}
+
+/// Hamilton's product a b of quaternions, scalar first.
+std::array<double, 4> quaternion_product(const std::array<double, 4>& a, const std::array<double, 4>& b) {
+  return {a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3], a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+          a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1], a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0]};
+}
+
+/// A key's last part: a name and the indices after it ("inertia[0][2]": an element of an array of arrays).
+struct Leaf {
+  std::string name;
+  std::vector<std::size_t> indices;
+};
+
+/// Splits "name[i][j]..." (indices of at most 6 digits, no leading zero); nullopt if malformed.
+std::optional<Leaf> parse_leaf(const std::string& leaf) {
+  Leaf out;
+  const std::size_t open = leaf.find('[');
+  out.name = leaf.substr(0, open);
+  if (out.name.empty()) return std::nullopt;
+  for (std::size_t at = open; at != std::string::npos;) {
+    const std::size_t close = leaf.find(']', at);
+    if (close == std::string::npos || leaf[at] != '[') return std::nullopt;
+    const std::string index = leaf.substr(at + 1, close - at - 1);
+    if (index.empty() || index.size() > 6 || (index.size() > 1 && index[0] == '0') ||
+        index.find_first_not_of("0123456789") != std::string::npos)
+      return std::nullopt;
+    out.indices.push_back(std::stoul(index));
+    at = close + 1 < leaf.size() ? close + 1 : std::string::npos;
+  }
+  return out;
+}
+
+/// The node a leaf names in table t (an array's element for indices); nullptr if there is none. With
+/// indices, `parent` gets the array holding it.
+toml::node* leaf_node(toml::table& t, const Leaf& leaf, toml::array** parent = nullptr) {
+  toml::node* n = t.get(leaf.name);
+  for (std::size_t i : leaf.indices) {
+    toml::array* a = n ? n->as_array() : nullptr;
+    if (!a || i >= a->size()) return nullptr;
+    if (parent) *parent = a;
+    n = a->get(i);
+  }
+  return n;
+}
+
 /// Writes value into the document at the vary's key.
 void write_value(toml::table& root, const VarySpec& s, const std::vector<double>& value) {
-  std::string leaf;
-  toml::table* t = key_table(root, split_key(s.key), leaf);
-  if (!t) throw std::logic_error("key checked before: " + s.key);
+  std::string leaf_text;
+  toml::table* t = key_table(root, split_key(s.key), leaf_text);
+  const std::optional<Leaf> leaf = parse_leaf(leaf_text);
+  if (!t || !leaf) throw std::logic_error("key checked before: " + s.key);
+  if (s.kind == VarySpec::Kind::AttitudeError) {
+    // Composed with the base's quaternion (q0 (x) dq: an error in body axes), or, where the base sets the
+    // attitude by initial.attitude, given to it as its error.
+    const std::array<double, 4> dq = error_quaternion(value);
+    toml::array q;
+    if (const toml::array* base = leaf_node(*t, *leaf) ? leaf_node(*t, *leaf)->as_array() : nullptr) {
+      std::array<double, 4> q0{};
+      for (std::size_t c = 0; c < 4; ++c) q0[c] = base->get(c)->value<double>().value();
+      for (double x : quaternion_product(q0, dq)) q.push_back(x);
+      t->insert_or_assign(leaf->name, std::move(q));
+    } else {
+      for (double x : dq) q.push_back(x);
+      t->get_as<toml::table>("attitude")->insert_or_assign("error", std::move(q));
+    }
+    return;
+  }
+  if (!leaf->indices.empty()) {  // an element of an array (checked to exist): a number
+    toml::array* parent = nullptr;
+    leaf_node(*t, *leaf, &parent);
+    const auto at = parent->cbegin() + static_cast<std::ptrdiff_t>(leaf->indices.back());
+    if (s.integer) {
+      parent->replace(at, static_cast<std::int64_t>(value[0]));
+    } else {
+      parent->replace(at, value[0]);
+    }
+    return;
+  }
+  const std::string& name = leaf->name;
   // Integers stay integers (exact: a grid's integers are read as doubles
   // below 2^53 and converted back).
   if (s.scalar) {
     if (s.integer) {
-      t->insert_or_assign(leaf, static_cast<std::int64_t>(value[0]));
+      t->insert_or_assign(name, static_cast<std::int64_t>(value[0]));
     } else {
-      t->insert_or_assign(leaf, value[0]);
+      t->insert_or_assign(name, value[0]);
     }
   } else {
     toml::array a;
@@ -272,7 +352,7 @@ void write_value(toml::table& root, const VarySpec& s, const std::vector<double>
         a.push_back(x);
       }
     }
-    t->insert_or_assign(leaf, std::move(a));
+    t->insert_or_assign(name, std::move(a));
   }
 }
 
@@ -301,10 +381,62 @@ class DiscardSink final : public TrajectorySink {
   void close(const std::string&, const std::string&) override {}
 };
 
+/// The times of a fixed-step scenario's output frames: every output.every steps from 0, and the last.
+std::vector<double> pointing_frames(const Scenario& sc) {
+  std::vector<double> t;
+  const std::int64_t n = sc.integrator.steps;
+  for (std::int64_t k = 0; k <= n; ++k)
+    if (k % sc.output_every == 0 || k == n) t.push_back(static_cast<double>(k) * sc.integrator.step);
+  return t;
+}
+
+/// Whether member 0's scenario can give the plan's metrics; the frames of its pointing-error curves.
+void check_metrics(const TomlReader& r, EnsemblePlan& plan, const Scenario& sc) {
+  for (const std::string& name : plan.metrics.names) {
+    if (name == "pointing_error_deg" || name == "settling_time") {
+      if (sc.bodies_format || sc.attitude_targets.size() != 1)
+        r.fail("ensemble.metrics", "\"" + name + "\" is measured from the target of the base scenario's attitude "
+                                   "controller: it needs a [body] with one [[forcing]] kind = \"attitude-control\"");
+    } else if (sc.bodies_format || !sc.body().has_wheels()) {
+      r.fail("ensemble.metrics", "\"" + name + "\" measures reaction wheels: the base scenario's [body] needs "
+                                 "[[body.wheel]] tables");
+    }
+  }
+  if (!plan.metrics.pointing()) return;
+  if (sc.integrator.adaptive())
+    r.fail("ensemble.metrics", "the pointing-error curves need a fixed step; the base scenario has "
+                               "integrator.time_transform");
+  plan.series_times = pointing_frames(sc);
+  if (plan.series_times.size() > 10001)
+    r.fail("ensemble.metrics", fmt::format("the pointing-error curves would hold {} frames per member (at most "
+                                           "10001): give the base scenario a larger [output] every",
+                                           plan.series_times.size()));
+}
+
 }  // namespace
 
+bool MemberMetrics::pointing() const {
+  return std::find(names.begin(), names.end(), "pointing_error_deg") != names.end() ||
+         std::find(names.begin(), names.end(), "settling_time") != names.end();
+}
+
+std::pair<std::string, std::string> EnsemblePlan::split_row(const std::string& row) const {
+  if (series_times.empty()) return {row, {}};
+  const std::size_t fields = csv_fields(header).size();
+  bool quoted = false;
+  std::size_t commas = 0;
+  for (std::size_t i = 0; i < row.size(); ++i) {
+    if (row[i] == '"') {
+      quoted = !quoted;  // a doubled quote inside a field toggles twice
+    } else if (row[i] == ',' && !quoted && ++commas == fields) {
+      return {row.substr(0, i), row.substr(i + 1)};
+    }
+  }
+  return {row, {}};
+}
+
 std::size_t VarySpec::components() const {
-  if (kind == Kind::RandomRotation) return 4;
+  if (kind == Kind::RandomRotation || kind == Kind::AttitudeError) return 4;
   if (kind == Kind::Values) return values.front().size();
   return a.size();
 }
@@ -318,6 +450,18 @@ std::string EnsemblePlan::member_toml(std::int64_t i) const {
                                         static_cast<std::ptrdiff_t>(column + v.components()));
     write_value(doc, v, value);
     column += v.components();
+  }
+  if (!shared_sensor_noise) {
+    // Each member's own noise: seed = a function of (the base's seed, member index), 63 bits.
+    if (toml::array* sensors = doc["sensor"].as_array()) {
+      for (std::size_t s = 0; s < sensors->size(); ++s) {
+        toml::table* t = sensors->get(s)->as_table();
+        if (!t) continue;  // the member's reader names it
+        const auto base = static_cast<std::uint64_t>((*t)["seed"].value_or<std::int64_t>(0));
+        const std::uint64_t seed = counter_random::mix(counter_random::mix(base) ^ static_cast<std::uint64_t>(i)) >> 1;
+        t->insert_or_assign("seed", static_cast<std::int64_t>(seed));
+      }
+    }
   }
   return write_toml(doc);
 }
@@ -336,7 +480,8 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
   r.only_keys(root, "", {"ensemble", "vary"});
   const toml::table* ens = root["ensemble"].as_table();
   if (!ens) r.fail("ensemble", "missing table [ensemble] (scenario = \"base.toml\", members, seed)");
-  r.only_keys(*ens, "ensemble", {"scenario", "members", "seed", "trajectories"});
+  r.only_keys(*ens, "ensemble",
+              {"scenario", "members", "seed", "trajectories", "metrics", "settle_band_deg", "sensor_noise"});
   EnsemblePlan plan;
   plan.name = name;
   plan.sweep_text = sweep_text;
@@ -356,6 +501,35 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
     if (t != "none" && t != "all") r.fail("ensemble.trajectories", "must be \"none\" (default) or \"all\"");
     plan.keep_trajectories = *t == "all";
   }
+  if (const toml::node* m = ens->get("metrics")) {
+    static const std::vector<std::string> known{"pointing_error_deg", "max_wheel_torque", "max_wheel_speed",
+                                                "settling_time",      "saturation_time",  "control_effort"};
+    std::string list;
+    for (const std::string& k : known) list += (list.empty() ? "\"" : ", \"") + k + "\"";
+    const toml::array* a = m->as_array();
+    if (!a || a->empty()) r.fail("ensemble.metrics", "must be a non-empty array of names, from " + list);
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const std::string key = "ensemble.metrics[" + std::to_string(i) + "]";
+      const auto name = a->get(i)->value<std::string>();
+      if (!name || std::find(known.begin(), known.end(), *name) == known.end())
+        r.fail(key, "must be one of " + list);
+      if (std::find(plan.metrics.names.begin(), plan.metrics.names.end(), *name) != plan.metrics.names.end())
+        r.fail(key, "\"" + *name + "\" is given twice");
+      plan.metrics.names.push_back(*name);
+    }
+  }
+  if (ens->contains("sensor_noise"))
+    plan.shared_sensor_noise = r.string(*ens, "ensemble", "sensor_noise", {"per-member", "shared"}) == "shared";
+  if (ens->contains("settle_band_deg")) {
+    plan.metrics.settle_band_deg = r.number(*ens, "ensemble", "settle_band_deg");
+    if (!(plan.metrics.settle_band_deg > 0.0 && plan.metrics.settle_band_deg < 180.0))
+      r.fail("ensemble.settle_band_deg", "must be in (0, 180): the pointing error (deg) within which a member has settled");
+  }
+  const auto& metric_names = plan.metrics.names;
+  if (std::find(metric_names.begin(), metric_names.end(), "settling_time") != metric_names.end() &&
+      std::isnan(plan.metrics.settle_band_deg))
+    r.fail("ensemble.settle_band_deg", "missing: settling_time needs the band (deg) it measures to, e.g. "
+                                       "settle_band_deg = 0.1");
   const toml::array* varies = root["vary"].as_array();
   if (!varies || varies->empty()) r.fail("vary", "missing: at least one [[vary]] table (key and its values)");
   bool random = false, grid = false;
@@ -379,13 +553,30 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
   for (std::size_t i = 0; i < plan.vary.size(); ++i) {
     VarySpec& v = plan.vary[i];
     const std::string p = "vary[" + std::to_string(i) + "].key";
-    std::string leaf;
-    toml::table* t = key_table(base, split_key(v.key), leaf);
+    std::string leaf_text;
+    toml::table* t = key_table(base, split_key(v.key), leaf_text);
     if (!t)
       r.fail(p, "\"" + v.key + "\" names no table of the base scenario (e.g. \"initial.omega\", \"integrator.step\", "
-                "\"bodies.NAME.omega\", \"forcing.0.k_p\" for the first [[forcing]])");
-    if (v.kind == VarySpec::Kind::RandomRotation) v.scalar = false;
-    if (const toml::node* n = t->get(leaf)) {
+                "\"bodies.NAME.omega\", \"forcing.0.k_p\" for the first [[forcing]], \"body.inertia[0][0]\" for an "
+                "element)");
+    const std::optional<Leaf> leaf = parse_leaf(leaf_text);
+    if (!leaf)
+      r.fail(p, "\"" + v.key + "\": its last part must be a name, or a name and indices from 0 such as inertia[0][2]");
+    if (!leaf->indices.empty() && !leaf_node(*t, *leaf))
+      r.fail(p, "\"" + v.key + "\" names no element of the base scenario (an element is varied where the base gives "
+                "its array, e.g. body.inertia[0][0] for inertia = [[...], [...], [...]])");
+    if (!leaf->indices.empty() && v.kind == VarySpec::Kind::AttitudeError)
+      r.fail(p, "attitude_error_deg varies a quaternion key such as \"initial.quaternion\", not an element");
+    if (v.kind == VarySpec::Kind::AttitudeError && !leaf_node(*t, *leaf)) {
+      const toml::table* attitude = t->get_as<toml::table>("attitude");
+      if (leaf->name != "quaternion" || !attitude)
+        r.fail(p, "attitude_error_deg draws an error of the base's attitude: the base must give \"" + v.key +
+                      "\" (a quaternion), or set it by initial.attitude");
+      if (attitude->contains("error"))
+        r.fail(p, "the base's initial.attitude has an error already; the draws would replace it: remove it");
+    }
+    if (v.kind == VarySpec::Kind::RandomRotation || v.kind == VarySpec::Kind::AttitudeError) v.scalar = false;
+    if (const toml::node* n = leaf_node(*t, *leaf)) {
       bool scalar = false;
       const std::vector<double> now = r.numbers(*n, p + " (its value in the base scenario)", scalar);
       if (scalar != v.scalar || now.size() != v.components())
@@ -393,6 +584,11 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
                       " in the base scenario; the values given have another shape");
     }
     const std::size_t c = v.components();
+    if (v.kind == VarySpec::Kind::AttitudeError) {
+      plan.varied_columns.push_back(v.key + ".error_deg");
+      for (std::size_t k = 0; k < 3; ++k) plan.varied_columns.push_back(v.key + ".error_axis[" + std::to_string(k) + "]");
+      continue;
+    }
     for (std::size_t k = 0; k < c; ++k)
       plan.varied_columns.push_back(v.scalar ? v.key : v.key + "[" + std::to_string(k) + "]");
   }
@@ -458,9 +654,14 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
       adaptive = sc.integrator.adaptive();
       bodies = sc.bodies();
       state_cols = state_columns(sc);
+      check_metrics(r, plan, sc);
     } else if (sc.bodies() != bodies) {
       r.fail("vary", "member " + std::to_string(m) + " has " + std::to_string(sc.bodies()) +
                          " bodies and member 0 " + std::to_string(bodies) + "; every member needs the same bodies");
+    } else if (plan.metrics.pointing() && pointing_frames(sc) != plan.series_times) {
+      r.fail("vary", "member " + std::to_string(m) + " writes its frames at other times than member 0 (its step, "
+                     "duration or output.every differ); the pointing-error curves need the same times in every "
+                     "member");
     }
   }
   std::string header = "index";
@@ -468,6 +669,7 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
   // An adaptive run (time_transform) ends past its duration, each member at its own time: last_time says where.
   header += adaptive ? ",completed,error,steps,last_time" : ",completed,error,steps";
   header += ",max_abs_energy_error,max_abs_quat_norm_error,max_momentum_error,max_linear_momentum_error";
+  for (const std::string& c : plan.metrics.names) header += "," + c;
   for (const std::string& c : state_cols) header += "," + c;
   plan.header = header;
   return plan;
@@ -490,15 +692,38 @@ EnsemblePlan read_ensemble(const std::string& path) {
 
 std::string run_member(const EnsemblePlan& plan, std::int64_t i, int threads, const std::string& trajectory_dir) {
   return run_member_scenario(i, plan.varied[static_cast<std::size_t>(i)], plan.member_toml(i), plan.scenario_name,
-                             threads, trajectory_dir);
+                             threads, trajectory_dir, plan.metrics);
 }
 
 std::string run_member_scenario(std::int64_t i, const std::vector<double>& varied, const std::string& scenario_toml,
-                                const std::string& scenario_name, int threads, const std::string& trajectory_dir) {
+                                const std::string& scenario_name, int threads, const std::string& trajectory_dir,
+                                const MemberMetrics& metrics) {
   Scenario sc = parse_scenario(scenario_toml, scenario_name);
   sc.threads = threads;
   SimulationOptions so;
   so.stop_flag = stop_flag();
+  const double nan = std::nan("");
+  // The pointing error (deg, the angle of q_target^* q) at every step: its last value, the time from
+  // which it stays within the band, and its values at the output frames (the plan's series_times).
+  const bool pointing = metrics.pointing();
+  const std::size_t frames = pointing ? pointing_frames(sc).size() : 0;
+  double last_error = nan, settled_at = nan;
+  std::vector<double> series;
+  if (pointing) {
+    const S3d target = sc.attitude_targets.at(0);
+    const std::int64_t every = sc.output_every;
+    so.observe_step = [&sc, &last_error, &settled_at, &series, &metrics, target, every](std::int64_t k, double t,
+                                                                                       const SystemState& s) {
+      const S3d e = target.inverse() * s.q[0];
+      last_error = 2.0 * std::atan2(e.vec().norm(), std::abs(e.w())) * (180.0 / std::numbers::pi);
+      if (!(last_error <= metrics.settle_band_deg)) {
+        settled_at = std::nan("");
+      } else if (std::isnan(settled_at)) {
+        settled_at = t;
+      }
+      if (k % every == 0 || sc.integrator.ends(k, t)) series.push_back(last_error);
+    };
+  }
   SimulationResult r;
   if (trajectory_dir.empty()) {
     sc.output_every = sc.integrator.steps + 1;
@@ -519,11 +744,25 @@ std::string run_member_scenario(std::int64_t i, const std::vector<double>& varie
   std::string row = std::to_string(i);
   for (double v : varied) append_number(row, v);
   fmt::format_to(std::back_inserter(row), ",{},{},{}", r.completed ? 1 : 0, csv_field(r.error), st.last_k);
-  const double nan = std::nan("");
   if (sc.integrator.adaptive()) append_number(row, st.observed ? st.last_t : nan);
   for (double v : {st.observed ? st.max_energy_error : nan, st.observed ? st.max_quat_error : nan,
                    st.observed ? st.max_momentum_error : nan, st.observed ? st.max_linear_momentum_error : nan})
     append_number(row, v);
+  for (const std::string& name : metrics.names) {
+    double v = nan;  // a member that did not complete: no final values
+    if (r.completed) {
+      if (name == "pointing_error_deg") v = last_error;
+      if (name == "settling_time") v = settled_at;
+      if (name == "saturation_time") v = st.wheels_saturated_time;
+      if (name == "control_effort") v = st.wheel_effort;
+      if (name == "max_wheel_torque" || name == "max_wheel_speed") {
+        v = 0.0;
+        for (const RunStatistics::WheelStatistics& w : st.wheels)
+          v = std::max(v, name == "max_wheel_torque" ? w.max_torque : w.max_speed);
+      }
+    }
+    append_number(row, v);
+  }
   for (std::size_t a = 0; a < sc.bodies(); ++a) {
     const RigidBodyState s = r.final_state.size() == sc.bodies() ? r.final_state.body(a) : sc.initial_state.body(a);
     const Vector4<double> q = s.q.scalar_first();
@@ -531,6 +770,9 @@ std::string run_member_scenario(std::int64_t i, const std::vector<double>& varie
                      s.w.z()})
       append_number(row, st.observed ? v : nan);
   }
+  // The pointing-error curve after the members.csv columns (EnsemblePlan::split_row); NaN past a failure.
+  series.resize(frames, nan);
+  for (double e : series) append_number(row, e);
   return row;
 }
 
@@ -593,7 +835,27 @@ void append_timing(const std::string& dir, std::int64_t index, double seconds, i
   append_line(path.string(), line);
 }
 
-void write_members(const std::string& dir, const EnsemblePlan& plan, const std::vector<std::string>& rows) {
+void write_members(const std::string& dir, const EnsemblePlan& plan, const std::vector<std::string>& full_rows) {
+  std::vector<std::string> rows;  // the members.csv part of each row
+  std::string curves = "index,t,pointing_error_deg\n";
+  for (const std::string& r : full_rows) {
+    if (r.empty()) {
+      rows.emplace_back();
+      continue;
+    }
+    auto [members_row, series] = plan.split_row(r);
+    rows.push_back(std::move(members_row));
+    if (plan.series_times.empty()) continue;
+    const std::string index = r.substr(0, r.find(','));
+    std::size_t j = 0;
+    for (std::size_t at = 0; at <= series.size() && j < plan.series_times.size(); ++j) {
+      const std::size_t end = std::min(series.find(',', at), series.size());
+      fmt::format_to(std::back_inserter(curves), "{},{:.17g},{}\n", index, plan.series_times[j],
+                     series.substr(at, end - at));
+      at = end + 1;
+    }
+  }
+  if (!plan.series_times.empty()) write_file_atomically((fs::path(dir) / "pointing_error.csv").string(), curves);
   std::string text = plan.header + "\n";
   for (const std::string& r : rows)
     if (!r.empty()) text += r + "\n";
@@ -772,7 +1034,7 @@ void show_ensemble(const std::string& dir, std::ostream& out) {
     const EnsemblePlan plan = ensemble_detail::plan_of_folder(dir, false);
     std::string text = plan.header + "\n";
     for (const std::string& r : ensemble_detail::read_journal(dir, plan.members()))
-      if (!r.empty()) text += r + "\n";
+      if (!r.empty()) text += plan.split_row(r).first + "\n";
     in.str(text);
     from_journal = true;
   }

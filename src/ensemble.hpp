@@ -24,6 +24,8 @@
 
 #include <chrono>
 #include <cstdint>
+#include <limits>
+#include <utility>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -32,7 +34,10 @@ namespace lgvi::app {
 
 /// One [[vary]] entry.
 struct VarySpec {
-  enum class Kind { Normal, Uniform, Values, RandomRotation };
+  /// AttitudeError: a rotation about a uniformly random axis by a normally distributed angle (standard
+  /// deviation a[0] degrees), composed with the base's attitude; its values are the angle (deg, >= 0)
+  /// and the axis (body frame).
+  enum class Kind { Normal, Uniform, Values, RandomRotation, AttitudeError };
   std::string key;  ///< dotted key of the scenario
   Kind kind = Kind::Values;
   std::vector<double> a, b;                 ///< normal: mean, std; uniform: low, high (one per component)
@@ -40,6 +45,24 @@ struct VarySpec {
   bool scalar = false;                      ///< a number rather than an array
   bool integer = false;                     ///< a grid of TOML integers: written as integers (e.g. an order)
   std::size_t components() const;
+};
+
+/// [ensemble] metrics: what each member's row records for guidance, navigation and control, after its
+/// error columns, in the order given (docs/guide/ensembles.md):
+///   pointing_error_deg  the angle of q_target^* q at the end (the attitude controller's target), deg
+///   settling_time       the first time from which the pointing error stays within settle_band_deg
+///                       to the end, checked at every step (NaN if it ends outside the band)
+///   max_wheel_torque    the largest |motor torque| applied to any wheel (N m)
+///   max_wheel_speed     the largest |speed| of any wheel relative to the body (rad/s)
+///   saturation_time     the time during which at least one wheel was at a limit (s)
+///   control_effort      the motors' total torque impulse sum_i int |u_i| dt (N m s)
+/// A member that did not complete has NaN in them. With a pointing metric, each member's pointing error
+/// at the base scenario's output frames goes to pointing_error.csv.
+struct MemberMetrics {
+  std::vector<std::string> names;
+  double settle_band_deg = std::numeric_limits<double>::quiet_NaN();
+  /// Whether the pointing error is measured (pointing_error_deg or settling_time).
+  bool pointing() const;
 };
 
 /// A sweep file, read and checked, with every member's varied values.
@@ -62,6 +85,17 @@ struct EnsemblePlan {
   /// The members run a [[forcing]]: their max_abs_energy_error is of E - E0 - W (W the forcing's work).
   bool forced = false;
   TrajectoryFormat output_format;  ///< the base scenario's: its members table (members.npz, .h5) beside the CSV
+  MemberMetrics metrics;           ///< [ensemble] metrics (none: the rows have none)
+  /// [ensemble] sensor_noise = "per-member" (default): each member's [[sensor]] seeds are drawn from its
+  /// index and the base's seeds (member_toml writes them), so members see independent noise; "shared":
+  /// every member keeps the base's seeds (the same noise: paired comparisons of, e.g., gains).
+  bool shared_sensor_noise = false;
+  /// With pointing metrics: the times of the base's output frames, at which each row carries its
+  /// member's pointing error (deg) after the members.csv columns (split_row); every member has them.
+  std::vector<double> series_times;
+  /// A row (journal.csv, run_member) as its members.csv row and the pointing errors after it (empty
+  /// without series_times).
+  std::pair<std::string, std::string> split_row(const std::string& row) const;
 
   std::int64_t members() const { return static_cast<std::int64_t>(varied.size()); }
   /// Member i's scenario as TOML text (the base with the varied values written in).
@@ -92,7 +126,7 @@ std::string run_member(const EnsemblePlan& plan, std::int64_t i, int threads = 1
 /// (what a worker process of the Python package receives).
 std::string run_member_scenario(std::int64_t index, const std::vector<double>& varied, const std::string& scenario_toml,
                                 const std::string& scenario_name, int threads = 1,
-                                const std::string& trajectory_dir = {});
+                                const std::string& trajectory_dir = {}, const MemberMetrics& metrics = {});
 
 struct EnsembleOptions {
   std::string out_dir;

@@ -396,7 +396,7 @@ std::string convert_orbit_attitude(const Reader& r, toml::table& root, const Rig
     if (!an->is_table())
       r.fail("initial.attitude", "must be a table, e.g. attitude = { frame = \"lvlh\", pitch = 5.0, rate = \"orbit\" }");
     const toml::table& at = *an->as_table();
-    r.only_keys(at, "initial.attitude", {"frame", "roll", "pitch", "yaw", "rate"});
+    r.only_keys(at, "initial.attitude", {"frame", "roll", "pitch", "yaw", "rate", "error"});
     if (t->contains("quaternion"))
       r.fail("initial.quaternion", "conflicts with initial.attitude, which sets the attitude; remove one of them");
     r.string(at, "initial.attitude", "frame", {"lvlh"});
@@ -419,7 +419,18 @@ std::string convert_orbit_attitude(const Reader& r, toml::table& root, const Rig
     }
     auto angle = [&](const char* k) { return at.contains(k) ? r.number(at, "initial.attitude", k) * deg : 0.0; };
     const double roll = angle("roll"), pitch = angle("pitch"), yaw = angle("yaw");
-    const S3d q = q_lvlh * (axis_quaternion(2, pitch) * axis_quaternion(1, roll) * axis_quaternion(0, yaw));
+    // An attitude error (e.g. an ensemble's draw): a body-frame rotation after roll, pitch and yaw.
+    S3d error;
+    if (at.contains("error")) {
+      const Vector4<double> e = r.vector<4>(at, "initial.attitude", "error");
+      try {
+        error = S3d::from_quaternion_checked(e(0), e(1), e(2), e(3));
+      } catch (const InvalidInput& ex) {
+        r.fail("initial.attitude.error", ex.what());
+      }
+    }
+    const S3d q =
+        q_lvlh * (axis_quaternion(2, pitch) * axis_quaternion(1, roll) * axis_quaternion(0, yaw)) * error;
     t->insert_or_assign("quaternion", toml_vector(q.scalar_first()));
     if (at.contains("rate")) {
       r.string(at, "initial.attitude", "rate", {"orbit"});
@@ -427,7 +438,8 @@ std::string convert_orbit_attitude(const Reader& r, toml::table& root, const Rig
         r.fail("initial.attitude.rate", "conflicts with initial.w / initial.omega; give one of them");
       // The LVLH frame turns about its z axis at |r x v| / |r|^2.
       const double n = h.norm() / x.squaredNorm();
-      const Matrix3<double> A = axis_matrix(2, pitch) * axis_matrix(1, roll) * axis_matrix(0, yaw);
+      const Matrix3<double> A =
+          axis_matrix(2, pitch) * axis_matrix(1, roll) * axis_matrix(0, yaw) * error.matrix();
       const Vector3<double> omega = A.transpose() * Vector3<double>(0.0, 0.0, n);
       // A body with reaction wheels: its rate (the wheels' momenta add to w, parse_scenario).
       if (body.has_wheels()) {
@@ -909,7 +921,7 @@ WheelTorque read_wheel_torque(const Reader& r, const toml::table& t, const std::
 
 ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system, double duration,
                         const std::filesystem::path& folder, bool& inlined, std::vector<WheelTorque>& wheel_torques,
-                        std::optional<WheelAttitudeControl>& wheel_control) {
+                        std::optional<WheelAttitudeControl>& wheel_control, std::vector<S3d>& attitude_targets) {
   ForcingSet set;
   toml::node* node = root.get("forcing");
   if (!node) return set;
@@ -1002,7 +1014,7 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
         r.fail(prefix, "give c > 0 (body torque -c Omega) and/or c_linear > 0 (force -c_linear v)");
       set.add(d, body);
     } else {
-      r.only_keys(t, prefix, {"kind", "body", "target", "k_p", "k_d", "max_torque", "period", "actuator"});
+      r.only_keys(t, prefix, {"kind", "body", "target", "k_p", "k_d", "max_torque", "period", "actuator", "distribution"});
       AttitudeControl c;
       const Vector4<double> q = r.vector<4>(t, prefix, "target");
       try {
@@ -1022,6 +1034,7 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
         c.period = r.number(t, prefix, "period");
         if (!(c.period > 0.0)) r.fail(prefix + ".period", "must be > 0 (leave it out for a continuous controller)");
       }
+      attitude_targets.push_back(c.target);
       if (t.contains("actuator") && r.string(t, prefix, "actuator", {"torque", "wheels"}) == "wheels") {
         // The body's reaction wheels make the torque: u = -A^+ M over them (gyrostat.hpp).
         if (system.size() != 1 || !system.body(0).has_wheels())
@@ -1033,12 +1046,83 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
         } catch (const InvalidInput& e) {
           r.fail(prefix + ".actuator", e.what());
         }
+        if (const toml::node* d = t.get("distribution")) {
+          // u = D M: one row per wheel, in the wheels' order.
+          const std::string key = prefix + ".distribution";
+          const std::size_t k = system.body(0).wheels().size();
+          const toml::array* rows = d->as_array();
+          if (!rows || rows->size() != k)
+            r.fail(key, "must have one row [dx, dy, dz] per wheel (" + std::to_string(k) + " rows): u = D M");
+          Eigen::Matrix<double, Eigen::Dynamic, 3> m(static_cast<Eigen::Index>(k), 3);
+          for (std::size_t i = 0; i < k; ++i)
+            m.row(static_cast<Eigen::Index>(i)) = r.vector<3>(*rows->get(i), key + "[" + std::to_string(i) + "]").transpose();
+          try {
+            wheel_control = WheelAttitudeControl(c, system.body(0).wheels(), m);
+          } catch (const InvalidInput& e) {
+            r.fail(key, e.what());
+          }
+        }
         continue;
       }
+      if (t.contains("distribution"))
+        r.fail(prefix + ".distribution", "splits the torque over reaction wheels: give actuator = \"wheels\"");
       set.add(c, body);
     }
   }
   return set;
+}
+
+/// [[sensor]] kind = "gyro" | "star-tracker" (sensors.hpp): what the attitude controller through the
+/// wheels sees at its samples; at most one of each.
+void read_sensors(const Reader& r, const toml::table& root, std::optional<WheelAttitudeControl>& wheel_control) {
+  const toml::node* node = root.get("sensor");
+  if (!node) return;
+  const toml::array* arr = node->as_array();
+  if (!arr || arr->empty() || !arr->is_array_of_tables()) r.fail("sensor", "must be one or more [[sensor]] tables");
+  if (!wheel_control)
+    r.fail("sensor", "a sensor feeds a control law: give [[forcing]] kind = \"attitude-control\" with actuator = "
+                     "\"wheels\" (the sensors are read at its samples)");
+  if (!(wheel_control->law().period > 0.0))
+    r.fail("sensor", "sensors are read at the controller's samples: give the attitude-control forcing a period");
+  std::optional<GyroModel> gyro;
+  std::optional<StarTrackerModel> tracker;
+  for (std::size_t i = 0; i < arr->size(); ++i) {
+    const toml::table& t = *arr->get(i)->as_table();
+    const std::string prefix = "sensor[" + std::to_string(i) + "]";
+    const std::string kind = r.string(t, prefix, "kind", {"gyro", "star-tracker"});
+    auto non_negative = [&](const char* key) {
+      if (!t.contains(key)) return 0.0;
+      const double v = r.number(t, prefix, key);
+      if (!(v >= 0.0)) r.fail(prefix + "." + key, "must be >= 0");
+      return v;
+    };
+    std::uint64_t seed = 0;
+    if (t.contains("seed")) {
+      const std::int64_t s = r.integer(t, prefix, "seed");
+      if (s < 0) r.fail(prefix + ".seed", "must be an integer >= 0");
+      seed = static_cast<std::uint64_t>(s);
+    }
+    if ((kind == "gyro" && gyro) || (kind == "star-tracker" && tracker))
+      r.fail(prefix + ".kind", "a second \"" + kind + "\": give one of each kind");
+    if (kind == "gyro") {
+      r.only_keys(t, prefix, {"kind", "noise_density", "bias_walk", "initial_bias", "seed"});
+      GyroModel g;
+      g.noise_density = non_negative("noise_density");
+      g.bias_walk = non_negative("bias_walk");
+      if (t.contains("initial_bias")) g.initial_bias = r.vector<3>(t, prefix, "initial_bias");
+      g.seed = seed;
+      gyro = g;
+    } else {
+      r.only_keys(t, prefix, {"kind", "noise_arcsec", "seed"});
+      StarTrackerModel s;
+      const Vector3<double> arcsec = r.vector<3>(t, prefix, "noise_arcsec");
+      if (!(arcsec.minCoeff() >= 0.0)) r.fail(prefix + ".noise_arcsec", "must be >= 0 per axis");
+      s.noise = arcsec * (std::numbers::pi / (180.0 * 3600.0));
+      s.seed = seed;
+      tracker = s;
+    }
+  }
+  wheel_control->set_sensors(AttitudeSensors(gyro, tracker, wheel_control->law().period));
 }
 
 /// [integrator] order = 2 | 4 | 6 | 8 or composition = [gamma_1, ...]: a
@@ -1275,7 +1359,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
     throw InvalidInput(os.str());
   }
   r.only_keys(root, "", {"body", "bodies", "potential", "initial", "interaction", "integrator", "output", "run",
-                         "forcing", "box", "import"});
+                         "forcing", "box", "import", "sensor"});
   if (root.contains("import") && !root.get("import")->is_table()) r.fail("import", "must be a table [import]");
   const bool imported = root.contains("import");
   const bool bodies_format = root.contains("bodies") || imported;
@@ -1453,10 +1537,12 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   sc.forcing = read_forcing(r, root, sc.system,
                             integrator.adaptive() ? integrator.duration
                                                   : static_cast<double>(integrator.steps) * integrator.step,
-                            std::filesystem::path(name).parent_path(), inlined, sc.wheel_torques, sc.wheel_control);
+                            std::filesystem::path(name).parent_path(), inlined, sc.wheel_torques, sc.wheel_control,
+                            sc.attitude_targets);
   if (sc.wheel_control && !sc.wheel_torques.empty())
     r.fail("forcing", "attitude control through the wheels (actuator = \"wheels\") drives every wheel: give no "
                       "kind = \"wheel-torque\" with it");
+  read_sensors(r, root, sc.wheel_control);
   if (sc.system.body(0).has_wheels()) {
     // The gyrostat step (wheels.hpp) is the Hamiltonian LGVI's, at one step size; a forcing that reads the
     // momenta would take the rigid body's rate J^-1 w / 2 for the gyrostat's.

@@ -125,6 +125,9 @@ struct Scenario {
   /// [[forcing]] kind = "attitude-control" with actuator = "wheels": the controller turning the body with its
   /// reaction wheels (gyrostat.hpp); none otherwise.
   std::optional<WheelAttitudeControl> wheel_control;
+  /// The targets of the [[forcing]] kind = "attitude-control" entries (either actuator), in their order:
+  /// what an ensemble's pointing error is measured from.
+  std::vector<S3d> attitude_targets;
   SystemState initial_state;
   /// Written with [[bodies]] (trajectories in the long, per-body format) or
   /// with [body] + [initial] (one body, the single-body format).

@@ -74,6 +74,16 @@ ScenarioSystemPotential scenario_system_potential(const Scenario& s, const Calla
   return {std::move(external), std::move(mutual), evaluations};
 }
 
+std::vector<std::string> sensor_header(const Scenario& s) {
+  if (!s.wheel_control || !s.wheel_control->sensors()) return {};
+  std::vector<std::string> h{"t"};
+  if (s.wheel_control->sensors()->has_gyro())
+    h.insert(h.end(), {"gyro.wx", "gyro.wy", "gyro.wz", "gyro.bias_x", "gyro.bias_y", "gyro.bias_z"});
+  if (s.wheel_control->sensors()->has_star_tracker())
+    h.insert(h.end(), {"star_tracker.qw", "star_tracker.qx", "star_tracker.qy", "star_tracker.qz"});
+  return h;
+}
+
 ThermoColumns thermo_columns(const Scenario& s) {
   if (!s.bodies_format || !s.interaction.descriptor || !s.interaction.descriptor->reach) return ThermoColumns::none;
   const Box& box = s.system.box();
@@ -218,40 +228,56 @@ struct Recorder {
   std::vector<double> row_buffer = {};  ///< a single-body row with its wheels' columns
   /// A copy of the scenario's wheel controller, sampled on the same states as the stepper's: its commands.
   std::optional<WheelAttitudeControl> wheel_control = scenario.wheel_control;
+  std::vector<double> wheel_commands = {};  ///< per wheel, its command at the observed state
+  std::vector<double> wheel_columns = {};   ///< per wheel, its speed, momentum and applied torque there
+  std::vector<double> sensor_readings = {};  ///< SimulationResult::sensor_readings
 
-  /// Body 0's wheels at this state (a [body] with [[body.wheel]]): into the statistics, and their columns
-  /// (speed, momentum, torque per wheel) after `base` into row_buffer. The torque is the command at t
-  /// after the limits, as the step from t applies it (lgvi.hpp's kick_wheels).
-  void observe_wheels(const SystemStepInfo& i, const double* base, int base_columns) {
+  void record_sensors(double t, const AttitudeSensors& sensors, const AttitudeMeasurement& m) {
+    sensor_readings.push_back(t);
+    if (sensors.has_gyro())
+      sensor_readings.insert(sensor_readings.end(), {m.omega.x(), m.omega.y(), m.omega.z(), m.gyro_bias.x(),
+                                                     m.gyro_bias.y(), m.gyro_bias.z()});
+    if (sensors.has_star_tracker())
+      sensor_readings.insert(sensor_readings.end(), {m.q.w(), m.q.vec().x(), m.q.vec().y(), m.q.vec().z()});
+  }
+  /// SimulationOptions::observe_step (may be empty).
+  std::function<void(std::int64_t, double, const SystemState&)> observe_step = {};
+
+  /// Body 0's wheels at this state (a [body] with [[body.wheel]]), at every step: into the statistics, and
+  /// their columns (speed, momentum, torque per wheel) into wheel_columns. The torque is the command at t
+  /// after the limits (Wheel::applied_torque), as the step from t applies it (lgvi.hpp's kick_wheels).
+  void observe_wheels(const SystemStepInfo& i) {
     const Wheels& wheels = scenario.body().wheels();
     const SystemState& s = i.state;
     if (stats.wheels.size() != wheels.size()) stats.wheels.assign(wheels.size(), {});
-    std::vector<double> torque(wheels.size(), 0.0);
-    std::vector<bool> limited(wheels.size(), false);
+    wheel_commands.assign(wheels.size(), 0.0);
     const Vector3<double> omega = wheels.body_rate(s.w[0], s.eta[0].data());
-    for (const WheelTorque& u : scenario.wheel_torques) torque[u.wheel] += u.torque.at(i.t);
+    for (const WheelTorque& u : scenario.wheel_torques) wheel_commands[u.wheel] += u.torque.at(i.t);
     if (wheel_control) {
       if (i.k == 0) wheel_control->reset();
-      wheel_control->sample(i.t, s.q[0], omega);
-      for (std::size_t w = 0; w < wheels.size(); ++w) torque[w] += wheel_control->command()[w];
+      // The controller's samples (not the last state's: no step reads that): what its sensors read.
+      if (wheel_control->sample(i.t, s.q[0], omega) && wheel_control->sensors() &&
+          !scenario.integrator.ends(i.k, i.t))
+        record_sensors(i.t, *wheel_control->sensors(), wheel_control->measured());
+      for (std::size_t w = 0; w < wheels.size(); ++w) wheel_commands[w] += wheel_control->command()[w];
     }
-    row_buffer.assign(base, base + base_columns);
-    const double h = scenario.integrator.step;
+    wheel_columns.clear();
+    // The step from t applies these torques over h: the statistics of time count it, except at the end.
+    const double h = scenario.integrator.ends(i.k, i.t) ? 0.0 : scenario.integrator.step;
+    bool any_limited = false;
     for (std::size_t w = 0; w < wheels.size(); ++w) {
-      const Wheel& wheel = wheels[w];
       const double speed = wheels.relative_speed(w, s.eta[0].data(), omega);
-      double u = std::clamp(torque[w], -wheel.max_torque, wheel.max_torque);
-      limited[w] = u != torque[w];
-      if (std::abs(speed) >= wheel.max_speed && u * speed > 0.0) {
-        u = 0.0;
-        limited[w] = true;
-      }
+      const double u = wheels[w].applied_torque(wheel_commands[w], speed);
+      const bool limited = u != wheel_commands[w];
+      any_limited = any_limited || limited;
       RunStatistics::WheelStatistics& st = stats.wheels[w];
       st.max_speed = std::max(st.max_speed, std::abs(speed));
       st.max_torque = std::max(st.max_torque, std::abs(u));
-      if (limited[w] && !scenario.integrator.ends(i.k, i.t)) st.time_limited += h;
-      row_buffer.insert(row_buffer.end(), {speed, s.eta[0][w], u});
+      if (limited) st.time_limited += h;
+      stats.wheel_effort += std::abs(u) * h;
+      wheel_columns.insert(wheel_columns.end(), {speed, s.eta[0][w], u});
     }
+    if (any_limited) stats.wheels_saturated_time += h;
   }
 
   /// The kinetic temperature and the pressure of a written frame (thermo_columns),
@@ -379,17 +405,16 @@ struct Recorder {
     stats.last_t = i.t;
     stats.last_k = i.k;
     stats.observed = true;
+    if (observe_step) observe_step(i.k, i.t, s);
     const bool written = i.k % scenario.output_every == 0 || scenario.integrator.ends(i.k, i.t) || contact_stop;
     const bool wheels = !scenario.bodies_format && scenario.body().has_wheels();
-    if (wheels && !written) {
-      const SingleBodyRow row(i.t, s.body(0), energy, de, dq, L, dl, forced ? std::optional(i.work) : std::nullopt);
-      observe_wheels(i, row.values, row.columns);  // every step: the statistics
-    }
+    if (wheels) observe_wheels(i);  // every step: the statistics
     if (!written) return;
     if (!scenario.bodies_format) {
       const SingleBodyRow row(i.t, s.body(0), energy, de, dq, L, dl, forced ? std::optional(i.work) : std::nullopt);
       if (wheels) {
-        observe_wheels(i, row.values, row.columns);
+        row_buffer.assign(row.values, row.values + row.columns);
+        row_buffer.insert(row_buffer.end(), wheel_columns.begin(), wheel_columns.end());
         sink.row(row_buffer.data());
         return;
       }
@@ -462,6 +487,7 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
   ContactWatch contact(sc, stats);
   if (opt.resume) contact.resume_at(k0);
   Recorder recorder{sc, sink, stats, contact};
+  recorder.observe_step = opt.observe_step;
   recorder.thermo = thermo_columns(sc);
   if (opt.resume && recorder.thermo != ThermoColumns::none && stats.thermo.frames == 0) {
     // A checkpoint from before the thermodynamic columns: the first frame and the
@@ -552,6 +578,8 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
   }
   result.wall_seconds = stats.wall_seconds_before + elapsed();
   result.final_state = state;
+  result.sensor_columns = sensor_header(sc);
+  result.sensor_readings = std::move(recorder.sensor_readings);
   return result;
 }
 

@@ -87,6 +87,9 @@ struct SimulationOptions {
   /// Called every `progress_every` steps with (k, t).
   std::function<void(std::int64_t, double)> progress;
   std::int64_t progress_every = 16384;
+  /// Called at every observed step (the initial state's k = 0 too) with (k, t, state), after its
+  /// diagnostics: what an ensemble member measures besides them (its pointing error).
+  std::function<void(std::int64_t, double, const SystemState&)> observe_step;
 };
 
 struct SimulationResult {
@@ -96,7 +99,15 @@ struct SimulationResult {
   RunStatistics stats;
   SystemState final_state;
   double wall_seconds = 0.0;  ///< integration loop with diagnostics and row output, all legs
+  /// With [[sensor]]: what the controller read at each of its samples, rows of sensor_columns
+  /// (sensor_header) in order, flattened.
+  std::vector<std::string> sensor_columns;
+  std::vector<double> sensor_readings;
 };
+
+/// The columns of the sensors' readings: t, then gyro.wx, gyro.wy, gyro.wz, gyro.bias_x, gyro.bias_y,
+/// gyro.bias_z with a gyro, star_tracker.qw, .qx, .qy, .qz with a star tracker; empty without sensors.
+std::vector<std::string> sensor_header(const Scenario& s);
 
 /// The diagnostics of one step of one body, as a row of the single-body
 /// layout (trajectory_header): t, x, q (scalar first), p, w, energy, its

@@ -277,6 +277,9 @@ auto with_summary(const Scenario& sc, const SimulationResult& r, Use&& use) {
       list.push_back(std::move(entry));
     }
     s["wheels"] = std::move(list);
+    // Over all wheels: the motors' total torque impulse (the control effort) and the time during which at
+    // least one wheel was at a limit.
+    s["wheel_totals"] = {{"control_effort", st.wheel_effort}, {"time_saturated", st.wheels_saturated_time}};
   }
   if (const ThermoColumns thermo = thermo_columns(sc); thermo != ThermoColumns::none) {
     // Over the written frames (the trajectory's temperature and pressure columns).

@@ -298,3 +298,36 @@ TEST(Gyrostat, WithoutWheelMomentumItsEquationIsTheRigidBodys) {
 }
 
 }  // namespace
+
+// The sensors (sensors.hpp): a reading is a function of its sample number alone. Reading sample 7 after
+// samples 0..6 equals reading it directly (the bias walks through the skipped samples with the same
+// draws), to the last bit; a reset starts over; samples out of order are refused; a missing sensor reads
+// the truth exactly.
+TEST(Sensors, AReadingDependsOnItsSampleNumberAlone) {
+  lgvi::GyroModel gyro;
+  gyro.noise_density = 1e-4;
+  gyro.bias_walk = 1e-5;
+  gyro.initial_bias = V3(1e-4, -2e-4, 3e-4);
+  gyro.seed = 5;
+  lgvi::StarTrackerModel tracker;
+  tracker.noise = V3(1e-5, 2e-5, 3e-5);
+  tracker.seed = 6;
+  const S3d q = S3d::exp(V3(0.1, -0.2, 0.3));
+  const V3 omega(0.01, 0.02, -0.03);
+  lgvi::AttitudeSensors stepped(gyro, tracker, 0.1), jumped(gyro, tracker, 0.1);
+  lgvi::AttitudeMeasurement last;
+  for (int n = 0; n <= 7; ++n) last = stepped.measure(n, q, omega);
+  const lgvi::AttitudeMeasurement direct = jumped.measure(7, q, omega);
+  EXPECT_EQ(last.omega, direct.omega);
+  EXPECT_EQ(last.gyro_bias, direct.gyro_bias);
+  EXPECT_EQ(last.q.quaternion().coeffs(), direct.q.quaternion().coeffs());
+  EXPECT_NE(last.gyro_bias, gyro.initial_bias);
+  EXPECT_THROW(jumped.measure(3, q, omega), std::logic_error);
+  jumped.reset();
+  EXPECT_EQ(jumped.measure(0, q, omega).gyro_bias, gyro.initial_bias);
+  lgvi::AttitudeSensors none(std::nullopt, std::nullopt, 0.1);
+  const lgvi::AttitudeMeasurement truth = none.measure(0, q, omega);
+  EXPECT_EQ(truth.omega, omega);
+  EXPECT_EQ(truth.q.quaternion().coeffs(), q.quaternion().coeffs());
+  EXPECT_THROW(lgvi::AttitudeSensors(gyro, tracker, 0.0), lgvi::InvalidInput);
+}

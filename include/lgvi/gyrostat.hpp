@@ -7,12 +7,14 @@
 #include <lgvi/forcing.hpp>
 #include <lgvi/rotation_solver.hpp>
 #include <lgvi/s3.hpp>
+#include <lgvi/sensors.hpp>
 #include <lgvi/wheels.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -123,7 +125,8 @@ class HeldTorque {
 /// n period (every step for period 0) and held, its body torque M distributed over the wheels as motor
 /// torques u = -A^+ M (A = [a_1 ... a_k], A^+ = A^T (A A^T)^-1, the least-norm split), which the step
 /// then clips to each wheel's limits. A copy sampled on the same states gives the same commands bit for
-/// bit (the recorder's columns). Needs axes that span space (checked: InvalidInput).
+/// bit (the recorder's columns). Needs axes that span space (checked: InvalidInput). With sensors
+/// (set_sensors, sensors.hpp) the law sees their readings at each sample instead of the true state.
 class WheelAttitudeControl {
  public:
   WheelAttitudeControl() = default;
@@ -138,23 +141,58 @@ class WheelAttitudeControl {
     split_ = -(a.transpose() * gram.inverse());
     command_.assign(wheels.size(), 0.0);
   }
-  /// At a step from t: samples when t reaches the next sample time (the state's attitude q and rate omega).
-  void sample(double t, const S3d& q, const Vector3<double>& omega) {
+  /// The same with a user's distribution matrix D (one row of 3 per wheel): u = D M. The body then
+  /// receives -A D M, which must be M: -A D = I to 1e-9 (InvalidInput otherwise), e.g. a split that
+  /// leaves a failed wheel out, or one that also manages the wheels' null space.
+  WheelAttitudeControl(const AttitudeControl& law, const Wheels& wheels,
+                       const Eigen::Matrix<double, Eigen::Dynamic, 3>& distribution)
+      : WheelAttitudeControl(law, wheels) {
+    if (static_cast<std::size_t>(distribution.rows()) != wheels.size() || !distribution.allFinite())
+      throw InvalidInput("the distribution matrix needs one row of 3 finite numbers per wheel (" +
+                         std::to_string(wheels.size()) + " rows)");
+    Eigen::Matrix<double, 3, Eigen::Dynamic> a(3, static_cast<Eigen::Index>(wheels.size()));
+    for (std::size_t i = 0; i < wheels.size(); ++i) a.col(static_cast<Eigen::Index>(i)) = wheels[i].axis;
+    const Matrix3<double> received = -(a * distribution);
+    const double off = (received - Matrix3<double>::Identity()).cwiseAbs().maxCoeff();
+    if (!(off <= 1e-9))
+      throw InvalidInput("the body receives -A D M from the motor torques u = D M (A the wheels' axes): -A D must be "
+                         "the identity, and differs from it by " + std::to_string(off) + " here");
+    split_ = distribution;
+  }
+  /// The law reads these sensors at its samples (n = the sample's number): a sampled law only (period >
+  /// 0; InvalidInput otherwise).
+  void set_sensors(AttitudeSensors sensors) {
+    if (!(law_.period > 0.0))
+      throw InvalidInput("sensors are read at the controller's samples: give the attitude controller a period");
+    sensors_ = std::move(sensors);
+  }
+  const std::optional<AttitudeSensors>& sensors() const { return sensors_; }
+
+  /// At a step from t: samples when t reaches the next sample time (the state's attitude q and rate
+  /// omega, or the sensors' readings of them). Returns whether it sampled.
+  bool sample(double t, const S3d& q, const Vector3<double>& omega) {
+    std::int64_t n = 0;
     if (law_.period > 0.0) {
       const double slot = t / law_.period + 1e-9;
-      if (sampled_ && slot < static_cast<double>(next_sample_)) return;
-      next_sample_ = static_cast<std::int64_t>(std::floor(slot)) + 1;
+      if (sampled_ && slot < static_cast<double>(next_sample_)) return false;
+      n = static_cast<std::int64_t>(std::floor(slot));
+      next_sample_ = n + 1;
     }
     sampled_ = true;
-    const Eigen::VectorXd u = split_ * law_.torque_for(q, omega);
+    measured_ = sensors_ ? sensors_->measure(n, q, omega) : AttitudeMeasurement{q, omega, Vector3<double>::Zero()};
+    const Eigen::VectorXd u = split_ * law_.torque_for(measured_.q, measured_.omega);
     for (std::size_t i = 0; i < command_.size(); ++i) command_[i] = u(static_cast<Eigen::Index>(i));
+    return true;
   }
   /// Forgets the samples (a run starting anew).
   void reset() {
     sampled_ = false;
     next_sample_ = 0;
     std::fill(command_.begin(), command_.end(), 0.0);
+    if (sensors_) sensors_->reset();
   }
+  /// What the law saw at its last sample (the true state without sensors).
+  const AttitudeMeasurement& measured() const { return measured_; }
   /// The motor torque command of each wheel (N m), before the wheels' limits.
   const std::vector<double>& command() const { return command_; }
   const AttitudeControl& law() const { return law_; }
@@ -163,6 +201,8 @@ class WheelAttitudeControl {
   AttitudeControl law_;
   Eigen::Matrix<double, Eigen::Dynamic, 3> split_;
   std::vector<double> command_;
+  std::optional<AttitudeSensors> sensors_;
+  AttitudeMeasurement measured_;
   std::int64_t next_sample_ = 0;
   bool sampled_ = false;
 };

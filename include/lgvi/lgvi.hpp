@@ -270,19 +270,14 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
     }
     for (const WheelTorque& u : wheel_torques_) {
       const Wheel& wheel = sys.body(u.body).wheels()[u.wheel];
-      double impulse = u.torque.impulse(t, t + h, wheel.max_torque);
-      const double speed = wheel_speed_[u.body][u.wheel];
-      if (std::abs(speed) >= wheel.max_speed && impulse * speed > 0.0) impulse = 0.0;
-      wheel_impulse_[u.body][u.wheel] += impulse;
+      wheel_impulse_[u.body][u.wheel] +=
+          wheel.speed_limited(u.torque.impulse(t, t + h, wheel.max_torque), wheel_speed_[u.body][u.wheel]);
     }
     if (wheel_control_) {
       const Wheels& wheels = sys.body(0).wheels();
       wheel_control_->sample(t, s.q[0], wheels.body_rate(s.w[0], s.eta[0].data()));
-      for (std::size_t i = 0; i < wheels.size(); ++i) {
-        const double u = std::clamp(wheel_control_->command()[i], -wheels[i].max_torque, wheels[i].max_torque);
-        const double speed = wheel_speed_[0][i];
-        wheel_impulse_[0][i] += std::abs(speed) >= wheels[i].max_speed && u * speed > 0.0 ? 0.0 : u * h;
-      }
+      for (std::size_t i = 0; i < wheels.size(); ++i)
+        wheel_impulse_[0][i] += wheels[i].applied_torque(wheel_control_->command()[i], wheel_speed_[0][i]) * h;
     }
     for (std::size_t a = 0; a < sys.size(); ++a)
       for (std::size_t i = 0; i < wheel_impulse_[a].size(); ++i) s.eta[a][i] += 0.5 * wheel_impulse_[a][i];

@@ -50,6 +50,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <limits>
@@ -67,6 +68,18 @@ struct Wheel {
   double max_torque = std::numeric_limits<double>::infinity();  ///< |u| at most this (N m)
   double max_speed = std::numeric_limits<double>::infinity();   ///< |Omega| at most this (rad/s, relative to the body)
   std::string name;
+
+  /// What the wheel gets of a torque (or an impulse) u at relative speed `speed`: nothing that would
+  /// speed it up further once at max_speed (u of the speed's sign when |speed| >= max_speed), u
+  /// otherwise. The one speed-limit rule of the step (lgvi.hpp) and of the recorded torques.
+  double speed_limited(double u, double speed) const {
+    return std::abs(speed) >= max_speed && u * speed > 0.0 ? 0.0 : u;
+  }
+  /// The motor torque a command gives at relative speed `speed`: clipped to +-max_torque, then
+  /// speed_limited.
+  double applied_torque(double command, double speed) const {
+    return speed_limited(std::clamp(command, -max_torque, max_torque), speed);
+  }
 };
 
 /// The wheels of one body, with the body's locked inertia J: J_s and the

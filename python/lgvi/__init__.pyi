@@ -222,6 +222,10 @@ class Result:
         """name -> {"speed", "momentum", "torque"} -> (N,) arrays; {} without reaction wheels."""
         ...
     @property
+    def sensors(self) -> Dict[str, npt.NDArray[np.float64]]:
+        """What the controller's sensors read at its samples: name -> (S,) array; {} without sensors."""
+        ...
+    @property
     def x(self) -> npt.NDArray[np.float64]: ...
     @property
     def q(self) -> npt.NDArray[np.float64]:
@@ -372,13 +376,18 @@ class EnsembleResult:
     header: List[str]
     columns: Dict[str, Any]
     completed: npt.NDArray[np.bool_]
+    changes_not_errors: Tuple[str, ...]
+    pointing_times: Optional[npt.NDArray[np.float64]]
+    pointing_error: Optional[npt.NDArray[np.float64]]
+    settle_band_deg: Optional[float]
     def __len__(self) -> int: ...
     def __getitem__(self, name: str) -> Any: ...
     def save(self, path: PathLike) -> None: ...
 
 def ensemble(scenario: Union[Scenario, PathLike], vary: Union[Dict[str, Any], Sequence[Dict[str, Any]]],
              members: Optional[int] = ..., seed: Optional[int] = ..., executor: Any = ...,
-             trajectories: str = ...) -> EnsembleResult:
+             trajectories: str = ..., metrics: Optional[Sequence[str]] = ...,
+             settle_band_deg: Optional[float] = ...) -> EnsembleResult:
     """Run an ensemble of a scenario with some of its numbers varied (the semantics of `lgvi ensemble`)."""
     ...
 

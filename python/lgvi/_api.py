@@ -999,7 +999,8 @@ def simulate(scenario, potential=None, *, forcing=None, check=True):
     sc = _scenario(scenario)
     core_pot = _potential.core_potential(potential)
     try:
-        data, summary_text, completed, error = _core.simulate(sc._core, core_pot, _forcing.core_forcing(forcing))
+        data, summary_text, completed, error, sensor_columns, sensor_rows = _core.simulate(
+            sc._core, core_pot, _forcing.core_forcing(forcing))
     except ValueError as e:
         raise _value_error(e) from None
     summary = json.loads(summary_text)
@@ -1007,6 +1008,8 @@ def simulate(scenario, potential=None, *, forcing=None, check=True):
         summary["setup"]["potential"] = {"kind": "python", "function": repr(potential)}
     many = "bodies" in summary.get("setup", {})  # a [[bodies]] scenario: the long format
     result = SystemResult(data, summary, sc.toml) if many else Result(data, summary, sc.toml)
+    if sensor_columns:
+        result._sensors = {name: sensor_rows[:, j].copy() for j, name in enumerate(sensor_columns)}
     if not completed and check:
         e = IntegrationError(error)
         e.step = summary.get("steps", 0)

@@ -16,8 +16,14 @@ from . import _check  # _core is imported where a member runs: plotting works fr
 from ._toml import toml_value as _toml_value  # the scenario writer's spelling of numbers and strings
 
 
-def _sweep_text(scenario_name, vary, members, seed, trajectories):
+def _sweep_text(scenario_name, vary, members, seed, trajectories, metrics=None, settle_band_deg=None):
     lines = ["[ensemble]", f"scenario = {_toml_value(scenario_name + '.toml')}"]
+    if metrics is not None:
+        if isinstance(metrics, str):
+            metrics = [metrics]
+        lines.append(f"metrics = {_toml_value([str(m) for m in metrics])}")
+    if settle_band_deg is not None:
+        lines.append(f"settle_band_deg = {_toml_value(float(settle_band_deg))}")
     if members is not None:
         lines.append(f"members = {_check.integer(members, 'members', 1)}")
     if seed is not None:
@@ -56,7 +62,8 @@ def _plain(x):
 
 
 def _run_member(args):
-    """One member in a worker process: (index, varied, scenario TOML, scenario name) -> its row."""
+    """One member in a worker process: (index, varied, scenario TOML, scenario name, metrics, settle band)
+    -> its row."""
     from . import _core as core  # a fresh worker imports the compiled module here
     return core.run_member(*args)
 
@@ -69,11 +76,17 @@ class EnsembleResult:
     ``error``, a list of str ("" for members that completed). ``completed`` is a bool array.
     ``changes_not_errors``: the "..._error" columns that measure the change of a quantity the
     members' dynamics does not conserve (a forcing or an external field), not an error of the method.
+    With pointing metrics ([ensemble] metrics): ``pointing_times`` (F,) and ``pointing_error``
+    (members, F), each member's pointing error in degrees at the base scenario's output frames (the
+    CLI's pointing_error.csv; NaN after a failure), and ``settle_band_deg``; otherwise None.
     """
 
-    def __init__(self, text, changes_not_errors=()):
+    def __init__(self, text, changes_not_errors=(), pointing_times=None, pointing_error=None, settle_band_deg=None):
         self.text = text
         self.changes_not_errors = tuple(changes_not_errors)
+        self.pointing_times = None if pointing_times is None else np.asarray(pointing_times, dtype=float)
+        self.pointing_error = None if pointing_error is None else np.asarray(pointing_error, dtype=float)
+        self.settle_band_deg = settle_band_deg
         reader = csv.reader(io.StringIO(text))
         self.header = next(reader)
         rows = list(reader)
@@ -98,15 +111,25 @@ class EnsembleResult:
         return f"<lgvi.EnsembleResult: {len(self)} members, {int((~self.completed).sum())} failed>"
 
 
-def ensemble(scenario, vary, members=None, seed=None, executor=None, trajectories="none"):
+def ensemble(scenario, vary, members=None, seed=None, executor=None, trajectories="none", metrics=None,
+             settle_band_deg=None):
     """Run an ensemble of a scenario with some of its numbers varied; returns an lgvi.EnsembleResult.
 
     The semantics of ``lgvi ensemble`` (docs/guide/ensembles.md): ``vary`` is a list of dicts, each
     with ``key`` (a dotted scenario key: "initial.omega", "integrator.step",
     "bodies.NAME.omega") and one of ``normal={"mean": .., "std": ..}``, ``uniform={"low": ..,
     "high": ..}``, ``rotation="uniform"`` (random attitudes; with ``members`` and ``seed``), or
-    ``values=[...]`` (a grid; the ensemble is the product of the grids). Every member's scenario
-    is checked before any runs (ValueError naming the member and the key).
+    ``values=[...]`` (a grid; the ensemble is the product of the grids), or, for a quaternion
+    key, ``attitude_error_deg=SIGMA`` (errors about random axes by angles of SIGMA degrees rms). A
+    key may name an element: "body.inertia[0][0]". ``metrics`` and ``settle_band_deg``: the GNC
+    columns of ``[ensemble] metrics`` (pointing_error_deg, settling_time, max_wheel_torque,
+    max_wheel_speed, saturation_time, control_effort). Every member's scenario is checked before
+    any runs (ValueError naming the member and the key).
+
+    A Scenario read from a file holds its text with initial.orbit and initial.attitude converted to
+    plain keys (position, momentum, quaternion, w or omega): an attitude error then composes with that
+    quaternion and leaves the rate as it was, where ``lgvi ensemble`` on the file gives it to
+    initial.attitude (whose rate = "orbit" turns with it); keys of orbit and attitude cannot be varied.
 
     ``executor``: any concurrent.futures.Executor (``ProcessPoolExecutor``,
     ``mpi4py.futures.MPIPoolExecutor``, ``distributed.Client(...).get_executor()``); None runs
@@ -115,18 +138,26 @@ def ensemble(scenario, vary, members=None, seed=None, executor=None, trajectorie
     """
     from ._api import _scenario
     sc = _scenario(scenario)
-    plan = _plan(sc, vary, members, seed, trajectories)
-    work = [(i, plan.varied(i), plan.member_toml(i), plan.scenario_name) for i in range(plan.members)]
+    plan = _plan(sc, vary, members, seed, trajectories, metrics, settle_band_deg)
+    band = plan.settle_band_deg
+    work = [(i, plan.varied(i), plan.member_toml(i), plan.scenario_name, plan.metrics, band)
+            for i in range(plan.members)]
     if executor is None:
         rows = [_run_member(w) for w in work]
     else:
         rows = list(executor.map(_run_member, work))
-    return EnsembleResult(plan.header + "\n" + "".join(r + "\n" for r in rows), plan.changes_not_errors)
+    parts = [plan.split_row(r) for r in rows]
+    text = plan.header + "\n" + "".join(p[0] + "\n" for p in parts)
+    if not plan.series_times:
+        return EnsembleResult(text, plan.changes_not_errors)
+    curves = np.array([[float(v) for v in p[1].split(",")] for p in parts]).reshape(len(parts), -1)
+    return EnsembleResult(text, plan.changes_not_errors, plan.series_times, curves,
+                          None if np.isnan(band) else band)
 
 
-def _plan(sc, vary, members, seed, trajectories):
+def _plan(sc, vary, members, seed, trajectories, metrics=None, settle_band_deg=None):
     from . import _core
-    text = _sweep_text(sc.name, vary, members, seed, trajectories)
+    text = _sweep_text(sc.name, vary, members, seed, trajectories, metrics, settle_band_deg)
     try:
         return _core.ensemble_plan(text, "ensemble", sc.toml)
     except ValueError as e:

@@ -173,7 +173,12 @@ def load(path):
         summary = json.loads(summary_text) if summary_text else {}
     except json.JSONDecodeError as e:
         raise ValueError(f"{folder}: summary is not valid JSON ({e})") from None
-    return Result(data, summary, scenario, source=file)
+    result = Result(data, summary, scenario, source=file)
+    sensors = os.path.join(folder, "sensors.csv")
+    if os.path.isfile(sensors):  # what a controller's sensors read (lgvi run writes it with [[sensor]])
+        values, names = read_csv(sensors)
+        result._sensors = {_text(n).strip(): values[:, j].copy() for j, n in enumerate(names)}
+    return result
 
 
 def _summary(folder, summary_text):

@@ -104,6 +104,7 @@ class Result(_RunSummary, _Attitude):
         self.scenario_toml = scenario_toml
         #: Where it was loaded from (a path), or None for a run in memory.
         self.source = source
+        self._sensors = {}
 
     # Trajectory ------------------------------------------------------------
     @property
@@ -119,6 +120,13 @@ class Result(_RunSummary, _Attitude):
         for w in body_of(self.summary).get("wheels") or []:
             out[w["name"]] = {q: self.columns[f"{w['name']}.{q}"] for q in WHEEL_QUANTITIES}
         return out
+
+    @property
+    def sensors(self):
+        """What the attitude controller's sensors ([[sensor]]) read at each of its samples: name -> (S,) array,
+        the names of the CLI's sensors.csv ("t", "gyro.wx", ..., "gyro.bias_x", ..., "star_tracker.qw", ...);
+        {} without sensors."""
+        return self._sensors
 
     @property
     def x(self):

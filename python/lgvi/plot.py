@@ -373,8 +373,29 @@ def _ensemble_table(source):
             if os.path.exists(marks):
                 with open(marks, encoding="utf-8") as f:
                     changes = json.load(f)
-            return EnsembleResult(text, changes)
+            return EnsembleResult(text, changes, *_pointing_curves(os.path.dirname(csv_path) or "."))
     return None
+
+
+def _pointing_curves(folder):
+    """An ensemble folder's pointing-error curves (pointing_error.csv: index, t, degrees, member by member)
+    as (times, members x frames) and the sweep's settle_band_deg; Nones where absent."""
+    path = os.path.join(folder, "pointing_error.csv")
+    if not os.path.exists(path):
+        return None, None, None
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    index = data[:, 0].astype(np.int64)
+    members = np.unique(index)
+    frames = len(data) // max(1, len(members))
+    times = data[:frames, 1]
+    curves = data[:, 2].reshape(len(members), frames)
+    band = None
+    sweep = os.path.join(folder, "sweep.toml")
+    if os.path.exists(sweep):
+        import tomllib
+        with open(sweep, "rb") as f:
+            band = tomllib.load(f).get("ensemble", {}).get("settle_band_deg")
+    return times, curves, band
 
 
 _ENSEMBLE_ERRORS = (("max_abs_energy_error", "max |E - E0|"), ("max_abs_quat_norm_error", "max ||q| - 1|"),
@@ -425,7 +446,61 @@ def _draw_ensemble(plt, e, out_dir, written):
             ax.set_ylabel("max |E - E0|")
         fig.tight_layout()
         _save(fig, out_dir, "error_vs_varied.png", written)
+    _draw_gnc(plt, e, out_dir, written)
     return written
+
+
+_METRIC_LABELS = {"pointing_error_deg": "final pointing error (deg)", "settling_time": "settling time (s)",
+                  "max_wheel_torque": "largest wheel torque (N m)", "max_wheel_speed": "largest wheel speed (rad/s)",
+                  "saturation_time": "time at a wheel limit (s)", "control_effort": "control effort (N m s)"}
+
+
+def _draw_gnc(plt, e, out_dir, written):
+    """With [ensemble] metrics: pointing_error.png (every member's pointing error against time, one faint
+    line each, with the settling band) and metrics.png (each metric's histogram over the members; members
+    that never settled counted in the title)."""
+    curves = getattr(e, "pointing_error", None)
+    if curves is not None and len(curves):
+        t = e.pointing_times
+        band = getattr(e, "settle_band_deg", None)
+        fig, ax = plt.subplots(figsize=(8, 4.5))
+        floor = np.finfo(float).tiny
+        for row in curves:
+            ax.semilogy(t, np.maximum(row, floor), color="tab:blue", alpha=min(0.6, max(0.05, 8.0 / len(curves))),
+                        lw=0.8)
+        if band is not None:
+            ax.axhline(band, color="tab:red", ls="--", lw=1.2, label=f"settling band {band:g} deg")
+            ax.legend(loc="upper right")
+        ax.set_xlabel("t")
+        ax.set_ylabel("pointing error (deg)")
+        ax.set_title(f"Pointing error of {len(curves)} members")
+        fig.tight_layout()
+        _save(fig, out_dir, "pointing_error.png", written)
+    shown = [m for m in _METRIC_LABELS if m in e.columns]
+    if not shown:
+        return
+    ncols = min(3, len(shown))
+    nrows = (len(shown) + ncols - 1) // ncols
+    fig, axes = plt.subplots(nrows, ncols, figsize=(4.2 * ncols, 3.4 * nrows), squeeze=False)
+    for ax in axes.flat[len(shown):]:
+        ax.set_visible(False)
+    for ax, name in zip(axes.flat, shown):
+        v = np.asarray(e.columns[name])[e.completed]
+        finite = v[np.isfinite(v)]
+        # One value for every member (a limit reached by all): a bar around it, not an empty range.
+        spread = None if len(finite) == 0 or finite.min() < finite.max() else \
+            (finite[0] - 0.05 * abs(finite[0]) - 1e-12, finite[0] + 0.05 * abs(finite[0]) + 1e-12)
+        ax.hist(finite, bins=min(40, max(5, len(finite) // 5 or 5)), range=spread, color="tab:blue", alpha=0.8)
+        ax.set_xlabel(_METRIC_LABELS[name])
+        ax.set_ylabel("members")
+        title = f"median {np.median(finite):.3g}, max {finite.max():.3g}" if len(finite) else "none"
+        if len(finite) < len(v):
+            title += f"; {len(v) - len(finite)} not settled" if name == "settling_time" else \
+                f"; {len(v) - len(finite)} NaN"
+        ax.set_title(title, fontsize=9)
+    fig.suptitle(f"{len(e)} members, {int((~e.completed).sum())} failed")
+    fig.tight_layout()
+    _save(fig, out_dir, "metrics.png", written)
 
 
 def _out_dir_of(source, out_dir):

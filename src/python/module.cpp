@@ -386,7 +386,11 @@ py::tuple run_simulation(const Scenario& scenario, py::object potential, py::obj
   const std::string summary = summary_json(sc, r);
   sink.close(sc.source_text, summary);
   const std::int64_t rows = sink.rows();
-  return py::make_tuple(rows_array(sink.take(), rows, layout.columns), summary, r.completed, r.error);
+  // The sensors' readings (SimulationResult::sensor_readings) as (columns, rows x columns array).
+  const std::size_t width = std::max<std::size_t>(1, r.sensor_columns.size());
+  const auto sensor_rows = static_cast<std::int64_t>(r.sensor_readings.size() / width);
+  return py::make_tuple(rows_array(sink.take(), rows, layout.columns), summary, r.completed, r.error,
+                        r.sensor_columns, rows_array(std::move(r.sensor_readings), sensor_rows, static_cast<int>(width)));
 }
 
 // ---------------------------------------------------------------------------
@@ -879,7 +883,15 @@ PYBIND11_MODULE(_core, m) {
       .def("member_toml", &lgvi::app::EnsemblePlan::member_toml, py::arg("i"), "Member i's scenario (TOML text).")
       .def_property_readonly(
           "changes_not_errors", [](const lgvi::app::EnsemblePlan& p) { return p.changes_not_errors; },
-          "The '..._error' columns that measure a change of a quantity the members do not conserve.");
+          "The '..._error' columns that measure a change of a quantity the members do not conserve.")
+      .def_property_readonly("metrics", [](const lgvi::app::EnsemblePlan& p) { return p.metrics.names; },
+                             "[ensemble] metrics: the names of the GNC columns of each row.")
+      .def_property_readonly("settle_band_deg", [](const lgvi::app::EnsemblePlan& p) { return p.metrics.settle_band_deg; },
+                             "[ensemble] settle_band_deg (NaN if not given).")
+      .def_property_readonly("series_times", [](const lgvi::app::EnsemblePlan& p) { return p.series_times; },
+                             "With pointing metrics: the times of the pointing-error curve each row carries.")
+      .def("split_row", &lgvi::app::EnsemblePlan::split_row, py::arg("row"),
+           "A member's row as (its members.csv row, the pointing errors after it as CSV text).");
   m.def(
       "ensemble_plan",
       [](const std::string& sweep_text, const std::string& name, const std::string& scenario_text) {
@@ -894,10 +906,12 @@ PYBIND11_MODULE(_core, m) {
   m.def(
       "run_member",
       [](std::int64_t index, const std::vector<double>& varied, const std::string& scenario_toml,
-         const std::string& scenario_name) {
+         const std::string& scenario_name, const std::vector<std::string>& metrics, double settle_band_deg) {
         py::gil_scoped_release release;
-        return lgvi::app::run_member_scenario(index, varied, scenario_toml, scenario_name);
+        return lgvi::app::run_member_scenario(index, varied, scenario_toml, scenario_name, 1, {},
+                                              lgvi::app::MemberMetrics{metrics, settle_band_deg});
       },
       py::arg("index"), py::arg("varied"), py::arg("scenario_toml"), py::arg("scenario_name"),
-      "Run one member; its members.csv row (the CLI's bytes).");
+      py::arg("metrics") = std::vector<std::string>{}, py::arg("settle_band_deg") = std::nan(""),
+      "Run one member; its row (the CLI's bytes: EnsemblePlan.split_row separates its pointing errors).");
 }

@@ -178,14 +178,15 @@ def pointing_error_deg(q, target=TARGET):
 
 def test_the_wheels_slew_the_spacecraft_in_leo(tmp_path):
     # scenarios/slew-wheels.toml: 30 deg to the target in LEO, the controller's torque made by four wheels.
-    # Measured: 0.03 deg at t = 50, then an offset the gravity-gradient torque holds and the wheels keep
-    # absorbing (1.1e-3 deg at t = 300): within 0.01 deg from t = 100 on.
+    # Measured: within 0.1 deg from t = 89 on, then an offset that the gyro's bias (the controller reads the
+    # sensors: k_d b) and the gravity-gradient torque hold, 0.054 deg at t = 300 and at most 0.07 from t = 100.
+    # tests/python/test_sensors.py has the run without sensors.
     import lgvi
     assert run(SLEW_WHEELS, tmp_path / "out").returncode == 0
     r = lgvi.load(tmp_path / "out")
     e = pointing_error_deg(r.q)
     assert e[0] == pytest.approx(30.0, abs=1e-9)
-    assert e[r.t >= 100.0].max() < 0.01
+    assert e[r.t >= 89.0].max() < 0.1 and e[r.t >= 100.0].max() < 0.075
     assert set(r.wheels) == {"w1", "w2", "w3", "w4"}
     # Every wheel within its limits all along.
     for name, w in r.wheels.items():
@@ -207,7 +208,7 @@ def test_the_controller_through_the_wheels_keeps_the_angular_momentum_in_free_sp
     (tmp_path / "free.toml").write_text(text)
     r, L = run_and_load(tmp_path / "free.toml", tmp_path / "out")
     assert np.abs(L - L[0]).max() < 1e-12 * np.linalg.norm(L[0])
-    assert pointing_error_deg(r.q)[-1] < 0.01
+    assert pointing_error_deg(r.q)[-1] < 0.1  # the sensors' offset, about 0.05 deg (test_sensors.py)
     assert r.summary["conserved"]["quantities"] == ["energy_minus_work", "angular_momentum", "linear_momentum"]
     for name, w in r.wheels.items():
         assert np.abs(np.diff(w["momentum"]) - 0.1 * w["torque"][:-1]).max() < 1e-15, name
@@ -268,3 +269,47 @@ def test_one_command_per_wheel(tmp_path):
     (tmp_path / "twice.toml").write_text(text)
     proc = run(tmp_path / "twice.toml", tmp_path / "out")
     assert proc.returncode == 2 and "'forcing[1].wheel'" in proc.stderr and "one command per wheel" in proc.stderr
+
+
+def _distribution_scenario(tmp_path, name, rows):
+    """slew-wheels.toml for 60 s without sensors (the truth: comparable runs), with a distribution matrix."""
+    text = SLEW_WHEELS.read_text().split("# What the controller sees")[0] + "[output]\nevery = 10\n"
+    text = text.replace("duration = 300.0", "duration = 60.0")
+    if rows is not None:
+        text = text.replace('actuator = "wheels"\n', 'actuator = "wheels"\ndistribution = [' +
+                            ", ".join("[" + ", ".join(repr(float(x)) for x in r) + "]" for r in rows) + "]\n")
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def _pyramid_axes():
+    s = 0.5773502691896258
+    return np.array([[s, s, s], [-s, s, s], [-s, -s, s], [s, -s, s]])
+
+
+def test_a_distribution_matrix_splits_the_torque_as_given(tmp_path):
+    # D = -A^+ computed here (numpy's pinv) is the default split: the same run to round-off of the split (the
+    # attitude to 1e-12 over 600 steps: D differs from the C++ one by ~1e-16, amplified by the closed loop).
+    # A split over w1, w2, w3 alone (D = -A_3^-1, w4's row zero) leaves w4 alone and still slews.
+    a = _pyramid_axes().T  # 3 x 4
+    default, _ = run_and_load(_distribution_scenario(tmp_path, "default.toml", None), tmp_path / "default")
+    same, _ = run_and_load(_distribution_scenario(tmp_path, "same.toml", -np.linalg.pinv(a)), tmp_path / "same")
+    assert np.abs(same.q - default.q).max() < 1e-12
+    three = np.vstack([-np.linalg.inv(a[:, :3]), np.zeros(3)])
+    r, _ = run_and_load(_distribution_scenario(tmp_path, "three.toml", three), tmp_path / "three")
+    # w4 gets no torque: its axial momentum stays as it began, exactly (its speed relative to the turning body
+    # changes with the body's rate).
+    assert np.abs(r.wheels["w4"]["torque"]).max() == 0.0 and np.ptp(r.wheels["w4"]["momentum"]) == 0.0
+    assert np.abs(r.wheels["w1"]["torque"]).max() > 0.0
+    assert pointing_error_deg(r.q)[-1] < pointing_error_deg(r.q)[0] / 10
+
+
+@pytest.mark.parametrize("rows, key, words", [
+    (np.zeros((3, 3)), "forcing[0].distribution", "one row [dx, dy, dz] per wheel (4 rows)"),
+    (np.zeros((4, 3)), "forcing[0].distribution", "must be the identity"),
+])
+def test_a_bad_distribution_matrix_is_one_line(tmp_path, rows, key, words):
+    proc = run(_distribution_scenario(tmp_path, "bad.toml", rows), tmp_path / "out")
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
+    assert f"'{key}'" in proc.stderr and words in proc.stderr, proc.stderr
