@@ -452,14 +452,20 @@ std::string EnsemblePlan::member_toml(std::int64_t i) const {
     column += v.components();
   }
   if (!shared_sensor_noise) {
-    // Each member's own noise: seed = a function of (the base's seed, member index), 63 bits.
+    // Each member's own noise: seed = a function of (the ensemble's seed, the base sensor's seed, the
+    // member's index), 63 bits, under a tag of its own (not one of the draws' keys). A base seed that is
+    // not an integer >= 0 stays as it is, for the member's reader to refuse.
+    constexpr std::uint64_t sensor_tag = 0x53454e534f52ULL;  // "SENSOR"
     if (toml::array* sensors = doc["sensor"].as_array()) {
       for (std::size_t s = 0; s < sensors->size(); ++s) {
         toml::table* t = sensors->get(s)->as_table();
         if (!t) continue;  // the member's reader names it
-        const auto base = static_cast<std::uint64_t>((*t)["seed"].value_or<std::int64_t>(0));
-        const std::uint64_t seed = counter_random::mix(counter_random::mix(base) ^ static_cast<std::uint64_t>(i)) >> 1;
-        t->insert_or_assign("seed", static_cast<std::int64_t>(seed));
+        const toml::node* given = t->get("seed");
+        if (given && !(given->is_integer() && given->value<std::int64_t>().value() >= 0)) continue;
+        const auto base = static_cast<std::uint64_t>(given ? given->value<std::int64_t>().value() : 0);
+        using counter_random::mix;
+        const std::uint64_t drawn = mix(mix(seed ^ sensor_tag) ^ mix(base) ^ static_cast<std::uint64_t>(i)) >> 1;
+        t->insert_or_assign("seed", static_cast<std::int64_t>(drawn));
       }
     }
   }
@@ -738,6 +744,7 @@ std::string run_member_scenario(std::int64_t i, const std::vector<double>& varie
     r = simulate(sc, *sink, so);
     sink->close(sc.source_text, sink->stores_summary() ? summary_json(sc, r) : std::string());
     write_summary_file((fs::path(trajectory_dir) / "summary.json").string(), sc, r);
+    write_sensor_readings(trajectory_dir, r);
   }
   if (r.interrupted) return {};  // not a result: --resume runs it again
   const RunStatistics& st = r.stats;

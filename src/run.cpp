@@ -148,18 +148,7 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
     result.completed = false;
   }
   try {
-    if (!result.sensor_columns.empty()) {
-      // sensors.csv: what the controller read at each sample (the rows it took, also of a failed run).
-      std::string text;
-      for (std::size_t c = 0; c < result.sensor_columns.size(); ++c)
-        text += (c ? "," : "") + result.sensor_columns[c];
-      text += "\n";
-      const std::size_t width = result.sensor_columns.size();
-      for (std::size_t at = 0; at + width <= result.sensor_readings.size(); at += width)
-        for (std::size_t c = 0; c < width; ++c)
-          fmt::format_to(std::back_inserter(text), "{:.17g}{}", result.sensor_readings[at + c], c + 1 < width ? "," : "\n");
-      write_file_atomically((fs::path(dir) / "sensors.csv").string(), text);
-    }
+    write_sensor_readings(dir, result);
     write_summary_file(summary_path.string(), sc, result);
   } catch (const std::exception& e) {
     std::cerr << "lgvi: error: " << e.what() << "\n";

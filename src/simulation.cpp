@@ -4,6 +4,7 @@
 
 #include "formats/particles.hpp"
 #include "method_registry.hpp"
+#include "output.hpp"
 
 #include <lgvi/error.hpp>
 #include <lgvi/integrate.hpp>
@@ -15,7 +16,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <functional>
+#include <iterator>
 #include <limits>
 #include <utility>
 #include <variant>
@@ -82,6 +85,18 @@ std::vector<std::string> sensor_header(const Scenario& s) {
   if (s.wheel_control->sensors()->has_star_tracker())
     h.insert(h.end(), {"star_tracker.qw", "star_tracker.qx", "star_tracker.qy", "star_tracker.qz"});
   return h;
+}
+
+void write_sensor_readings(const std::string& dir, const SimulationResult& result) {
+  if (result.sensor_columns.empty()) return;
+  std::string text;
+  for (std::size_t c = 0; c < result.sensor_columns.size(); ++c) text += (c ? "," : "") + result.sensor_columns[c];
+  text += "\n";
+  const std::size_t width = result.sensor_columns.size();
+  for (std::size_t at = 0; at + width <= result.sensor_readings.size(); at += width)
+    for (std::size_t c = 0; c < width; ++c)
+      fmt::format_to(std::back_inserter(text), "{:.17g}{}", result.sensor_readings[at + c], c + 1 < width ? "," : "\n");
+  write_file_atomically((std::filesystem::path(dir) / "sensors.csv").string(), text);
 }
 
 ThermoColumns thermo_columns(const Scenario& s) {
@@ -229,6 +244,7 @@ struct Recorder {
   /// A copy of the scenario's wheel controller, sampled on the same states as the stepper's: its commands.
   std::optional<WheelAttitudeControl> wheel_control = scenario.wheel_control;
   std::vector<double> wheel_commands = {};  ///< per wheel, its command at the observed state
+  std::vector<double> wheel_speeds = {};    ///< per wheel, its speed relative to the body there
   std::vector<double> wheel_columns = {};   ///< per wheel, its speed, momentum and applied torque there
   std::vector<double> sensor_readings = {};  ///< SimulationResult::sensor_readings
 
@@ -252,32 +268,44 @@ struct Recorder {
     if (stats.wheels.size() != wheels.size()) stats.wheels.assign(wheels.size(), {});
     wheel_commands.assign(wheels.size(), 0.0);
     const Vector3<double> omega = wheels.body_rate(s.w[0], s.eta[0].data());
+    wheel_speeds.resize(wheels.size());
+    for (std::size_t w = 0; w < wheels.size(); ++w) wheel_speeds[w] = wheels.relative_speed(w, s.eta[0].data(), omega);
     for (const WheelTorque& u : scenario.wheel_torques) wheel_commands[u.wheel] += u.torque.at(i.t);
+    const bool end = scenario.integrator.ends(i.k, i.t);
     if (wheel_control) {
       if (i.k == 0) wheel_control->reset();
-      // The controller's samples (not the last state's: no step reads that): what its sensors read.
-      if (wheel_control->sample(i.t, s.q[0], omega) && wheel_control->sensors() &&
-          !scenario.integrator.ends(i.k, i.t))
+      // The controller's samples, as the stepper takes them (not at the last state: no step follows, and a
+      // law of one's own is called once per sample): what its sensors read. The last row holds the last
+      // command.
+      if (!end && wheel_control->sample(i.t, s.q[0], omega, wheel_speeds) && wheel_control->sensors())
         record_sensors(i.t, *wheel_control->sensors(), wheel_control->measured());
       for (std::size_t w = 0; w < wheels.size(); ++w) wheel_commands[w] += wheel_control->command()[w];
     }
     wheel_columns.clear();
-    // The step from t applies these torques over h: the statistics of time count it, except at the end.
-    const double h = scenario.integrator.ends(i.k, i.t) ? 0.0 : scenario.integrator.step;
+    // The step from t applies these torques over h: the statistics of torque and time count it, except at
+    // the end (no step follows).
+    const double h = end ? 0.0 : scenario.integrator.step;
     bool any_limited = false;
     for (std::size_t w = 0; w < wheels.size(); ++w) {
-      const double speed = wheels.relative_speed(w, s.eta[0].data(), omega);
+      const double speed = wheel_speeds[w];
       const double u = wheels[w].applied_torque(wheel_commands[w], speed);
       const bool limited = u != wheel_commands[w];
       any_limited = any_limited || limited;
       RunStatistics::WheelStatistics& st = stats.wheels[w];
       st.max_speed = std::max(st.max_speed, std::abs(speed));
-      st.max_torque = std::max(st.max_torque, std::abs(u));
+      if (!end) st.max_torque = std::max(st.max_torque, std::abs(u));
       if (limited) st.time_limited += h;
-      stats.wheel_effort += std::abs(u) * h;
+      if (!end && wheel_control) stats.wheel_effort += std::abs(u) * h;  // held over the step
       wheel_columns.insert(wheel_columns.end(), {speed, s.eta[0][w], u});
     }
     if (any_limited) stats.wheels_saturated_time += h;
+    // A wheel-torque table may switch inside a step: its effort is the impulse the step gives (kick_wheels).
+    if (!end)
+      for (const WheelTorque& u : scenario.wheel_torques) {
+        const Wheel& wheel = wheels[u.wheel];
+        stats.wheel_effort += std::abs(wheel.speed_limited(u.torque.impulse(i.t, i.t + h, wheel.max_torque),
+                                                           wheel_speeds[u.wheel]));
+      }
   }
 
   /// The kinetic temperature and the pressure of a written frame (thermo_columns),

@@ -109,6 +109,10 @@ struct SimulationResult {
 /// gyro.bias_z with a gyro, star_tracker.qw, .qx, .qy, .qz with a star tracker; empty without sensors.
 std::vector<std::string> sensor_header(const Scenario& s);
 
+/// DIR/sensors.csv: the sensors' readings of a run (sensor_header, then one row per sample, {:.17g}: the
+/// same doubles read back), also of a failed run up to its last sample; nothing without sensors.
+void write_sensor_readings(const std::string& dir, const SimulationResult& result);
+
 /// The diagnostics of one step of one body, as a row of the single-body
 /// layout (trajectory_header): t, x, q (scalar first), p, w, energy, its
 /// error, |q| - 1, L and |L - L0|, then under a forcing its work W (the

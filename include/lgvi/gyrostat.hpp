@@ -13,7 +13,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <functional>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -168,9 +170,19 @@ class WheelAttitudeControl {
   }
   const std::optional<AttitudeSensors>& sensors() const { return sensors_; }
 
+  /// A control law of one's own in place of the PD law: the body torque M = law(t, what the law sees (the
+  /// sensors' readings, or the truth), the wheels' speeds relative to the body), body axes, then scaled
+  /// down to max_torque and split over the wheels as the PD law's. Copies share the value it returned at
+  /// the last sample time: the recorder's copy, sampling the same states, does not call it again, so a
+  /// law with a state of its own (an integral term) is called once per sample.
+  using Law = std::function<Vector3<double>(double, const AttitudeMeasurement&, const std::vector<double>&)>;
+  void set_law(Law law) { custom_ = std::make_shared<CustomLaw>(CustomLaw{std::move(law)}); }
+  bool has_custom_law() const { return custom_ != nullptr; }
+
   /// At a step from t: samples when t reaches the next sample time (the state's attitude q and rate
-  /// omega, or the sensors' readings of them). Returns whether it sampled.
-  bool sample(double t, const S3d& q, const Vector3<double>& omega) {
+  /// omega, or the sensors' readings of them; the wheels' speeds relative to the body for a law of one's
+  /// own). Returns whether it sampled.
+  bool sample(double t, const S3d& q, const Vector3<double>& omega, const std::vector<double>& wheel_speeds) {
     std::int64_t n = 0;
     if (law_.period > 0.0) {
       const double slot = t / law_.period + 1e-9;
@@ -180,7 +192,21 @@ class WheelAttitudeControl {
     }
     sampled_ = true;
     measured_ = sensors_ ? sensors_->measure(n, q, omega) : AttitudeMeasurement{q, omega, Vector3<double>::Zero()};
-    const Eigen::VectorXd u = split_ * law_.torque_for(measured_.q, measured_.omega);
+    Vector3<double> m;
+    if (custom_) {
+      if (!(custom_->valid && custom_->t == t)) {
+        Vector3<double> asked = custom_->law(t, measured_, wheel_speeds);
+        if (!asked.allFinite()) throw StepFailure("the control law returned a torque that is not finite", "check the law");
+        if (asked.norm() > law_.max_torque) asked *= law_.max_torque / asked.norm();
+        custom_->torque = asked;
+        custom_->t = t;
+        custom_->valid = true;
+      }
+      m = custom_->torque;
+    } else {
+      m = law_.torque_for(measured_.q, measured_.omega);
+    }
+    const Eigen::VectorXd u = split_ * m;
     for (std::size_t i = 0; i < command_.size(); ++i) command_[i] = u(static_cast<Eigen::Index>(i));
     return true;
   }
@@ -190,6 +216,7 @@ class WheelAttitudeControl {
     next_sample_ = 0;
     std::fill(command_.begin(), command_.end(), 0.0);
     if (sensors_) sensors_->reset();
+    if (custom_) custom_->valid = false;
   }
   /// What the law saw at its last sample (the true state without sensors).
   const AttitudeMeasurement& measured() const { return measured_; }
@@ -203,6 +230,13 @@ class WheelAttitudeControl {
   std::vector<double> command_;
   std::optional<AttitudeSensors> sensors_;
   AttitudeMeasurement measured_;
+  struct CustomLaw {
+    Law law;
+    double t = 0.0;  ///< the sample time of `torque`
+    Vector3<double> torque = Vector3<double>::Zero();
+    bool valid = false;
+  };
+  std::shared_ptr<CustomLaw> custom_;  ///< shared by copies (see set_law)
   std::int64_t next_sample_ = 0;
   bool sampled_ = false;
 };

@@ -275,7 +275,7 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
     }
     if (wheel_control_) {
       const Wheels& wheels = sys.body(0).wheels();
-      wheel_control_->sample(t, s.q[0], wheels.body_rate(s.w[0], s.eta[0].data()));
+      wheel_control_->sample(t, s.q[0], wheels.body_rate(s.w[0], s.eta[0].data()), wheel_speed_[0]);
       for (std::size_t i = 0; i < wheels.size(); ++i)
         wheel_impulse_[0][i] += wheels[i].applied_torque(wheel_control_->command()[i], wheel_speed_[0][i]) * h;
     }

@@ -2,7 +2,8 @@
 // controller's samples t_n = n T (T its period). The controller sees their readings; the dynamics is
 // integrated with the true state.
 //
-// Gyro (the discrete form of Farrenkopf's model, as attitude filters assume it):
+// Gyro (a simple discrete form of Farrenkopf's model: the bias at the sample rather than its mean over
+// the interval, and without the sigma_u^2 T / 12 of the white variance, negligible while sigma_u T << sigma_v):
 //   omega_m,n = omega_n + b_n + (sigma_v / sqrt(T)) N_v,n,     b_{n+1} = b_n + sigma_u sqrt(T) N_u,n,
 // with sigma_v the white rate noise density (rad/s/sqrt(Hz): angle random walk), sigma_u the bias's
 // random walk density (rad/s^2/sqrt(Hz): rate random walk) and b_0 the initial bias (rad/s), per body

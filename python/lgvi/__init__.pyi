@@ -262,7 +262,10 @@ ForcingFunction = Callable[[float, np.ndarray, np.ndarray, np.ndarray, np.ndarra
 
 def simulate(scenario: Union[Scenario, PathLike],
              potential: Union[None, PythonPotential, PotentialFunction] = ..., *,
-             forcing: Union[None, PythonForcing, ForcingFunction] = ..., check: bool = ...) -> Result:
+             forcing: Union[None, PythonForcing, ForcingFunction] = ...,
+             control: Optional[Callable[[float, npt.NDArray[np.float64], npt.NDArray[np.float64],
+                                         npt.NDArray[np.float64]], Any]] = ...,
+             check: bool = ...) -> Result:
     """Run a scenario (bit-identical to `lgvi run`); IntegrationError (with .result) on a failed step."""
     ...
 
@@ -387,7 +390,7 @@ class EnsembleResult:
 def ensemble(scenario: Union[Scenario, PathLike], vary: Union[Dict[str, Any], Sequence[Dict[str, Any]]],
              members: Optional[int] = ..., seed: Optional[int] = ..., executor: Any = ...,
              trajectories: str = ..., metrics: Optional[Sequence[str]] = ...,
-             settle_band_deg: Optional[float] = ...) -> EnsembleResult:
+             settle_band_deg: Optional[float] = ..., sensor_noise: Optional[str] = ...) -> EnsembleResult:
     """Run an ensemble of a scenario with some of its numbers varied (the semantics of `lgvi ensemble`)."""
     ...
 

@@ -966,7 +966,7 @@ def _scenario(scenario, name="scenario"):
 # ---------------------------------------------------------------------------
 # Running
 
-def simulate(scenario, potential=None, *, forcing=None, check=True):
+def simulate(scenario, potential=None, *, forcing=None, control=None, check=True):
     """Run a scenario with the CLI's own run loop; returns an lgvi.Result.
 
     ``scenario``: an lgvi.Scenario or the path of a scenario file.
@@ -988,6 +988,13 @@ def simulate(scenario, potential=None, *, forcing=None, check=True):
     scenario's ``[[forcing]]``; the rows then end with the column ``work``
     and ``energy_error`` is E - E0 - W. Methods lgvi and so3-lgvi only.
 
+    ``control``: a control law ``(t, q, omega, wheel_speeds) -> torque`` in place of the PD law of the
+    scenario's attitude controller through its reaction wheels (``[[forcing]] kind =
+    "attitude-control"``, ``actuator = "wheels"``): q (4,) and omega (3,) are what the law sees (the
+    ``[[sensor]]`` readings, or the truth), wheel_speeds (k,) the wheels' speeds relative to the body,
+    the torque (3,) in body axes. It is called once per sample (the controller's ``period``), then
+    scaled down to ``max_torque`` and split over the wheels (-A^+ M, or ``distribution``).
+
     A failed step (no root of the rotation equation, solver not converged,
     non-finite values) raises lgvi.IntegrationError, a RuntimeError whose
     ``result`` is the Result up to the last good step (``completed`` False),
@@ -1000,7 +1007,7 @@ def simulate(scenario, potential=None, *, forcing=None, check=True):
     core_pot = _potential.core_potential(potential)
     try:
         data, summary_text, completed, error, sensor_columns, sensor_rows = _core.simulate(
-            sc._core, core_pot, _forcing.core_forcing(forcing))
+            sc._core, core_pot, _forcing.core_forcing(forcing), control)
     except ValueError as e:
         raise _value_error(e) from None
     summary = json.loads(summary_text)

@@ -16,8 +16,11 @@ from . import _check  # _core is imported where a member runs: plotting works fr
 from ._toml import toml_value as _toml_value  # the scenario writer's spelling of numbers and strings
 
 
-def _sweep_text(scenario_name, vary, members, seed, trajectories, metrics=None, settle_band_deg=None):
+def _sweep_text(scenario_name, vary, members, seed, trajectories, metrics=None, settle_band_deg=None,
+                sensor_noise=None):
     lines = ["[ensemble]", f"scenario = {_toml_value(scenario_name + '.toml')}"]
+    if sensor_noise is not None:
+        lines.append(f"sensor_noise = {_toml_value(str(sensor_noise))}")
     if metrics is not None:
         if isinstance(metrics, str):
             metrics = [metrics]
@@ -112,7 +115,7 @@ class EnsembleResult:
 
 
 def ensemble(scenario, vary, members=None, seed=None, executor=None, trajectories="none", metrics=None,
-             settle_band_deg=None):
+             settle_band_deg=None, sensor_noise=None):
     """Run an ensemble of a scenario with some of its numbers varied; returns an lgvi.EnsembleResult.
 
     The semantics of ``lgvi ensemble`` (docs/guide/ensembles.md): ``vary`` is a list of dicts, each
@@ -123,8 +126,9 @@ def ensemble(scenario, vary, members=None, seed=None, executor=None, trajectorie
     key, ``attitude_error_deg=SIGMA`` (errors about random axes by angles of SIGMA degrees rms). A
     key may name an element: "body.inertia[0][0]". ``metrics`` and ``settle_band_deg``: the GNC
     columns of ``[ensemble] metrics`` (pointing_error_deg, settling_time, max_wheel_torque,
-    max_wheel_speed, saturation_time, control_effort). Every member's scenario is checked before
-    any runs (ValueError naming the member and the key).
+    max_wheel_speed, saturation_time, control_effort). ``sensor_noise``: "per-member" (default: each
+    member's [[sensor]] seeds drawn from its index) or "shared" (the base's seeds in every member).
+    Every member's scenario is checked before any runs (ValueError naming the member and the key).
 
     A Scenario read from a file holds its text with initial.orbit and initial.attitude converted to
     plain keys (position, momentum, quaternion, w or omega): an attitude error then composes with that
@@ -138,7 +142,7 @@ def ensemble(scenario, vary, members=None, seed=None, executor=None, trajectorie
     """
     from ._api import _scenario
     sc = _scenario(scenario)
-    plan = _plan(sc, vary, members, seed, trajectories, metrics, settle_band_deg)
+    plan = _plan(sc, vary, members, seed, trajectories, metrics, settle_band_deg, sensor_noise)
     band = plan.settle_band_deg
     work = [(i, plan.varied(i), plan.member_toml(i), plan.scenario_name, plan.metrics, band)
             for i in range(plan.members)]
@@ -155,9 +159,9 @@ def ensemble(scenario, vary, members=None, seed=None, executor=None, trajectorie
                           None if np.isnan(band) else band)
 
 
-def _plan(sc, vary, members, seed, trajectories, metrics=None, settle_band_deg=None):
+def _plan(sc, vary, members, seed, trajectories, metrics=None, settle_band_deg=None, sensor_noise=None):
     from . import _core
-    text = _sweep_text(sc.name, vary, members, seed, trajectories, metrics, settle_band_deg)
+    text = _sweep_text(sc.name, vary, members, seed, trajectories, metrics, settle_band_deg, sensor_noise)
     try:
         return _core.ensemble_plan(text, "ensemble", sc.toml)
     except ValueError as e:

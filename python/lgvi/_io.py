@@ -176,8 +176,12 @@ def load(path):
     result = Result(data, summary, scenario, source=file)
     sensors = os.path.join(folder, "sensors.csv")
     if os.path.isfile(sensors):  # what a controller's sensors read (lgvi run writes it with [[sensor]])
-        values, names = read_csv(sensors)
-        result._sensors = {_text(n).strip(): values[:, j].copy() for j, n in enumerate(names)}
+        with open(sensors, encoding="utf-8") as f:
+            names = [n.strip() for n in f.readline().strip().split(",")]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # a run that failed before its first sample: the header alone
+            values = np.loadtxt(sensors, delimiter=",", skiprows=1, ndmin=2).reshape(-1, len(names))
+        result._sensors = {name: values[:, j].copy() for j, name in enumerate(names)}
     return result
 
 

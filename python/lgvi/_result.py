@@ -202,8 +202,9 @@ class Result(_RunSummary, _Attitude):
     # Output ----------------------------------------------------------------
     def save(self, run_dir):
         """Write a run folder like the CLI's: trajectory.csv (17 significant
-        digits, exact round trip), summary.json and, if known, scenario.toml.
-        `lgvi.load` and `python3 -m lgvi.plot` read it. Returns run_dir."""
+        digits, exact round trip), summary.json, if known scenario.toml, and with
+        sensors their readings, sensors.csv. `lgvi.load` and `python3 -m lgvi.plot`
+        read it. Returns run_dir."""
         os.makedirs(run_dir, exist_ok=True)
         np.savetxt(os.path.join(run_dir, "trajectory.csv"), self.data, fmt="%.17g", delimiter=",",
                    header=",".join(self.columns), comments="")
@@ -213,6 +214,10 @@ class Result(_RunSummary, _Attitude):
         if self.scenario_toml is not None:
             with open(os.path.join(run_dir, "scenario.toml"), "w", encoding="utf-8") as f:
                 f.write(self.scenario_toml)
+        if self._sensors:
+            names = list(self._sensors)
+            np.savetxt(os.path.join(run_dir, "sensors.csv"), np.column_stack([self._sensors[n] for n in names]),
+                       fmt="%.17g", delimiter=",", header=",".join(names), comments="")
         return run_dir
 
     def draw_figures(self, out_dir):

@@ -13,6 +13,7 @@ import argparse
 import json
 import os
 import sys
+import warnings
 
 import numpy as np
 
@@ -383,7 +384,11 @@ def _pointing_curves(folder):
     path = os.path.join(folder, "pointing_error.csv")
     if not os.path.exists(path):
         return None, None, None
-    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # no member finished yet: the header alone
+        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2).reshape(-1, 3)
+    if len(data) == 0:
+        return None, None, None
     index = data[:, 0].astype(np.int64)
     members = np.unique(index)
     frames = len(data) // max(1, len(members))

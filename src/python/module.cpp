@@ -354,7 +354,27 @@ struct InterruptWatch {
   }
 };
 
-py::tuple run_simulation(const Scenario& scenario, py::object potential, py::object forcing) {
+/// The scenario with a Python control law in place of its wheel controller's PD law (WheelAttitudeControl::
+/// set_law): M = control(t, q, omega, wheel_speeds), q and omega what the law sees (the sensors' readings),
+/// the wheels' speeds relative to the body; M body axes (3,).
+Scenario with_python_control(const Scenario& sc, py::object control) {
+  if (control.is_none()) return sc;
+  if (!PyCallable_Check(control.ptr())) throw py::value_error("control: must be callable as f(t, q, omega, wheel_speeds)");
+  if (!sc.wheel_control)
+    throw py::value_error("control: a control law drives the reaction wheels of a scenario with [[forcing]] kind = "
+                          "\"attitude-control\" and actuator = \"wheels\" (its period, max_torque and split apply)");
+  Scenario out = sc;
+  out.wheel_control->set_law([control](double t, const lgvi::AttitudeMeasurement& m, const std::vector<double>& speeds) {
+    py::array qa = quaternion_array(m.q), wa = array3(m.omega);
+    py::array sa = py::array_t<double>(static_cast<py::ssize_t>(speeds.size()), speeds.data());
+    for (py::array* a : {&qa, &wa, &sa}) make_read_only(*a);
+    return vec3(control(t, qa, wa, sa), "control: the returned torque", true);
+  });
+  return out;
+}
+
+py::tuple run_simulation(const Scenario& scenario_in, py::object potential, py::object forcing, py::object control) {
+  const Scenario scenario = with_python_control(scenario_in, control);
   // The reader checked that the adaptive step's field is gravity; a Python potential replaces it unchecked.
   if (scenario.integrator.adaptive() && !potential.is_none())
     throw py::value_error("potential: a scenario with time_transform = \"potential\" adapts its step to U = -V of "
@@ -373,7 +393,7 @@ py::tuple run_simulation(const Scenario& scenario, py::object potential, py::obj
   InterruptWatch watch;
   SimulationOptions opt;
   watch.install(opt);
-  if (potential.is_none() && !python_forcing) {
+  if (potential.is_none() && !python_forcing && control.is_none()) {
     py::gil_scoped_release release;
     r = simulate(sc, sink, opt);
   } else if (potential.is_none()) {
@@ -797,12 +817,13 @@ PYBIND11_MODULE(_core, m) {
         "Reads a scenario file exactly as the CLI does; ValueError with the CLI's message otherwise.");
 
   m.def("simulate", &run_simulation, py::arg("scenario"), py::arg("potential") = py::none(),
-        py::arg("forcing") = py::none(),
+        py::arg("forcing") = py::none(), py::arg("control") = py::none(),
         "Runs the scenario with the CLI's run loop: returns (rows (N, 21) float64, summary JSON text, completed, "
         "error). `potential`: None (the scenario's own; the GIL is released), one callable (x, q) -> (energy, "
         "force, torque) or a tuple of three callables (x, q) -> energy / force / torque, q scalar-first "
         "(w, x, y, z). `forcing`: None or (f, body name or None, velocity_dependent) with f(t, x, q, p, w) -> (force, "
-        "torque), added to the scenario's [[forcing]]. Ctrl-C stops the run with KeyboardInterrupt.");
+        "torque), added to the scenario's [[forcing]]. `control`: None or f(t, q, omega, wheel_speeds) -> body "
+        "torque, in place of the wheel controller's PD law. Ctrl-C stops the run with KeyboardInterrupt.");
 
   m.def(
       "check_potential",
