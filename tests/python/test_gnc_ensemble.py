@@ -285,3 +285,23 @@ def test_resume_and_the_members_table_with_metrics(tmp_path):
         for name in ("pointing_error_deg", "settling_time", "control_effort", "max_wheel_speed"):
             # (settling_time is NaN here: 30 s is too short to settle)
             assert np.array_equal(table[name][i], float(m[name]), equal_nan=True), name
+
+
+def test_a_failing_member_has_nan_metrics_and_a_padded_curve(tmp_path):
+    # A grid over the solver's iteration limit: with 1 iteration the gyrostat's equation does not converge at
+    # step 0, so member 1 fails there. Its metrics are NaN, and its pointing-error curve holds the initial state's
+    # error (observed before the step) and NaN after it, so the two tables stay aligned. Member 0 completes.
+    base = SLEW_WHEELS.read_text().replace("duration = 300.0", "duration = 30.0")
+    (tmp_path / "slew-wheels.toml").write_text(base)
+    (tmp_path / "sweep.toml").write_text(
+        '[ensemble]\nscenario = "slew-wheels.toml"\nmetrics = ["pointing_error_deg", "settling_time", '
+        '"max_wheel_speed"]\nsettle_band_deg = 0.2\n[[vary]]\nkey = "integrator.max_iterations"\nvalues = [50, 1]\n')
+    proc = ensemble(tmp_path / "sweep.toml", "--out", tmp_path / "out")
+    assert proc.returncode == 0, proc.stderr
+    done, failed = rows(tmp_path / "out" / "members.csv")
+    assert done["completed"] == "1" and failed["completed"] == "0" and "did not converge" in failed["error"]
+    assert all(math.isnan(float(failed[m])) for m in ("pointing_error_deg", "settling_time", "max_wheel_speed"))
+    assert math.isfinite(float(done["pointing_error_deg"]))
+    curve = [float(c["pointing_error_deg"]) for c in rows(tmp_path / "out" / "pointing_error.csv")
+             if c["index"] == "1"]
+    assert len(curve) == 31 and curve[0] == pytest.approx(30.0, abs=1e-9) and all(math.isnan(e) for e in curve[1:])
