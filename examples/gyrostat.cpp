@@ -5,26 +5,40 @@
 // Omega0 = (pi/10, pi/6, pi/8), q0 = identity), with three wheels of moment
 // j = 0.01 on the body axes so that J (wheels locked) = J_s + j I.
 //
-//   gyrostat H T [CSV]
+//   gyrostat [--motor] H T [CSV]
 //
 // steps with h = H to t = T and prints (or writes to CSV) every step's t, q
 // (scalar first), the body rate omega = J_s^{-1} (Pi - h_w) and the inertial
-// total angular momentum pi(q) Pi. scripts/compare_manchester_peck_gyrostat.py
-// runs it beside their GyrostatQVI.m under Octave.
+// total angular momentum pi(q) Pi. With --motor the wheels are driven by held
+// motor torques (set_wheel_torques): u = (+0.002, -0.001, +0.0015) N m on the
+// x, y, z wheels for 0 <= t < 20, -u for 20 <= t < 40, none after (the
+// script's MOTOR_TORQUE and MOTOR_SWITCHES), so that their momentum in body
+// axes is h_w(t) = rho0 + the integral of u, back at rho0 from t = 40 on; the
+// rows then also carry h_w (three more columns, hwx, hwy, hwz).
+// scripts/compare_manchester_peck_gyrostat.py runs it beside their
+// GyrostatQVI.m under Octave (--case motor: with the torques).
+#include <lgvi/gyrostat.hpp>
 #include <lgvi/interaction.hpp>
 #include <lgvi/lgvi.hpp>
 #include <lgvi/potential.hpp>
 
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <vector>
 
 int main(int argc, char** argv) {
   using V3 = lgvi::Vector3<double>;
+  const bool motor = argc > 1 && std::strcmp(argv[1], "--motor") == 0;
+  if (motor) {
+    --argc;
+    ++argv;
+  }
   if (argc < 3) {
-    std::fprintf(stderr, "usage: gyrostat H T [CSV]\n");
+    std::fprintf(stderr, "usage: gyrostat [--motor] H T [CSV]\n");
     return 2;
   }
   const double h = std::atof(argv[1]), T = std::atof(argv[2]);
@@ -32,10 +46,24 @@ int main(int argc, char** argv) {
   const V3 rotor(-0.01, 0.02, 0.01), omega0(pi / 10, pi / 6, pi / 8);
   const lgvi::Matrix3<double> js = V3(1.0, 2.0, 3.0).asDiagonal();
   std::vector<lgvi::Wheel> wheels;
-  for (int k = 0; k < 3; ++k) wheels.push_back(lgvi::Wheel{V3::Unit(k), j});
+  for (int k = 0; k < 3; ++k) {
+    lgvi::Wheel w;
+    w.axis = V3::Unit(k);
+    w.inertia = j;
+    wheels.push_back(w);
+  }
   const lgvi::RigidBody body = lgvi::RigidBody(1.0, js + j * lgvi::Matrix3<double>::Identity()).with_wheels(wheels);
   using Free = lgvi::ExternalField<lgvi::NoPotential>;
   lgvi::LieGroupVariationalIntegrator<Free> stepper(lgvi::System(body), Free::uniform(lgvi::NoPotential{}, 1));
+  if (motor) {
+    // Wheel k's command, held: u_k on [0, 20), -u_k on [20, 40), 0 from 40 on. The switches fall on the
+    // steps' grid for the script's step sizes, where a held command's impulse over a step is u h exactly.
+    const V3 u(0.002, -0.001, 0.0015);
+    std::vector<lgvi::WheelTorque> torques;
+    for (int k = 0; k < 3; ++k)
+      torques.push_back({0, static_cast<std::size_t>(k), lgvi::HeldTorque({0.0, 20.0, 40.0}, {u(k), -u(k), 0.0})});
+    stepper.set_wheel_torques(torques);
+  }
   lgvi::SystemState s(1);
   s.eta = {{rotor.x(), rotor.y(), rotor.z()}};  // axis-aligned wheels: h_w = (eta_x, eta_y, eta_z)
   s.w[0] = 2.0 * (js * omega0 + rotor);        // w = 2 Pi, Pi = J_s omega + h_w
@@ -45,13 +73,18 @@ int main(int argc, char** argv) {
     std::perror(argv[3]);
     return 1;
   }
-  std::fprintf(out, "t,qw,qx,qy,qz,wx,wy,wz,Lx,Ly,Lz\n");
+  std::fprintf(out, motor ? "t,qw,qx,qy,qz,wx,wy,wz,Lx,Ly,Lz,hwx,hwy,hwz\n" : "t,qw,qx,qy,qz,wx,wy,wz,Lx,Ly,Lz\n");
   auto row = [&](double t) {
     const V3 omega = body.wheels().body_rate(s.w[0], s.eta[0].data());
     const V3 l = s.q[0].act(0.5 * s.w[0]);
     const auto q = s.q[0].scalar_first();
-    std::fprintf(out, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", t, q(0), q(1), q(2), q(3),
+    std::fprintf(out, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g", t, q(0), q(1), q(2), q(3),
                  omega.x(), omega.y(), omega.z(), l.x(), l.y(), l.z());
+    if (motor) {
+      const V3 hw = body.wheels().momentum(s.eta[0].data());
+      std::fprintf(out, ",%.17g,%.17g,%.17g", hw.x(), hw.y(), hw.z());
+    }
+    std::fputc('\n', out);
   };
   const auto n = static_cast<long>(std::llround(T / h));
   row(0.0);

@@ -70,6 +70,7 @@ DESCRIPTIONS = {
     "bodies.mass": "as body.mass",
     "bodies.inertia": "as body.inertia",
     "bodies.ball": "array of tables [[bodies.ball]]: as [[body.ball]]",
+    "bodies.wheel": "array of tables [[bodies.wheel]]: the body's reaction wheels, as [[body.wheel]] (not on a block with count)",
     "bodies.physical": "as body.physical",
     "bodies.radius": "as body.radius",
     "bodies.shape": "as body.shape",
@@ -167,7 +168,7 @@ DESCRIPTIONS = {
     # [[forcing]]
     "forcing.kind": "\"torque\" | \"force\" | \"damping\" | \"attitude-control\" | \"wheel-torque\" (a motor torque on a [[body.wheel]])",
     "forcing.wheel": "wheel-torque: the wheel, by its name or its index from 0",
-    "forcing.body": "string: the body it acts on (default every body)",
+    "forcing.body": "string: the body it acts on (default every body); wheel-torque: the body whose wheel it turns (required with several bodies)",
     "forcing.frame": "torque: \"body\" (default) | \"inertial\"; force: \"inertial\" (default) | \"body\"",
     "forcing.value": "[a, b, c]: a constant torque or force (or table); wheel-torque: a number, N m",
     "forcing.table": "a CSV file (t, a, b, c; relative to the scenario) or rows [[t, a, b, c], ...]: interpolated linearly; must cover the run. wheel-torque: rows [[t, u], ...] from t = 0, each held until the next (zero-order hold)",
@@ -327,7 +328,7 @@ def scenario_keys(core):
             if name == "":
                 heading = "the top level"
             elif name in ARRAYS_OF_TABLES:
-                heading = f"`[[{name}]]`" + (" and `[[bodies.ball]]`" if name == "body.ball" else "")
+                heading = f"`[[{name}]]`" + (f" and `[[bodies.{name[5:]}]]`" if name in ("body.ball", "body.wheel") else "")
             elif name in INLINE_TABLES:
                 heading = f"`{name} = {{ ... }}`"
             else:
@@ -351,7 +352,7 @@ def scenario_keys(core):
             out.append("")
         return out
 
-    # The reader checks [[bodies.ball]] with the same code as [[body.ball]].
+    # The reader checks [[bodies.ball]] and [[bodies.wheel]] with the same code as [[body.ball]] and [[body.wheel]].
     lines += table_section("Scenario files (`lgvi run`, `lgvi compare`)", scen, "")
     lines += ["### `[interaction]`", "",
               "`kind` is one of " + ", ".join(f'`"{k}"`' for k in core.INTERACTIONS) + " (default `\"none\"`); "

@@ -77,6 +77,16 @@ CheckpointFields run_fields(const Checkpoint& c) {
     state.insert(state.end(), {x.x(), x.y(), x.z(), q(0), q(1), q(2), q(3), p.x(), p.y(), p.z(), w.x(), w.y(), w.z()});
   }
   f.put_f64("run.state", std::move(state));
+  if (!c.state.eta.empty()) {  // bodies with reaction wheels: per body its wheel count, then the momenta eta
+    std::vector<std::int64_t> counts;
+    std::vector<double> eta;
+    for (const std::vector<double>& e : c.state.eta) {
+      counts.push_back(static_cast<std::int64_t>(e.size()));
+      eta.insert(eta.end(), e.begin(), e.end());
+    }
+    f.put_i64("run.wheel_counts", std::move(counts));
+    f.put_f64("run.wheel_momenta", std::move(eta));
+  }
   f.put_i64("run.checkpoint_every", {c.checkpoint_every});
   f.put_text("run.scenario_name", c.scenario_name);
   const RunStatistics& s = c.stats;
@@ -98,6 +108,12 @@ CheckpointFields run_fields(const Checkpoint& c) {
     f.put_i64("statistics.thermo_frames", {t.frames});
   }
   if (s.max_time_step > 0.0) f.put_f64("statistics.time_steps", {s.min_time_step, s.max_time_step});  // adaptive runs
+  if (!s.wheels.empty()) {  // per wheel its largest speed and torque, and its time at a limit; then the totals
+    std::vector<double> w;
+    for (const RunStatistics::WheelStatistics& x : s.wheels) w.insert(w.end(), {x.max_speed, x.max_torque, x.time_limited});
+    f.put_f64("statistics.wheels", std::move(w));
+    f.put_f64("statistics.wheel_totals", {s.wheel_effort, s.wheels_saturated_time});
+  }
   f.put_i64("sink.position", {c.sink.rows, c.sink.bytes, static_cast<std::int64_t>(c.sink.crc32)});
   return f;
 }
@@ -123,6 +139,26 @@ void take_run_fields(CheckpointFields& f, Checkpoint& c) {
     throw InvalidInput("checkpoint field 'run.state' holds " + std::to_string(st.size()) +
                        " values, expected 13 per body");
   c.state = state_from(st);
+  if (f.has("run.wheel_counts")) {
+    const std::vector<std::int64_t>& counts = f.i64("run.wheel_counts", c.state.size());
+    const std::vector<double>& eta = f.f64("run.wheel_momenta");
+    std::size_t total = 0;
+    for (const std::int64_t n : counts) {
+      if (n < 0 || static_cast<std::uint64_t>(n) > eta.size())
+        throw InvalidInput("checkpoint field 'run.wheel_counts' holds a count of " + std::to_string(n) + " wheels");
+      total += static_cast<std::size_t>(n);
+    }
+    if (total != eta.size())
+      throw InvalidInput("checkpoint field 'run.wheel_momenta' holds " + std::to_string(eta.size()) +
+                         " values, 'run.wheel_counts' " + std::to_string(total) + " wheels");
+    c.state.eta.resize(c.state.size());
+    std::size_t at = 0;
+    for (std::size_t a = 0; a < c.state.size(); ++a) {
+      const auto n = static_cast<std::size_t>(counts[a]);
+      c.state.eta[a].assign(eta.begin() + static_cast<std::ptrdiff_t>(at), eta.begin() + static_cast<std::ptrdiff_t>(at + n));
+      at += n;
+    }
+  }
   c.checkpoint_every = f.i64_value("run.checkpoint_every");
   c.scenario_name = f.text("run.scenario_name");
   RunStatistics& s = c.stats;
@@ -161,13 +197,25 @@ void take_run_fields(CheckpointFields& f, Checkpoint& c) {
     s.min_time_step = t[0];
     s.max_time_step = t[1];
   }
+  if (f.has("statistics.wheels")) {
+    const std::vector<double>& w = f.f64("statistics.wheels");
+    if (w.size() % 3 != 0)
+      throw InvalidInput("checkpoint field 'statistics.wheels' holds " + std::to_string(w.size()) +
+                         " values, expected 3 per wheel");
+    s.wheels.resize(w.size() / 3);
+    for (std::size_t i = 0; i < s.wheels.size(); ++i) s.wheels[i] = {w[3 * i], w[3 * i + 1], w[3 * i + 2]};
+    const std::vector<double>& totals = f.f64("statistics.wheel_totals", 2);
+    s.wheel_effort = totals[0];
+    s.wheels_saturated_time = totals[1];
+  }
   const std::vector<std::int64_t>& sink = f.i64("sink.position", 3);
   c.sink.rows = sink[0];
   c.sink.bytes = sink[1];
   c.sink.crc32 = static_cast<std::uint32_t>(sink[2]);
   std::vector<std::string> unknown;
   for (const CheckpointFields::Field& field : f.fields())
-    if (!field.read && field.name.compare(0, 8, "stepper.") != 0) unknown.push_back(field.name);
+    if (!field.read && field.name.compare(0, 8, "stepper.") != 0 && field.name.compare(0, 9, "recorder.") != 0)
+      unknown.push_back(field.name);
   if (!unknown.empty()) throw InvalidInput(CheckpointFields::unknown_fields_message(unknown));
 }
 
@@ -352,6 +400,11 @@ void write_checkpoint(const std::string& path, const Checkpoint& c) {
       throw std::logic_error("checkpoint field '" + field.name + "' of the stepper is not under 'stepper.'");
     fields.put(field);
   }
+  for (const CheckpointFields::Field& field : c.recorder.fields()) {
+    if (field.name.compare(0, 9, "recorder.") != 0)
+      throw std::logic_error("checkpoint field '" + field.name + "' of the recorder is not under 'recorder.'");
+    fields.put(field);
+  }
   std::string bytes(checkpoint_magic, sizeof checkpoint_magic);
   auto put = [&](std::int64_t v) { bytes.append(reinterpret_cast<const char*>(&v), sizeof v); };
   put(checkpoint_version);
@@ -407,7 +460,7 @@ Checkpoint read_checkpoint(const std::string& path) {
     throw InvalidInput(path + ": " + e.what());
   }
   for (const CheckpointFields::Field& field : fields.fields())
-    if (!field.read) c.stepper.put(field);
+    if (!field.read) (field.name.compare(0, 9, "recorder.") == 0 ? c.recorder : c.stepper).put(field);
   return c;
 }
 

@@ -387,7 +387,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
     throw InvalidInput("--timing-budget: must be between 0 and 1e4 seconds");
   // The other methods and the references (RK4 of the continuous equations, the exact flow) step rigid bodies:
   // on a gyrostat they would ignore its wheels, a comparison of the wrong dynamics.
-  if (!is_system(base) && base.body().has_wheels())
+  if (base.system.has_wheels())
     throw InvalidInput("lgvi compare: a body with reaction wheels ([[body.wheel]]) is not compared yet (only \"lgvi\" "
                        "steps it; the other methods and the references would treat it as a rigid body): use lgvi run");
   const bool system = is_system(base);

@@ -381,12 +381,19 @@ class DiscardSink final : public TrajectorySink {
   void close(const std::string&, const std::string&) override {}
 };
 
-/// The times of a fixed-step scenario's output frames: every output.every steps from 0, and the last.
+/// How many output frames a fixed-step scenario writes: every output.every steps from 0, and the last.
+std::int64_t pointing_frame_count(const Scenario& sc) {
+  const std::int64_t n = sc.integrator.steps, every = sc.output_every;
+  return n / every + 1 + (n % every != 0 ? 1 : 0);
+}
+
+/// The times of those frames, k h.
 std::vector<double> pointing_frames(const Scenario& sc) {
+  const std::int64_t n = sc.integrator.steps, every = sc.output_every;
   std::vector<double> t;
-  const std::int64_t n = sc.integrator.steps;
-  for (std::int64_t k = 0; k <= n; ++k)
-    if (k % sc.output_every == 0 || k == n) t.push_back(static_cast<double>(k) * sc.integrator.step);
+  t.reserve(static_cast<std::size_t>(pointing_frame_count(sc)));
+  for (std::int64_t k = 0; k <= n; k += every) t.push_back(static_cast<double>(k) * sc.integrator.step);
+  if (n % every != 0) t.push_back(static_cast<double>(n) * sc.integrator.step);
   return t;
 }
 
@@ -406,11 +413,11 @@ void check_metrics(const TomlReader& r, EnsemblePlan& plan, const Scenario& sc) 
   if (sc.integrator.adaptive())
     r.fail("ensemble.metrics", "the pointing-error curves need a fixed step; the base scenario has "
                                "integrator.time_transform");
-  plan.series_times = pointing_frames(sc);
-  if (plan.series_times.size() > 10001)
+  if (const std::int64_t frames = pointing_frame_count(sc); frames > 10001)
     r.fail("ensemble.metrics", fmt::format("the pointing-error curves would hold {} frames per member (at most "
                                            "10001): give the base scenario a larger [output] every",
-                                           plan.series_times.size()));
+                                           frames));
+  plan.series_times = pointing_frames(sc);
 }
 
 }  // namespace
@@ -422,7 +429,7 @@ bool MemberMetrics::pointing() const {
 
 std::pair<std::string, std::string> EnsemblePlan::split_row(const std::string& row) const {
   if (series_times.empty()) return {row, {}};
-  const std::size_t fields = csv_fields(header).size();
+  const std::size_t fields = header_fields;
   bool quoted = false;
   std::size_t commas = 0;
   for (std::size_t i = 0; i < row.size(); ++i) {
@@ -664,7 +671,9 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
     } else if (sc.bodies() != bodies) {
       r.fail("vary", "member " + std::to_string(m) + " has " + std::to_string(sc.bodies()) +
                          " bodies and member 0 " + std::to_string(bodies) + "; every member needs the same bodies");
-    } else if (plan.metrics.pointing() && pointing_frames(sc) != plan.series_times) {
+    } else if (plan.metrics.pointing() &&
+               (pointing_frame_count(sc) != static_cast<std::int64_t>(plan.series_times.size()) ||
+                pointing_frames(sc) != plan.series_times)) {
       r.fail("vary", "member " + std::to_string(m) + " writes its frames at other times than member 0 (its step, "
                      "duration or output.every differ); the pointing-error curves need the same times in every "
                      "member");
@@ -678,6 +687,7 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
   for (const std::string& c : plan.metrics.names) header += "," + c;
   for (const std::string& c : state_cols) header += "," + c;
   plan.header = header;
+  plan.header_fields = csv_fields(header).size();
   return plan;
 }
 
@@ -712,7 +722,7 @@ std::string run_member_scenario(std::int64_t i, const std::vector<double>& varie
   // The pointing error (deg, the angle of q_target^* q) at every step: its last value, the time from
   // which it stays within the band, and its values at the output frames (the plan's series_times).
   const bool pointing = metrics.pointing();
-  const std::size_t frames = pointing ? pointing_frames(sc).size() : 0;
+  const std::size_t frames = pointing ? static_cast<std::size_t>(pointing_frame_count(sc)) : 0;
   double last_error = nan, settled_at = nan;
   std::vector<double> series;
   if (pointing) {
@@ -744,7 +754,7 @@ std::string run_member_scenario(std::int64_t i, const std::vector<double>& varie
     r = simulate(sc, *sink, so);
     sink->close(sc.source_text, sink->stores_summary() ? summary_json(sc, r) : std::string());
     write_summary_file((fs::path(trajectory_dir) / "summary.json").string(), sc, r);
-    write_sensor_readings(trajectory_dir, r);
+    write_side_tables(trajectory_dir, r);
   }
   if (r.interrupted) return {};  // not a result: --resume runs it again
   const RunStatistics& st = r.stats;

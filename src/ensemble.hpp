@@ -93,6 +93,7 @@ struct EnsemblePlan {
   /// With pointing metrics: the times of the base's output frames, at which each row carries its
   /// member's pointing error (deg) after the members.csv columns (split_row); every member has them.
   std::vector<double> series_times;
+  std::size_t header_fields = 0;  ///< the fields of `header` (members.csv's columns), for split_row
   /// A row (journal.csv, run_member) as its members.csv row and the pointing errors after it (empty
   /// without series_times).
   std::pair<std::string, std::string> split_row(const std::string& row) const;

@@ -96,6 +96,8 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
       fs::remove(summary_path);
       if (!resume) {
         fs::remove(checkpoint_path);
+        // Nor side tables (SimulationResult::sensors, wheels) that this run may not write.
+        for (const char* side : {"sensors.csv", "wheels.csv"}) fs::remove(fs::path(dir) / side);
         write_file_atomically((fs::path(dir) / "scenario.toml").string(), sc.source_text);
       }
       sink = open_trajectory(sc.output_format, trajectory_path.string(), scenario_layout(sc),
@@ -148,7 +150,7 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
     result.completed = false;
   }
   try {
-    write_sensor_readings(dir, result);
+    write_side_tables(dir, result);
     write_summary_file(summary_path.string(), sc, result);
   } catch (const std::exception& e) {
     std::cerr << "lgvi: error: " << e.what() << "\n";

@@ -159,16 +159,19 @@ RigidBody read_body_table(const Reader& r, const toml::table& t, const std::stri
   return checked([&] { return RigidBody::from_balls(std::move(balls)); });
 }
 
-/// The body's [[body.wheel]] tables: the wheels (axis, inertia, max_torque, max_speed, name) on `body`,
-/// and each wheel's initial speed relative to the body (`speed`, rad/s) in `speeds`.
-RigidBody read_wheels(const Reader& r, const toml::table& t, const RigidBody& body, std::vector<double>& speeds) {
+/// The [[body.wheel]] tables of the body table `owner` ("body", or "bodies[i]" for [[bodies.wheel]]): the
+/// wheels (axis, inertia, max_torque, max_speed, name) on `body`, and each wheel's initial speed relative to
+/// the body (`speed`, rad/s) in `speeds`.
+RigidBody read_wheels(const Reader& r, const toml::table& t, const std::string& owner, const RigidBody& body,
+                      std::vector<double>& speeds) {
   const toml::array* arr = t.get("wheel")->as_array();
-  if (!arr || arr->empty() || !arr->is_array_of_tables()) r.fail("body.wheel", "must be one or more [[body.wheel]] tables");
-  if (arr->size() > 64) r.fail("body.wheel", "more than 64 wheels");
+  const std::string key = owner + ".wheel";
+  if (!arr || arr->empty() || !arr->is_array_of_tables()) r.fail(key, "must be one or more [[" + (owner == "body" ? key : "bodies.wheel") + "]] tables");
+  if (arr->size() > 64) r.fail(key, "more than 64 wheels");
   std::vector<Wheel> wheels;
   for (std::size_t i = 0; i < arr->size(); ++i) {
     const toml::table& w = *arr->get(i)->as_table();
-    const std::string prefix = "body.wheel[" + std::to_string(i) + "]";
+    const std::string prefix = key + "[" + std::to_string(i) + "]";
     r.only_keys(w, prefix, {"axis", "inertia", "speed", "max_torque", "max_speed", "name"});
     Wheel wheel;
     wheel.axis = r.vector<3>(w, prefix, "axis");
@@ -190,12 +193,12 @@ RigidBody read_wheels(const Reader& r, const toml::table& t, const RigidBody& bo
     wheels.push_back(std::move(wheel));
   }
   try {
-    return body.with_wheels(std::move(wheels), "body");
+    return body.with_wheels(std::move(wheels), owner);
   } catch (const InvalidInput& e) {
-    // The library's "body.wheel[i].key: what", as the reader names keys.
+    // The library's "OWNER.wheel[i].key: what", as the reader names keys.
     const std::string message = e.what();
     const std::size_t colon = message.find(": ");
-    if (colon == std::string::npos) r.fail("body.wheel", message);
+    if (colon == std::string::npos) r.fail(key, message);
     r.fail(message.substr(0, colon), message.substr(colon + 2));
   }
 }
@@ -204,7 +207,28 @@ RigidBody read_body(const Reader& r, const toml::table& root, std::vector<double
   const toml::table& t = r.table(root, "", "body");
   r.only_keys(t, "body", {"mass", "inertia", "ball", "physical", "radius", "shape", "semi_axes", "density", "wheel"});
   const RigidBody body = read_body_table(r, t, "body");
-  return t.contains("wheel") ? read_wheels(r, t, body, wheel_speeds) : body;
+  return t.contains("wheel") ? read_wheels(r, t, "body", body, wheel_speeds) : body;
+}
+
+/// The wheels' axial momenta eta_i = j_i (a_i.omega + Omega_i) from their speeds Omega_i and the body's
+/// rate, for a body table (`t`, [initial] or a [[bodies]] entry) that gave `omega` or `w`: a given omega
+/// is the body's rate, and w becomes 2 (J omega + sum_i j_i Omega_i a_i) (J with the wheels locked); a
+/// given w is the total angular momentum of body and wheels, omega = J^-1 (w/2 - sum_i j_i Omega_i a_i).
+std::vector<double> initial_wheel_momenta(const Reader& r, const toml::table& t, const std::string& prefix,
+                                          const RigidBody& body, const std::vector<double>& speeds, Vector3<double>& w) {
+  const Wheels& wheels = body.wheels();
+  Vector3<double> relative = Vector3<double>::Zero();
+  for (std::size_t i = 0; i < wheels.size(); ++i) relative += wheels[i].inertia * speeds[i] * wheels[i].axis;
+  Vector3<double> omega;
+  if (t.contains("omega")) {
+    omega = r.vector<3>(t, prefix, "omega");
+    w = 2.0 * (body.inertia() * omega + relative);
+  } else {
+    omega = body.inertia_inverse() * (0.5 * w - relative);
+  }
+  std::vector<double> eta(wheels.size());
+  for (std::size_t i = 0; i < wheels.size(); ++i) eta[i] = wheels.axial_momentum(i, speeds[i], omega);
+  return eta;
 }
 
 PotentialSpec read_potential(const Reader& r, const toml::table& root) {
@@ -557,15 +581,16 @@ void read_bodies(const Reader& r, const toml::table& root, BodyList& bodies, std
   if (!arr || arr->empty() || !arr->is_array_of_tables())
     r.fail("bodies", "must be one or more [[bodies]] tables");
   std::vector<RigidBodyState> states;
+  std::vector<std::vector<double>> etas;  // the wheels' momenta per body (empty: none has wheels)
   for (std::size_t i = 0; i < arr->size(); ++i) {
     const toml::table& t = *arr->get(i)->as_table();
     const std::string prefix = "bodies[" + std::to_string(i) + "]";
-    if (t.contains("wheel"))
-      r.fail(prefix + ".wheel", "reaction wheels are read for a single [body] so far (the library takes them on any "
-                                "body: RigidBody::with_wheels)");
+    if (t.contains("wheel") && t.contains("count"))
+      r.fail(prefix + ".wheel", "a block of bodies (count) does not take reaction wheels; give each spacecraft "
+                                "with wheels a [[bodies]] table of its own");
     r.only_keys(t, prefix, {"name", "mass", "inertia", "ball", "physical", "radius", "shape", "semi_axes", "density",
                             "position", "quaternion", "momentum", "velocity", "w", "omega", "count", "spacing", "seed",
-                            "temperature"});
+                            "temperature", "wheel"});
     std::string name;
     if (const toml::node* n = t.get("name")) {
       if (!n->is_string()) r.fail(prefix + ".name", "must be a string");
@@ -573,7 +598,9 @@ void read_bodies(const Reader& r, const toml::table& root, BodyList& bodies, std
       if (name.empty() || name.size() > 64 || name.find_first_of("\"\\,\n\r\t") != std::string::npos)
         r.fail(prefix + ".name", "must be 1 to 64 characters without quotes, backslashes, commas or control characters");
     }
-    const RigidBody body = read_body_table(r, t, prefix);
+    std::vector<double> speeds;
+    RigidBody body = read_body_table(r, t, prefix);
+    if (t.contains("wheel")) body = read_wheels(r, t, prefix, body, speeds);
     const std::size_t before = states.size();
     if (t.contains("count")) {
       read_block(r, t, prefix, body, r.integer(t, prefix, "count"), states);
@@ -581,6 +608,10 @@ void read_bodies(const Reader& r, const toml::table& root, BodyList& bodies, std
       for (const char* k : {"spacing", "seed", "temperature"})
         if (t.contains(k)) r.fail(prefix + "." + k, "belongs to a block of bodies: give count = N too");
       states.push_back(read_state(r, t, prefix, body));
+      if (body.has_wheels()) {
+        if (etas.size() < states.size()) etas.resize(states.size());
+        etas.back() = initial_wheel_momenta(r, t, prefix, body, speeds, states.back().w);
+      }
     }
     if (states.size() > 1000000) r.fail("bodies", "more than 10^6 bodies");
     const bool block = t.contains("count");
@@ -601,6 +632,10 @@ void read_bodies(const Reader& r, const toml::table& root, BodyList& bodies, std
                            " in order); names must be unique");
   state = SystemState(bodies.size());
   for (std::size_t a = 0; a < bodies.size(); ++a) state.set_body(a, states[a]);
+  if (!etas.empty()) {
+    etas.resize(bodies.size());
+    state.eta = std::move(etas);
+  }
 }
 
 /// Bodies must not overlap at the start (ContactDetector: balls, spheres,
@@ -870,15 +905,40 @@ void read_profile_csv(const Reader& r, const std::string& key, const std::filesy
 /// `value = [a, b, c]` or `table` = a CSV file (t, a, b, c; relative to the
 /// scenario file) or inline rows [[t, a, b, c], ...]; file tables are inlined
 /// into *inlined (the run's copy of the scenario is then self-contained).
-/// A [[forcing]] kind = "wheel-torque" table: a motor torque on one of body 0's wheels (`wheel`, its name or
-/// index), `value` (N m) or `table` = [[t, u], ...] covering [0, duration], held between rows.
+/// The body a [[forcing]] table names (`body`, a body's name), or all_bodies when it names none.
+std::size_t forcing_body(const Reader& r, const toml::table& t, const std::string& prefix, const System& system) {
+  const toml::node* b = t.get("body");
+  if (!b) return ForcingSet::all_bodies;
+  if (!b->is_string()) r.fail(prefix + ".body", "must be a body's name (a string)");
+  const std::string name = b->value<std::string>().value();
+  const auto& names = system.names();
+  const auto it = std::find(names.begin(), names.end(), name);
+  if (it == names.end())
+    r.fail(prefix + ".body", "no body is named \"" + printable(name) + "\"" +
+                                 (names.size() <= 8 ? "; the bodies are " + [&] {
+                                   std::string l;
+                                   for (const std::string& n : names) l += (l.empty() ? "\"" : ", \"") + n + "\"";
+                                   return l;
+                                 }()
+                                                    : std::string()));
+  return static_cast<std::size_t>(it - names.begin());
+}
+
+/// A [[forcing]] kind = "wheel-torque" table: a motor torque on one wheel (`wheel`, its name or index) of the
+/// body named `body` (of the only body when the system has one), `value` (N m) or `table` = [[t, u], ...]
+/// covering [0, duration], held between rows.
 WheelTorque read_wheel_torque(const Reader& r, const toml::table& t, const std::string& prefix, const System& system,
                               double duration) {
-  r.only_keys(t, prefix, {"kind", "wheel", "value", "table"});
-  const Wheels& wheels = system.body(0).wheels();
-  if (system.size() != 1 || wheels.empty())
-    r.fail(prefix + ".kind", "\"wheel-torque\" turns a reaction wheel: give the body [[body.wheel]] tables");
+  r.only_keys(t, prefix, {"kind", "body", "wheel", "value", "table"});
   WheelTorque u;
+  const std::size_t named = forcing_body(r, t, prefix, system);
+  if (named == ForcingSet::all_bodies && system.size() != 1)
+    r.fail(prefix + ".body", "missing: the name of the body whose wheel this turns");
+  u.body = named == ForcingSet::all_bodies ? 0 : named;
+  const Wheels& wheels = system.body(u.body).wheels();
+  if (wheels.empty())
+    r.fail(prefix + ".kind", "\"wheel-torque\" turns a reaction wheel: give the body [[body.wheel]] tables" +
+                                 std::string(system.size() != 1 ? " ([[bodies.wheel]] after its [[bodies]] table)" : ""));
   const toml::node* which = t.get("wheel");
   if (!which) r.fail(prefix + ".wheel", "missing: the wheel's name, or its index from 0");
   if (which->is_string()) {
@@ -935,28 +995,13 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
       // One command per wheel: the motor's limits apply to what it is commanded, as one torque.
       WheelTorque u = read_wheel_torque(r, t, prefix, system, duration);
       for (const WheelTorque& other : wheel_torques)
-        if (other.wheel == u.wheel)
-          r.fail(prefix + ".wheel", "wheel \"" + system.body(0).wheels()[u.wheel].name + "\" has a wheel-torque "
+        if (other.body == u.body && other.wheel == u.wheel)
+          r.fail(prefix + ".wheel", "wheel \"" + system.body(u.body).wheels()[u.wheel].name + "\" has a wheel-torque "
                                     "already; give one command per wheel (a table can hold every change)");
       wheel_torques.push_back(std::move(u));
       continue;
     }
-    std::size_t body = ForcingSet::all_bodies;
-    if (const toml::node* b = t.get("body")) {
-      if (!b->is_string()) r.fail(prefix + ".body", "must be a body's name (a string)");
-      const std::string name = b->value<std::string>().value();
-      const auto& names = system.names();
-      const auto it = std::find(names.begin(), names.end(), name);
-      if (it == names.end())
-        r.fail(prefix + ".body", "no body is named \"" + printable(name) + "\"" +
-                                     (names.size() <= 8 ? "; the bodies are " + [&] {
-                                       std::string l;
-                                       for (const std::string& n : names) l += (l.empty() ? "\"" : ", \"") + n + "\"";
-                                       return l;
-                                     }()
-                                                        : std::string()));
-      body = static_cast<std::size_t>(it - names.begin());
-    }
+    const std::size_t body = forcing_body(r, t, prefix, system);
     auto non_negative = [&](const char* key) {
       if (!t.contains(key)) return 0.0;
       const double v = r.number(t, prefix, key);
@@ -1037,7 +1082,10 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
       attitude_targets.push_back(c.target);
       if (t.contains("actuator") && r.string(t, prefix, "actuator", {"torque", "wheels"}) == "wheels") {
         // The body's reaction wheels make the torque: u = -A^+ M over them (gyrostat.hpp).
-        if (system.size() != 1 || !system.body(0).has_wheels())
+        if (system.size() != 1)
+          r.fail(prefix + ".actuator", "\"wheels\" drives the wheels of a single body so far; this system has " +
+                                           std::to_string(system.size()) + " bodies");
+        if (!system.body(0).has_wheels())
           r.fail(prefix + ".actuator", "\"wheels\" turns the body with its reaction wheels: give it [[body.wheel]] "
                                        "tables");
         if (wheel_control) r.fail(prefix + ".actuator", "one attitude controller drives the wheels; give only one");
@@ -1383,25 +1431,9 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   PotentialSpec potential = read_potential(r, root);
   const std::string converted = bodies_format ? std::string() : convert_orbit_attitude(r, root, bodies[0], potential);
   if (!bodies_format) initial = SystemState(read_initial(r, root, bodies[0]));
-  if (!wheel_speeds.empty()) {
-    // The wheels' axial momenta eta_i = j_i (a_i.omega + Omega_i) from their speeds Omega_i and the body's rate:
-    // [initial] omega is that rate, and w = 2 (J omega + sum_i j_i Omega_i a_i) (J with the wheels locked); a given
-    // w is the total angular momentum of body and wheels, omega = J^-1 (w/2 - sum_i j_i Omega_i a_i).
-    const RigidBody& body = bodies[0];
-    const Wheels& wheels = body.wheels();
-    Vector3<double> relative = Vector3<double>::Zero();
-    for (std::size_t i = 0; i < wheels.size(); ++i) relative += wheels[i].inertia * wheel_speeds[i] * wheels[i].axis;
-    const toml::table& init = *root.get_as<toml::table>("initial");
-    Vector3<double> omega;
-    if (init.contains("omega")) {
-      omega = r.vector<3>(init, "initial", "omega");
-      initial.w[0] = 2.0 * (body.inertia() * omega + relative);
-    } else {
-      omega = body.inertia_inverse() * (0.5 * initial.w[0] - relative);
-    }
-    initial.eta.assign(1, std::vector<double>(wheels.size()));
-    for (std::size_t i = 0; i < wheels.size(); ++i) initial.eta[0][i] = wheels.axial_momentum(i, wheel_speeds[i], omega);
-  }
+  if (!wheel_speeds.empty())
+    initial.eta.assign(1, initial_wheel_momenta(r, *root.get_as<toml::table>("initial"), "initial", bodies[0],
+                                                wheel_speeds, initial.w[0]));
   for (const RigidBody& kind : bodies.kinds)
     for (const Ball& ball : kind.balls()) site_types = std::max(site_types, ball.type);
   const InteractionSpec interaction = read_interaction(r, root, site_types);
@@ -1543,7 +1575,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
     r.fail("forcing", "attitude control through the wheels (actuator = \"wheels\") drives every wheel: give no "
                       "kind = \"wheel-torque\" with it");
   read_sensors(r, root, sc.wheel_control);
-  if (sc.system.body(0).has_wheels()) {
+  if (sc.system.has_wheels()) {
     // The gyrostat step (wheels.hpp) is the Hamiltonian LGVI's, at one step size; a forcing that reads the
     // momenta would take the rigid body's rate J^-1 w / 2 for the gyrostat's.
     if (integrator.method.traits().name != std::string_view("lgvi"))

@@ -77,26 +77,58 @@ ScenarioSystemPotential scenario_system_potential(const Scenario& s, const Calla
   return {std::move(external), std::move(mutual), evaluations};
 }
 
+namespace {
+
+/// sensors.csv's columns after t, in one place: each one's name, its sensor, and its value in a reading.
+struct SensorColumn {
+  const char* name;
+  bool gyro;  ///< the gyro's (else the star tracker's)
+  double (*value)(const AttitudeMeasurement&);
+};
+constexpr SensorColumn sensor_columns[] = {
+    {"gyro.wx", true, [](const AttitudeMeasurement& m) { return m.omega.x(); }},
+    {"gyro.wy", true, [](const AttitudeMeasurement& m) { return m.omega.y(); }},
+    {"gyro.wz", true, [](const AttitudeMeasurement& m) { return m.omega.z(); }},
+    {"gyro.bias_x", true, [](const AttitudeMeasurement& m) { return m.gyro_bias.x(); }},
+    {"gyro.bias_y", true, [](const AttitudeMeasurement& m) { return m.gyro_bias.y(); }},
+    {"gyro.bias_z", true, [](const AttitudeMeasurement& m) { return m.gyro_bias.z(); }},
+    {"star_tracker.qw", false, [](const AttitudeMeasurement& m) { return m.q.w(); }},
+    {"star_tracker.qx", false, [](const AttitudeMeasurement& m) { return m.q.vec().x(); }},
+    {"star_tracker.qy", false, [](const AttitudeMeasurement& m) { return m.q.vec().y(); }},
+    {"star_tracker.qz", false, [](const AttitudeMeasurement& m) { return m.q.vec().z(); }},
+};
+
+bool has_column(const AttitudeSensors& sensors, const SensorColumn& c) {
+  return c.gyro ? sensors.has_gyro() : sensors.has_star_tracker();
+}
+
+}  // namespace
+
 std::vector<std::string> sensor_header(const Scenario& s) {
   if (!s.wheel_control || !s.wheel_control->sensors()) return {};
   std::vector<std::string> h{"t"};
-  if (s.wheel_control->sensors()->has_gyro())
-    h.insert(h.end(), {"gyro.wx", "gyro.wy", "gyro.wz", "gyro.bias_x", "gyro.bias_y", "gyro.bias_z"});
-  if (s.wheel_control->sensors()->has_star_tracker())
-    h.insert(h.end(), {"star_tracker.qw", "star_tracker.qx", "star_tracker.qy", "star_tracker.qz"});
+  for (const SensorColumn& c : sensor_columns)
+    if (has_column(*s.wheel_control->sensors(), c)) h.emplace_back(c.name);
   return h;
 }
 
-void write_sensor_readings(const std::string& dir, const SimulationResult& result) {
-  if (result.sensor_columns.empty()) return;
-  std::string text;
-  for (std::size_t c = 0; c < result.sensor_columns.size(); ++c) text += (c ? "," : "") + result.sensor_columns[c];
-  text += "\n";
-  const std::size_t width = result.sensor_columns.size();
-  for (std::size_t at = 0; at + width <= result.sensor_readings.size(); at += width)
-    for (std::size_t c = 0; c < width; ++c)
-      fmt::format_to(std::back_inserter(text), "{:.17g}{}", result.sensor_readings[at + c], c + 1 < width ? "," : "\n");
-  write_file_atomically((std::filesystem::path(dir) / "sensors.csv").string(), text);
+std::vector<std::string> wheel_row_header(const Scenario& s) {
+  if (!s.bodies_format || !s.system.has_wheels()) return {};
+  return {"t", "body", "wheel", "speed", "momentum", "torque"};
+}
+
+void write_side_tables(const std::string& dir, const SimulationResult& result) {
+  for (const SideTable* table : {&result.sensors, &result.wheels}) {
+    if (table->columns.empty()) continue;
+    std::string text;
+    for (std::size_t c = 0; c < table->columns.size(); ++c) text += (c ? "," : "") + table->columns[c];
+    text += "\n";
+    const std::size_t width = table->columns.size();
+    for (std::size_t at = 0; at + width <= table->values.size(); at += width)
+      for (std::size_t c = 0; c < width; ++c)
+        fmt::format_to(std::back_inserter(text), "{:.17g}{}", table->values[at + c], c + 1 < width ? "," : "\n");
+    write_file_atomically((std::filesystem::path(dir) / table->file).string(), text);
+  }
 }
 
 ThermoColumns thermo_columns(const Scenario& s) {
@@ -246,66 +278,81 @@ struct Recorder {
   std::vector<double> wheel_commands = {};  ///< per wheel, its command at the observed state
   std::vector<double> wheel_speeds = {};    ///< per wheel, its speed relative to the body there
   std::vector<double> wheel_columns = {};   ///< per wheel, its speed, momentum and applied torque there
-  std::vector<double> sensor_readings = {};  ///< SimulationResult::sensor_readings
+  std::vector<double> sensor_readings = {};  ///< SimulationResult::sensors' values
+  bool wheels = scenario.system.has_wheels();
+  /// A system's wheels at the written frames (SimulationResult::wheel_rows).
+  std::vector<double> wheel_rows = {};
 
+  /// A row of sensors.csv (sensor_header's columns).
   void record_sensors(double t, const AttitudeSensors& sensors, const AttitudeMeasurement& m) {
     sensor_readings.push_back(t);
-    if (sensors.has_gyro())
-      sensor_readings.insert(sensor_readings.end(), {m.omega.x(), m.omega.y(), m.omega.z(), m.gyro_bias.x(),
-                                                     m.gyro_bias.y(), m.gyro_bias.z()});
-    if (sensors.has_star_tracker())
-      sensor_readings.insert(sensor_readings.end(), {m.q.w(), m.q.vec().x(), m.q.vec().y(), m.q.vec().z()});
+    for (const SensorColumn& c : sensor_columns)
+      if (has_column(sensors, c)) sensor_readings.push_back(c.value(m));
   }
   /// SimulationOptions::observe_step (may be empty).
   std::function<void(std::int64_t, double, const SystemState&)> observe_step = {};
 
-  /// Body 0's wheels at this state (a [body] with [[body.wheel]]), at every step: into the statistics, and
-  /// their columns (speed, momentum, torque per wheel) into wheel_columns. The torque is the command at t
-  /// after the limits (Wheel::applied_torque), as the step from t applies it (lgvi.hpp's kick_wheels).
-  void observe_wheels(const SystemStepInfo& i) {
-    const Wheels& wheels = scenario.body().wheels();
+  /// The wheels of every body that has them, at this state and every step: into the statistics (per wheel,
+  /// body by body), body 0's columns (speed, momentum, torque per wheel) into wheel_columns for a single
+  /// body's rows, and at a written frame of a system one row per wheel into wheel_rows (WheelRow). The
+  /// torque is the command at t after the limits (Wheel::applied_torque), as the step from t applies it
+  /// (lgvi.hpp's kick_wheels).
+  void observe_wheels(const SystemStepInfo& i, bool written) {
+    const System& sys = scenario.system;
     const SystemState& s = i.state;
-    if (stats.wheels.size() != wheels.size()) stats.wheels.assign(wheels.size(), {});
-    wheel_commands.assign(wheels.size(), 0.0);
-    const Vector3<double> omega = wheels.body_rate(s.w[0], s.eta[0].data());
-    wheel_speeds.resize(wheels.size());
-    for (std::size_t w = 0; w < wheels.size(); ++w) wheel_speeds[w] = wheels.relative_speed(w, s.eta[0].data(), omega);
-    for (const WheelTorque& u : scenario.wheel_torques) wheel_commands[u.wheel] += u.torque.at(i.t);
     const bool end = scenario.integrator.ends(i.k, i.t);
-    if (wheel_control) {
-      if (i.k == 0) wheel_control->reset();
-      // The controller's samples, as the stepper takes them (not at the last state: no step follows, and a
-      // law of one's own is called once per sample): what its sensors read. The last row holds the last
-      // command.
-      if (!end && wheel_control->sample(i.t, s.q[0], omega, wheel_speeds) && wheel_control->sensors())
-        record_sensors(i.t, *wheel_control->sensors(), wheel_control->measured());
-      for (std::size_t w = 0; w < wheels.size(); ++w) wheel_commands[w] += wheel_control->command()[w];
-    }
-    wheel_columns.clear();
     // The step from t applies these torques over h: the statistics of torque and time count it, except at
     // the end (no step follows).
     const double h = end ? 0.0 : scenario.integrator.step;
+    const bool rows = written && scenario.bodies_format;
+    wheel_columns.clear();
     bool any_limited = false;
-    for (std::size_t w = 0; w < wheels.size(); ++w) {
-      const double speed = wheel_speeds[w];
-      const double u = wheels[w].applied_torque(wheel_commands[w], speed);
-      const bool limited = u != wheel_commands[w];
-      any_limited = any_limited || limited;
-      RunStatistics::WheelStatistics& st = stats.wheels[w];
-      st.max_speed = std::max(st.max_speed, std::abs(speed));
-      if (!end) st.max_torque = std::max(st.max_torque, std::abs(u));
-      if (limited) st.time_limited += h;
-      if (!end && wheel_control) stats.wheel_effort += std::abs(u) * h;  // held over the step
-      wheel_columns.insert(wheel_columns.end(), {speed, s.eta[0][w], u});
+    std::size_t first = 0;  // body a's first wheel in stats.wheels
+    for (std::size_t a = 0; a < sys.size(); ++a) {
+      const Wheels& wheels = sys.body(a).wheels();
+      if (wheels.empty()) continue;
+      if (stats.wheels.size() < first + wheels.size()) stats.wheels.resize(first + wheels.size());
+      wheel_commands.assign(wheels.size(), 0.0);
+      const Vector3<double> omega = wheels.body_rate(s.w[a], s.eta[a].data());
+      wheel_speeds.resize(wheels.size());
+      for (std::size_t w = 0; w < wheels.size(); ++w) wheel_speeds[w] = wheels.relative_speed(w, s.eta[a].data(), omega);
+      for (const WheelTorque& u : scenario.wheel_torques)
+        if (u.body == a) wheel_commands[u.wheel] += u.torque.at(i.t);
+      if (wheel_control && a == 0) {
+        if (i.k == 0) wheel_control->reset();
+        // The controller's samples, as the stepper takes them (not at the last state: no step follows, and a
+        // law of one's own is called once per sample): what its sensors read. The last row holds the last
+        // command.
+        if (!end && wheel_control->sample(i.t, s.q[0], omega, wheel_speeds) && wheel_control->sensors())
+          record_sensors(i.t, *wheel_control->sensors(), wheel_control->measured());
+        for (std::size_t w = 0; w < wheels.size(); ++w) wheel_commands[w] += wheel_control->command()[w];
+      }
+      for (std::size_t w = 0; w < wheels.size(); ++w) {
+        const double speed = wheel_speeds[w];
+        const double u = wheels[w].applied_torque(wheel_commands[w], speed);
+        const bool limited = u != wheel_commands[w];
+        any_limited = any_limited || limited;
+        RunStatistics::WheelStatistics& st = stats.wheels[first + w];
+        st.max_speed = std::max(st.max_speed, std::abs(speed));
+        if (!end) st.max_torque = std::max(st.max_torque, std::abs(u));
+        if (limited) st.time_limited += h;
+        if (!end && wheel_control && a == 0) stats.wheel_effort += std::abs(u) * h;  // held over the step
+        if (a == 0 && !scenario.bodies_format) wheel_columns.insert(wheel_columns.end(), {speed, s.eta[a][w], u});
+        if (rows)
+          wheel_rows.insert(wheel_rows.end(),
+                            {i.t, static_cast<double>(a), static_cast<double>(w), speed, s.eta[a][w], u});
+      }
+      // A wheel-torque table may switch inside a step: its effort is the impulse the step gives (kick_wheels).
+      if (!end)
+        for (const WheelTorque& u : scenario.wheel_torques) {
+          if (u.body != a) continue;
+          const Wheel& wheel = wheels[u.wheel];
+          stats.wheel_effort += std::abs(wheel.speed_limited(u.torque.impulse(i.t, i.t + h, wheel.max_torque),
+                                                             wheel_speeds[u.wheel]));
+        }
+      first += wheels.size();
     }
     if (any_limited) stats.wheels_saturated_time += h;
-    // A wheel-torque table may switch inside a step: its effort is the impulse the step gives (kick_wheels).
-    if (!end)
-      for (const WheelTorque& u : scenario.wheel_torques) {
-        const Wheel& wheel = wheels[u.wheel];
-        stats.wheel_effort += std::abs(wheel.speed_limited(u.torque.impulse(i.t, i.t + h, wheel.max_torque),
-                                                           wheel_speeds[u.wheel]));
-      }
   }
 
   /// The kinetic temperature and the pressure of a written frame (thermo_columns),
@@ -435,8 +482,7 @@ struct Recorder {
     stats.observed = true;
     if (observe_step) observe_step(i.k, i.t, s);
     const bool written = i.k % scenario.output_every == 0 || scenario.integrator.ends(i.k, i.t) || contact_stop;
-    const bool wheels = !scenario.bodies_format && scenario.body().has_wheels();
-    if (wheels) observe_wheels(i);  // every step: the statistics
+    if (wheels) observe_wheels(i, written);  // every step: the statistics
     if (!written) return;
     if (!scenario.bodies_format) {
       const SingleBodyRow row(i.t, s.body(0), energy, de, dq, L, dl, forced ? std::optional(i.work) : std::nullopt);
@@ -478,6 +524,20 @@ void load_checkpoint(Stepper& stepper, const Scenario& sc, const Checkpoint& c, 
   if (c.state.size() != sc.bodies())
     throw CheckpointError(c.path + ": checkpoint field 'run.state' holds " + std::to_string(c.state.size()) +
                           " bodies, the scenario has " + std::to_string(sc.bodies()));
+  std::size_t wheels_total = 0;
+  for (std::size_t a = 0; a < sc.bodies(); ++a) {
+    const std::size_t wheels = sc.system.body(a).wheels().size();
+    const std::size_t held = c.state.eta.empty() ? 0 : c.state.eta[a].size();
+    if (held != wheels)
+      throw CheckpointError(c.path + ": checkpoint field 'run.wheel_counts' holds " + std::to_string(held) +
+                            " reaction wheels for body " + std::to_string(a) + ", the scenario has " +
+                            std::to_string(wheels));
+    wheels_total += wheels;
+  }
+  if (!c.stats.wheels.empty() && c.stats.wheels.size() != wheels_total)
+    throw CheckpointError(c.path + ": checkpoint field 'statistics.wheels' holds " +
+                          std::to_string(c.stats.wheels.size()) + " wheels, the scenario has " +
+                          std::to_string(wheels_total));
   state = c.state;
   try {
     stepper.load(state, static_cast<double>(c.k) * sc.integrator.step, c.stepper);
@@ -502,6 +562,9 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
   // folder as it was. A step that fails at the loaded state is the run's
   // failure at that step, reported with the sink open as for any other.
   std::optional<StepFailure> load_failure;
+  // The recorder's copy of the wheel controller and the sensors' readings so far (Recorder).
+  std::optional<WheelAttitudeControl> recorder_control = sc.wheel_control;
+  std::vector<double> sensor_readings, wheel_rows;
   if (opt.resume) {
     stats = opt.resume->stats;
     k0 = opt.resume->k;
@@ -510,11 +573,31 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
     } catch (const StepFailure& f) {
       load_failure = f;
     }
+    try {
+      const CheckpointFields& in = opt.resume->recorder;
+      if (recorder_control)
+        recorder_control->load(in, "recorder.wheel_control", static_cast<double>(k0) * sc.integrator.step, true);
+      // The side tables' rows so far (SimulationResult::sensors, wheels).
+      for (auto [name, width, rows] : {std::tuple{"recorder.sensor_readings", sensor_header(sc).size(), &sensor_readings},
+                                       std::tuple{"recorder.wheel_rows", wheel_row_header(sc).size(), &wheel_rows}}) {
+        if (width == 0) continue;
+        *rows = in.f64(name);
+        if (rows->size() % width != 0)
+          throw InvalidInput("checkpoint field '" + std::string(name) + "' holds " + std::to_string(rows->size()) +
+                             " values, not rows of " + std::to_string(width));
+      }
+      in.require_all_read();
+    } catch (const InvalidInput& e) {
+      throw CheckpointError(opt.resume->path + ": " + e.what());
+    }
   }
   TrajectorySink& sink = open_sink();
   ContactWatch contact(sc, stats);
   if (opt.resume) contact.resume_at(k0);
   Recorder recorder{sc, sink, stats, contact};
+  recorder.wheel_control = std::move(recorder_control);
+  recorder.sensor_readings = std::move(sensor_readings);
+  recorder.wheel_rows = std::move(wheel_rows);
   recorder.observe_step = opt.observe_step;
   recorder.thermo = thermo_columns(sc);
   if (opt.resume && recorder.thermo != ThermoColumns::none && stats.thermo.frames == 0) {
@@ -537,6 +620,9 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
     c.k = k;
     c.state = state;
     stepper.save(c.stepper);
+    if (recorder.wheel_control) recorder.wheel_control->save(c.recorder, "recorder.wheel_control");
+    if (!sensor_header(sc).empty()) c.recorder.put_f64("recorder.sensor_readings", recorder.sensor_readings);
+    if (!wheel_row_header(sc).empty()) c.recorder.put_f64("recorder.wheel_rows", recorder.wheel_rows);
     c.stats = stats;
     c.stats.wall_seconds_before += elapsed();
     c.stats.potential_evaluations += evaluations;  // this leg's so far: a resumed run's total counts them
@@ -606,8 +692,8 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
   }
   result.wall_seconds = stats.wall_seconds_before + elapsed();
   result.final_state = state;
-  result.sensor_columns = sensor_header(sc);
-  result.sensor_readings = std::move(recorder.sensor_readings);
+  result.sensors = {"sensors.csv", sensor_header(sc), std::move(recorder.sensor_readings)};
+  result.wheels = {"wheels.csv", wheel_row_header(sc), std::move(recorder.wheel_rows)};
   return result;
 }
 
@@ -619,10 +705,10 @@ SimulationResult simulate_with(const Scenario& sc, const CallablePotential* fiel
                                const SimulationOptions& opt) {
   if (opt.checkpoint_every > 0 && opt.checkpoint_path.empty())
     throw InvalidInput("checkpoint_every is set but no checkpoint path is given");
-  // A checkpoint does not hold the wheels' momenta yet (SystemState::eta): refused rather than resumed wrong.
-  if ((opt.checkpoint_every > 0 || opt.resume) && !sc.bodies_format && sc.body().has_wheels())
-    throw InvalidInput("--checkpoint-every: a run with reaction wheels ([[body.wheel]]) cannot be checkpointed "
-                       "or resumed yet");
+  // A control law of one's own (Python) keeps a state of its own, which a checkpoint cannot hold.
+  if ((opt.checkpoint_every > 0 || opt.resume) && sc.wheel_control && sc.wheel_control->has_custom_law())
+    throw InvalidInput("checkpoint_every: a run with a control law of one's own cannot be checkpointed or resumed "
+                       "(the law's state is its own)");
   std::int64_t count = 0;
   const ScenarioSystemPotential potential = scenario_system_potential(sc, field, &count);
   SimulationResult r = with_stepper(sc, potential, scenario_parallelism(sc),

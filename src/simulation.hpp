@@ -92,6 +92,15 @@ struct SimulationOptions {
   std::function<void(std::int64_t, double, const SystemState&)> observe_step;
 };
 
+/// A table of numbers written beside the trajectory, DIR/file: a header of its columns, then its rows
+/// ({:.17g}: the same doubles read back). No columns: no file.
+struct SideTable {
+  std::string file;
+  std::vector<std::string> columns;
+  std::vector<double> values;  ///< the rows, row-major
+  std::size_t rows() const { return columns.empty() ? 0 : values.size() / columns.size(); }
+};
+
 struct SimulationResult {
   bool completed = false;
   bool interrupted = false;  ///< stopped on request (stop_flag)
@@ -99,19 +108,25 @@ struct SimulationResult {
   RunStatistics stats;
   SystemState final_state;
   double wall_seconds = 0.0;  ///< integration loop with diagnostics and row output, all legs
-  /// With [[sensor]]: what the controller read at each of its samples, rows of sensor_columns
-  /// (sensor_header) in order, flattened.
-  std::vector<std::string> sensor_columns;
-  std::vector<double> sensor_readings;
+  /// With [[sensor]]: what the controller read at each of its samples (sensors.csv, sensor_header).
+  SideTable sensors;
+  /// A system ([[bodies]]) with reaction wheels: per written frame and wheel its speed relative to its
+  /// body, its momentum and the torque applied over the step from t (wheels.csv: t, body, wheel, speed,
+  /// momentum, torque; body and wheel are indices, named in the summary). A single [body]'s wheels are
+  /// trajectory columns instead.
+  SideTable wheels;
 };
 
 /// The columns of the sensors' readings: t, then gyro.wx, gyro.wy, gyro.wz, gyro.bias_x, gyro.bias_y,
 /// gyro.bias_z with a gyro, star_tracker.qw, .qx, .qy, .qz with a star tracker; empty without sensors.
 std::vector<std::string> sensor_header(const Scenario& s);
 
-/// DIR/sensors.csv: the sensors' readings of a run (sensor_header, then one row per sample, {:.17g}: the
-/// same doubles read back), also of a failed run up to its last sample; nothing without sensors.
-void write_sensor_readings(const std::string& dir, const SimulationResult& result);
+/// The columns of a system's wheels.csv (SimulationResult::wheels); empty without wheels on [[bodies]].
+std::vector<std::string> wheel_row_header(const Scenario& s);
+
+/// A run's side tables (SimulationResult::sensors, wheels) in DIR, also of a failed run up to where it
+/// stopped; nothing for a table without columns.
+void write_side_tables(const std::string& dir, const SimulationResult& result);
 
 /// The diagnostics of one step of one body, as a row of the single-body
 /// layout (trajectory_header): t, x, q (scalar first), p, w, energy, its

@@ -258,23 +258,30 @@ auto with_summary(const Scenario& sc, const SimulationResult& r, Use&& use) {
     s["work"] = st.work;
     s["energy_error_is"] = "E - E0 - work";
   }
-  if (!sc.bodies_format && sc.body().has_wheels() && !st.wheels.empty()) {
-    const Wheels& wheels = sc.body().wheels();
+  if (sc.system.has_wheels() && !st.wheels.empty()) {
+    // Per wheel, body by body (a system's entries name their body), as RunStatistics::wheels.
     const SystemState& end = r.final_state;
-    const bool has_end = end.eta.size() == 1 && end.eta[0].size() == wheels.size();
-    const Vector3<double> omega = has_end ? wheels.body_rate(end.w[0], end.eta[0].data()) : Vector3<double>::Zero();
     Json list = Json::array();
-    for (std::size_t w = 0; w < wheels.size(); ++w) {
-      const RunStatistics::WheelStatistics& ws = st.wheels[w];
-      Json entry = {{"name", wheels[w].name},
-                    {"max_abs_speed", ws.max_speed},
-                    {"max_abs_torque", ws.max_torque},
-                    {"time_at_a_limit", ws.time_limited}};
-      if (has_end) {  // with "final": the state a run continuing from it needs
-        entry["final_speed"] = wheels.relative_speed(w, end.eta[0].data(), omega);
-        entry["final_momentum"] = end.eta[0][w];
+    std::size_t at = 0;  // the wheel's index in st.wheels
+    for (std::size_t a = 0; a < sc.bodies() && at < st.wheels.size(); ++a) {
+      const Wheels& wheels = sc.system.body(a).wheels();
+      if (wheels.empty()) continue;
+      const bool has_end = end.eta.size() == end.size() && end.size() == sc.bodies() && end.eta[a].size() == wheels.size();
+      const Vector3<double> omega = has_end ? wheels.body_rate(end.w[a], end.eta[a].data()) : Vector3<double>::Zero();
+      for (std::size_t w = 0; w < wheels.size() && at < st.wheels.size(); ++w, ++at) {
+        const RunStatistics::WheelStatistics& ws = st.wheels[at];
+        Json entry;
+        if (sc.bodies_format) entry["body"] = sc.system.name(a);
+        entry["name"] = wheels[w].name;
+        entry["max_abs_speed"] = ws.max_speed;
+        entry["max_abs_torque"] = ws.max_torque;
+        entry["time_at_a_limit"] = ws.time_limited;
+        if (has_end) {  // with "final": the state a run continuing from it needs
+          entry["final_speed"] = wheels.relative_speed(w, end.eta[a].data(), omega);
+          entry["final_momentum"] = end.eta[a][w];
+        }
+        list.push_back(std::move(entry));
       }
-      list.push_back(std::move(entry));
     }
     s["wheels"] = std::move(list);
     // Over all wheels: the motors' total torque impulse (the control effort) and the time during which at

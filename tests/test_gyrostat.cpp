@@ -4,6 +4,11 @@
 // torques), the total angular momentum to round-off under motor torques that
 // switch inside steps, every commanded impulse delivered exactly, the limits,
 // the energy, and the model's checks.
+#include "checkpoint.hpp"
+#include "memory_sink.hpp"
+#include "scenario.hpp"
+#include "simulation.hpp"
+
 #include <lgvi/gyrostat.hpp>
 #include <lgvi/interaction.hpp>
 #include <lgvi/lgvi.hpp>
@@ -12,9 +17,16 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <stdexcept>
 #include <string>
 #include <vector>
+
+#include <unistd.h>
 
 namespace {
 
@@ -330,4 +342,159 @@ TEST(Sensors, AReadingDependsOnItsSampleNumberAlone) {
   EXPECT_EQ(truth.omega, omega);
   EXPECT_EQ(truth.q.quaternion().coeffs(), q.quaternion().coeffs());
   EXPECT_THROW(lgvi::AttitudeSensors(gyro, tracker, 0.0), lgvi::InvalidInput);
+}
+
+// Checkpoint and resume with reaction wheels (simulation.cpp, checkpoint.cpp): a run resumed from a
+// checkpoint continues bit for bit, since the checkpoint holds every number the rest of the run reads —
+// the wheels' momenta eta, the stepper's wheel work and its controller's held commands and sample count,
+// the sensors' bias walk, the recorder's copy of the controller, the readings so far and the wheel
+// statistics. Two runs: scenarios/slew-wheels.toml (a sampled controller with a gyro and a star tracker
+// under gravity gradient; its period made 0.7 s = 7 steps so that the checkpoint at step 995 falls inside
+// a held command, and 995 is not an output step either) and scenarios/wheel-slew.toml (torque tables).
+namespace {
+
+std::string replaced(std::string text, const std::string& old, const std::string& with) {
+  const std::size_t at = text.find(old);
+  if (at == std::string::npos || text.find(old, at + 1) != std::string::npos)
+    throw std::logic_error("test: '" + old + "' is not in the scenario once");
+  return text.replace(at, old.size(), with);
+}
+
+std::string scenario_text(const std::string& file) {
+  std::ifstream in(std::string(LGVI_SCENARIO_DIR) + "/" + file);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+struct Leg {
+  lgvi::app::SimulationResult result;
+  std::vector<double> rows;
+  std::int64_t columns = 0;
+};
+
+Leg run_leg(const lgvi::app::Scenario& sc, const lgvi::app::SimulationOptions& opt) {
+  lgvi::app::MemorySink sink(0, lgvi::app::scenario_layout(sc));
+  Leg leg;
+  leg.result = lgvi::app::simulate(sc, sink, opt);
+  leg.columns = sink.layout().columns;
+  leg.rows = sink.take();
+  return leg;
+}
+
+void expect_resume_is_bit_identical(const lgvi::app::Scenario& sc, std::int64_t every) {
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("lgvi-test-wheels-" + std::to_string(::getpid()) + ".bin")).string();
+  lgvi::app::SimulationOptions opt;
+  opt.checkpoint_every = every;
+  opt.checkpoint_path = path;
+  const Leg full = run_leg(sc, opt);
+  ASSERT_TRUE(full.result.completed) << full.result.error;
+  const lgvi::app::Checkpoint c = lgvi::app::read_checkpoint(path);
+  std::filesystem::remove(path);
+  ASSERT_EQ(c.k, every);  // the only checkpoint: the runs have fewer than 2 x every steps
+  ASSERT_EQ(c.state.eta.size(), sc.bodies());
+  lgvi::app::SimulationOptions again;
+  again.resume = &c;
+  const Leg rest = run_leg(sc, again);
+  ASSERT_TRUE(rest.result.completed) << rest.result.error;
+  // The rows after the checkpoint: the tail of the whole run's, to the bit.
+  ASSERT_GT(rest.rows.size(), 0u);
+  ASSERT_LE(rest.rows.size(), full.rows.size());
+  const std::vector<double> tail(full.rows.end() - static_cast<std::ptrdiff_t>(rest.rows.size()), full.rows.end());
+  EXPECT_EQ(rest.rows, tail);
+  const SystemState &a = full.result.final_state, &b = rest.result.final_state;
+  EXPECT_EQ(a.eta, b.eta);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a.w[i], b.w[i]);
+    EXPECT_EQ(a.q[i].quaternion().coeffs(), b.q[i].quaternion().coeffs());
+  }
+  const lgvi::app::RunStatistics &s = full.result.stats, &r = rest.result.stats;
+  ASSERT_EQ(s.wheels.size(), r.wheels.size());
+  for (std::size_t i = 0; i < s.wheels.size(); ++i) {
+    EXPECT_EQ(s.wheels[i].max_speed, r.wheels[i].max_speed);
+    EXPECT_EQ(s.wheels[i].max_torque, r.wheels[i].max_torque);
+    EXPECT_EQ(s.wheels[i].time_limited, r.wheels[i].time_limited);
+  }
+  EXPECT_EQ(s.wheel_effort, r.wheel_effort);
+  EXPECT_EQ(s.wheels_saturated_time, r.wheels_saturated_time);
+  EXPECT_EQ(s.max_energy_error, r.max_energy_error);  // E - E0 - W: the motors' work W carried over
+  EXPECT_EQ(s.max_momentum_error, r.max_momentum_error);
+  EXPECT_EQ(full.result.sensors.values, rest.result.sensors.values);
+  EXPECT_EQ(full.result.wheels.values, rest.result.wheels.values);  // a system's wheels.csv
+}
+
+}  // namespace
+
+TEST(WheelCheckpoint, AResumedControlledRunWithSensorsIsBitIdentical) {
+  std::string text = replaced(scenario_text("slew-wheels.toml"), "period = 0.1 ", "period = 0.7 ");
+  text = replaced(text, "duration = 300.0", "duration = 150.0");
+  const lgvi::app::Scenario sc = lgvi::app::parse_scenario(text, "slew-wheels");
+  ASSERT_TRUE(sc.wheel_control && sc.wheel_control->sensors());
+  expect_resume_is_bit_identical(sc, 995);
+}
+
+TEST(WheelCheckpoint, AResumedRunOfTorqueTablesIsBitIdentical) {
+  expect_resume_is_bit_identical(lgvi::app::parse_scenario(scenario_text("wheel-slew.toml"), "wheel-slew"), 350);
+}
+
+// A system's spacecraft with wheels ([[bodies.wheel]], tests/reference/formation-wheels.toml): the checkpoint
+// holds every body's wheel momenta and the rows of wheels.csv so far; the resumed run gives the same rows
+// and wheel table.
+TEST(WheelCheckpoint, AResumedSystemWithWheelsIsBitIdentical) {
+  std::ifstream in(std::string(LGVI_TEST_REFERENCE_DIR) + "/formation-wheels.toml");
+  const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  const lgvi::app::Scenario sc = lgvi::app::parse_scenario(text, "formation");
+  ASSERT_EQ(sc.bodies(), 2u);
+  expect_resume_is_bit_identical(sc, 355);
+}
+
+// A checkpoint resumed with a scenario whose body has other wheels, or whose controller has another
+// period, is refused, naming the field (not run on with the wrong state); a run with a control law of one's
+// own (Python's) is not checkpointed (the law's state is not lgvi's).
+TEST(WheelCheckpoint, MismatchesAndLawsOfOnesOwnAreRefused) {
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("lgvi-test-wheels-refused-" + std::to_string(::getpid()) + ".bin")).string();
+  const std::string text = scenario_text("wheel-slew.toml");
+  const lgvi::app::Scenario sc = lgvi::app::parse_scenario(text, "wheel-slew");
+  lgvi::app::SimulationOptions opt;
+  opt.checkpoint_every = 350;
+  opt.checkpoint_path = path;
+  run_leg(sc, opt);
+  const lgvi::app::Checkpoint c = lgvi::app::read_checkpoint(path);
+  std::filesystem::remove(path);
+  auto refused = [](const lgvi::app::Scenario& other, const lgvi::app::Checkpoint& from, const std::string& field) {
+    lgvi::app::SimulationOptions again;
+    again.resume = &from;
+    try {
+      run_leg(other, again);
+      ADD_FAILURE() << "resumed a checkpoint that does not fit";
+    } catch (const lgvi::app::CheckpointError& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  };
+  // A second wheel on the body (its moment within the body's).
+  refused(lgvi::app::parse_scenario(replaced(text, "max_torque = 0.05", "max_torque = 0.05\n[[body.wheel]]\n"
+                                                                         "axis = [1.0, 0.0, 0.0]\ninertia = 0.01\n"
+                                                                         "speed = 0.0\n"),
+                                    "two-wheels"),
+          c, "'run.wheel_counts'");
+  // The controller's period doubled after a checkpoint inside a held command (at 995, period 0.7 s).
+  std::string slew = replaced(scenario_text("slew-wheels.toml"), "period = 0.1 ", "period = 0.7 ");
+  slew = replaced(slew, "duration = 300.0", "duration = 150.0");
+  opt.checkpoint_every = 995;
+  run_leg(lgvi::app::parse_scenario(slew, "slew-wheels"), opt);
+  const lgvi::app::Checkpoint held = lgvi::app::read_checkpoint(path);
+  std::filesystem::remove(path);
+  refused(lgvi::app::parse_scenario(replaced(slew, "period = 0.7 ", "period = 1.4 "), "slew-wheels"), held,
+          "wheel_control.samples'");
+  lgvi::app::Scenario own = lgvi::app::parse_scenario(scenario_text("slew-wheels.toml"), "slew-wheels");
+  own.wheel_control->set_law([](double, const lgvi::AttitudeMeasurement&, const std::vector<double>&) { return V3::Zero().eval(); });
+  opt.checkpoint_path = path;
+  try {
+    run_leg(own, opt);
+    ADD_FAILURE() << "checkpointed a law of one's own";
+  } catch (const lgvi::InvalidInput& e) {
+    // Refused before the run (simulate's check), not at its first checkpoint.
+    EXPECT_EQ(std::string(e.what()).rfind("checkpoint_every: a run with a control law of one's own", 0), 0u) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(path));
 }

@@ -3,6 +3,7 @@
 // commands held between samples.
 #pragma once
 
+#include <lgvi/checkpoint_fields.hpp>
 #include <lgvi/error.hpp>
 #include <lgvi/forcing.hpp>
 #include <lgvi/rotation_solver.hpp>
@@ -217,6 +218,40 @@ class WheelAttitudeControl {
     std::fill(command_.begin(), command_.end(), 0.0);
     if (sensors_) sensors_->reset();
     if (custom_) custom_->valid = false;
+  }
+  /// A checkpoint's fields under `prefix` (checkpoint_fields.hpp): "PREFIX.samples" (whether it has
+  /// sampled, the next sample's number), "PREFIX.command" (the held command per wheel) and, with sensors,
+  /// theirs under "PREFIX.sensors". A law of one's own (set_law) keeps a state lgvi cannot save: refused
+  /// (InvalidInput).
+  void save(CheckpointFields& out, const std::string& prefix) const {
+    if (custom_) throw InvalidInput("a control law of one's own (Python) cannot be checkpointed: its state is its own");
+    out.put_i64(prefix + ".samples", {sampled_ ? 1 : 0, next_sample_});
+    out.put_f64(prefix + ".command", command_);
+    if (sensors_) sensors_->save(out, prefix + ".sensors");
+  }
+  /// Restores what save(out, prefix) wrote at the step from time t (InvalidInput, naming the field, for a
+  /// field missing or of the wrong size, or one that does not fit this controller at t, e.g. after its
+  /// period was changed). A sampled law's next sample is floor(t / period) + 1 once it has been given the
+  /// state at t (`sampled_at_t`: the recorder's copy), at most that before (the stepper's).
+  void load(const CheckpointFields& in, const std::string& prefix, double t, bool sampled_at_t) {
+    const std::vector<std::int64_t>& n = in.i64(prefix + ".samples", 2);
+    command_ = in.f64(prefix + ".command", command_.size());
+    if (n[0] != 0 && n[0] != 1) throw InvalidInput("checkpoint field '" + prefix + ".samples' is damaged");
+    sampled_ = n[0] != 0;
+    next_sample_ = n[1];
+    if (law_.period > 0.0 && sampled_) {
+      const auto next = static_cast<std::int64_t>(std::floor(t / law_.period + 1e-9)) + 1;
+      if (next_sample_ < 0 || next_sample_ > next || (sampled_at_t && next_sample_ != next))
+        throw InvalidInput("checkpoint field '" + prefix + ".samples' holds the controller's next sample " +
+                           std::to_string(next_sample_) + ", which a period of " + std::to_string(law_.period) +
+                           " s does not give at t = " + std::to_string(t) + ": was the scenario's period or step "
+                           "changed?");
+    }
+    if (sensors_) {
+      sensors_->load(in, prefix + ".sensors");
+      if (sensors_->next_sample() > next_sample_)
+        throw InvalidInput("checkpoint field '" + prefix + ".sensors.samples' is ahead of the controller's samples");
+    }
   }
   /// What the law saw at its last sample (the true state without sensors).
   const AttitudeMeasurement& measured() const { return measured_; }

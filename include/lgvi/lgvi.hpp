@@ -244,11 +244,26 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
   /// Resumes at `s` from a checkpoint's fields (ImplicitStepperBase::save).
   void load(const SystemState& s, double t, const CheckpointFields& in) {
     initialize(s, t);
+    load_time_ = t;
     this->load_fields(in, "the predictor");
   }
 
  private:
   bool gyrostat(std::size_t a) const { return !gyrostats_.empty() && gyrostats_[a].has_value(); }
+
+  /// With reaction wheels, a checkpoint's fields (nothing otherwise): "stepper.wheels.work", the motor
+  /// torques' work so far, and the wheel controller's ("stepper.wheel_control.*", gyrostat.hpp). The
+  /// wheels' momenta are the state's (SystemState::eta); the torque tables are functions of t.
+  void save_extra(CheckpointFields& out) const override {
+    if (gyrostats_.empty()) return;
+    out.put_f64("stepper.wheels.work", {wheel_work_});
+    if (wheel_control_) wheel_control_->save(out, "stepper.wheel_control");
+  }
+  void load_extra(const CheckpointFields& in) override {
+    if (gyrostats_.empty()) return;
+    wheel_work_ = in.f64_value("stepper.wheels.work");
+    if (wheel_control_) wheel_control_->load(in, "stepper.wheel_control", load_time_, false);
+  }
 
   /// c = (h/2) h_w(eta_half): the wheels' momentum at the middle of the step (s.eta holds eta_half
   /// between kick_wheels and finish_wheels).
@@ -307,6 +322,7 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
   std::optional<WheelAttitudeControl> wheel_control_;
   std::vector<std::vector<double>> wheel_impulse_, wheel_speed_;  ///< per body and wheel, this step's
   double wheel_work_ = 0.0;
+  double load_time_ = 0.0;  ///< the t of load(), for load_extra's checks
 };
 
 template <Potential P>

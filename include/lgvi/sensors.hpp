@@ -15,6 +15,7 @@
 // repeatable and the same on any number of threads, in an ensemble on any rank, and across a resume.
 #pragma once
 
+#include <lgvi/checkpoint_fields.hpp>
 #include <lgvi/counter_random.hpp>
 #include <lgvi/error.hpp>
 #include <lgvi/s3.hpp>
@@ -22,6 +23,8 @@
 #include <cmath>
 #include <cstdint>
 #include <optional>
+#include <string>
+#include <vector>
 
 namespace lgvi {
 
@@ -89,6 +92,27 @@ class AttitudeSensors {
     next_ = n + 1;
     return m;
   }
+
+  /// A checkpoint's fields under `prefix` (checkpoint_fields.hpp): "PREFIX.gyro_bias" (the bias walked
+  /// so far, 3 numbers) and "PREFIX.samples" (the sample that bias is at, the next sample that may be
+  /// read). The draws themselves are functions of the sample number and need no state.
+  void save(CheckpointFields& out, const std::string& prefix) const {
+    out.put_f64(prefix + ".gyro_bias", {bias_.x(), bias_.y(), bias_.z()});
+    out.put_i64(prefix + ".samples", {bias_at_, next_});
+  }
+  /// Restores what save(out, prefix) wrote.
+  void load(const CheckpointFields& in, const std::string& prefix) {
+    const std::vector<double>& b = in.f64(prefix + ".gyro_bias", 3);
+    const std::vector<std::int64_t>& n = in.i64(prefix + ".samples", 2);
+    if (n[0] < 0 || n[1] < 0 || n[0] > std::max<std::int64_t>(n[1], 0))
+      throw InvalidInput("checkpoint field '" + prefix + ".samples' holds sample numbers out of order");
+    bias_ = Vector3<double>(b[0], b[1], b[2]);
+    bias_at_ = n[0];
+    next_ = n[1];
+  }
+
+  /// The smallest sample number that may be read next.
+  std::int64_t next_sample() const { return next_; }
 
   /// Back to the start: the initial bias, sample 0 next.
   void reset() {

@@ -89,6 +89,12 @@ class System {
     return d.kind.empty() ? a : d.kind[a];
   }
   const RigidBody& kind_body(std::size_t k) const { return data().kinds[k]; }
+  /// Whether any body has reaction wheels (then the state carries their momenta, SystemState::eta).
+  bool has_wheels() const {
+    for (const RigidBody& b : data().kinds)
+      if (b.has_wheels()) return true;
+    return false;
+  }
   const std::string& name(std::size_t a) const { return data().names[a]; }
   const std::vector<std::string>& names() const { return data().names; }
   const Box& box() const { return data().box; }

@@ -1006,7 +1006,7 @@ def simulate(scenario, potential=None, *, forcing=None, control=None, check=True
     sc = _scenario(scenario)
     core_pot = _potential.core_potential(potential)
     try:
-        data, summary_text, completed, error, sensor_columns, sensor_rows = _core.simulate(
+        data, summary_text, completed, error, tables = _core.simulate(
             sc._core, core_pot, _forcing.core_forcing(forcing), control)
     except ValueError as e:
         raise _value_error(e) from None
@@ -1015,8 +1015,11 @@ def simulate(scenario, potential=None, *, forcing=None, control=None, check=True
         summary["setup"]["potential"] = {"kind": "python", "function": repr(potential)}
     many = "bodies" in summary.get("setup", {})  # a [[bodies]] scenario: the long format
     result = SystemResult(data, summary, sc.toml) if many else Result(data, summary, sc.toml)
-    if sensor_columns:
-        result._sensors = {name: sensor_rows[:, j].copy() for j, name in enumerate(sensor_columns)}
+    # The side tables (the CLI's sensors.csv and wheels.csv): column name -> array.
+    side = {file: {n: rows[:, j].copy() for j, n in enumerate(columns)} for file, (columns, rows) in tables.items()}
+    result._sensors = side.get("sensors.csv", {})
+    if many:
+        result._wheel_rows = side.get("wheels.csv", {})
     if not completed and check:
         e = IntegrationError(error)
         e.step = summary.get("steps", 0)

@@ -161,7 +161,10 @@ def load(path):
         summary = _summary(folder, summary_text)
         if scenario is None:
             scenario = _read_side_file(folder, "scenario.toml")
-        return SystemResult(data, summary, scenario, source=file, columns=many)
+        result = SystemResult(data, summary, scenario, source=file, columns=many)
+        result._wheel_rows = _read_side_table(folder, "wheels.csv")  # a system's wheels ([[bodies.wheel]])
+        result._sensors = _read_side_table(folder, "sensors.csv")
+        return result
     _check_columns(names, file)
     if data.ndim != 2 or data.shape[1] != len(names):
         raise ValueError(f"{file}: trajectory has shape {data.shape}, expected (rows, {len(names)})")
@@ -174,15 +177,22 @@ def load(path):
     except json.JSONDecodeError as e:
         raise ValueError(f"{folder}: summary is not valid JSON ({e})") from None
     result = Result(data, summary, scenario, source=file)
-    sensors = os.path.join(folder, "sensors.csv")
-    if os.path.isfile(sensors):  # what a controller's sensors read (lgvi run writes it with [[sensor]])
-        with open(sensors, encoding="utf-8") as f:
-            names = [n.strip() for n in f.readline().strip().split(",")]
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # a run that failed before its first sample: the header alone
-            values = np.loadtxt(sensors, delimiter=",", skiprows=1, ndmin=2).reshape(-1, len(names))
-        result._sensors = {name: values[:, j].copy() for j, name in enumerate(names)}
+    result._sensors = _read_side_table(folder, "sensors.csv")  # what a controller's sensors read ([[sensor]])
     return result
+
+
+def _read_side_table(folder, name):
+    """A table the CLI writes beside the trajectory (sensors.csv, wheels.csv): column name -> array; {} if
+    the folder has none."""
+    path = os.path.join(folder, name)
+    if not os.path.isfile(path):
+        return {}
+    with open(path, encoding="utf-8") as f:
+        names = [n.strip() for n in f.readline().strip().split(",")]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # a run that failed before its first row: the header alone
+        values = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2).reshape(-1, len(names))
+    return {n: values[:, j].copy() for j, n in enumerate(names)}
 
 
 def _summary(folder, summary_text):

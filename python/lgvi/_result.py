@@ -27,6 +27,13 @@ class _RunSummary:
         """Why the run stopped early; "" if it completed."""
         return self.summary.get("error", "")
 
+    @property
+    def sensors(self):
+        """What the attitude controller's sensors ([[sensor]]) read at each of its samples: name -> (S,) array,
+        the names of the CLI's sensors.csv ("t", "gyro.wx", ..., "gyro.bias_x", ..., "star_tracker.qw", ...);
+        {} without sensors."""
+        return getattr(self, "_sensors", {})
+
     def __len__(self):
         return self.data.shape[0]
 
@@ -120,13 +127,6 @@ class Result(_RunSummary, _Attitude):
         for w in body_of(self.summary).get("wheels") or []:
             out[w["name"]] = {q: self.columns[f"{w['name']}.{q}"] for q in WHEEL_QUANTITIES}
         return out
-
-    @property
-    def sensors(self):
-        """What the attitude controller's sensors ([[sensor]]) read at each of its samples: name -> (S,) array,
-        the names of the CLI's sensors.csv ("t", "gyro.wx", ..., "gyro.bias_x", ..., "star_tracker.qw", ...);
-        {} without sensors."""
-        return self._sensors
 
     @property
     def x(self):
@@ -278,6 +278,25 @@ class SystemResult(_RunSummary, _Attitude):
         #: Column name -> array: (steps, N) for per-body columns, (steps,) for the system's.
         per_body = BODIES_COLUMNS.index("energy")  # the body's columns come first, then the system's
         self.columns = {name: (data[:, :, i] if i < per_body else data[:, 0, i]) for i, name in enumerate(names)}
+        self._wheel_rows = {}  # the CLI's wheels.csv: column name -> array
+        self._sensors = {}  # the CLI's sensors.csv (a system of one body with the wheel controller)
+
+    @property
+    def wheels(self):
+        """The reaction wheels ([[bodies.wheel]]) at the written steps: body name -> wheel name -> {"speed",
+        "momentum", "torque"} -> (steps,) arrays (speed relative to the body, axial momentum, the torque
+        applied over the step from that time; the CLI's wheels.csv); {} without wheels."""
+        rows = self._wheel_rows
+        if not rows or len(rows.get("t", ())) == 0:
+            return {}
+        out, counts = {}, {}
+        for entry in self.summary.get("wheels") or []:  # body by body, each body's wheels in order
+            body = entry["body"]
+            b, w = self.names.index(body), counts.get(body, 0)
+            counts[body] = w + 1
+            at = (rows["body"] == b) & (rows["wheel"] == w)
+            out.setdefault(body, {})[entry["name"]] = {q: rows[q][at] for q in WHEEL_QUANTITIES}
+        return out
 
     @property
     def temperature(self):

@@ -220,6 +220,10 @@ CallablePotential make_python_potential(py::object spec) { return CallablePotent
 /// torque in the body frame, q scalar-first.
 Scenario with_python_forcing(const Scenario& sc, py::object forcing) {
   if (forcing.is_none()) return sc;
+  // As the reader's rule for [[forcing]] beside wheels: a forcing reads a body's rate as a rigid body's.
+  if (sc.system.has_wheels())
+    throw py::value_error("forcing: a scenario with reaction wheels takes no Python forcing (it would read the "
+                          "body's rate as a rigid body's, not the gyrostat's)");
   const py::tuple spec = forcing.cast<py::tuple>();
   py::object f = spec[0];
   if (!PyCallable_Check(f.ptr())) throw py::value_error("forcing: must be callable as f(t, x, q, p, w)");
@@ -406,11 +410,15 @@ py::tuple run_simulation(const Scenario& scenario_in, py::object potential, py::
   const std::string summary = summary_json(sc, r);
   sink.close(sc.source_text, summary);
   const std::int64_t rows = sink.rows();
-  // The sensors' readings (SimulationResult::sensor_readings) as (columns, rows x columns array).
-  const std::size_t width = std::max<std::size_t>(1, r.sensor_columns.size());
-  const auto sensor_rows = static_cast<std::int64_t>(r.sensor_readings.size() / width);
-  return py::make_tuple(rows_array(sink.take(), rows, layout.columns), summary, r.completed, r.error,
-                        r.sensor_columns, rows_array(std::move(r.sensor_readings), sensor_rows, static_cast<int>(width)));
+  // The side tables (SimulationResult::sensors, wheels), each as {file: (columns, rows x columns array)}.
+  py::dict tables;
+  for (SideTable* table : {&r.sensors, &r.wheels}) {
+    if (table->columns.empty()) continue;
+    const auto table_rows = static_cast<std::int64_t>(table->rows());
+    tables[py::str(table->file)] = py::make_tuple(
+        table->columns, rows_array(std::move(table->values), table_rows, static_cast<int>(table->columns.size())));
+  }
+  return py::make_tuple(rows_array(sink.take(), rows, layout.columns), summary, r.completed, r.error, tables);
 }
 
 // ---------------------------------------------------------------------------

@@ -9,7 +9,9 @@ import json
 import math
 import os
 import pathlib
+import signal
 import subprocess
+import time
 
 import numpy as np
 import pytest
@@ -145,24 +147,94 @@ def test_compare_and_the_stepping_object_refuse_a_gyrostat(tmp_path):
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and "reaction wheels" in proc.stderr, proc.stderr
     with pytest.raises(ValueError, match="reaction wheels"):
         lgvi.Stepper(lgvi.Scenario.from_toml(SLEW))
+    (tmp_path / "formation.toml").write_text(FORMATION)  # a system's spacecraft with wheels, likewise
+    proc = subprocess.run([BINARY, "compare", str(tmp_path / "formation.toml"), "--out", str(tmp_path / "cmp2")],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and "reaction wheels" in proc.stderr, proc.stderr
 
 
 def test_wheels_elsewhere_are_refused_with_the_reason(tmp_path):
-    # A wheel torque without wheels; wheels on [[bodies]] (not yet read there); a checkpoint (not yet held).
+    # A wheel torque without wheels; wheels on a block of bodies (count).
     text = SLEW.read_text()
     no_wheel = text.split("[[body.wheel]]")[0] + "[potential]" + text.split("[potential]", 1)[1]
     (tmp_path / "none.toml").write_text(no_wheel)
     proc = run(tmp_path / "none.toml", tmp_path / "a")
     assert proc.returncode == 2 and "'forcing[0].kind'" in proc.stderr and "[[body.wheel]]" in proc.stderr
-    proc = run(SLEW, tmp_path / "b", "--checkpoint-every", "10")
-    assert proc.returncode == 2 and "cannot be checkpointed" in proc.stderr, proc.stderr
-    bodies = ('[[bodies]]\nname = "sat"\nmass = 1.0\ninertia = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]\n'
-              'position = [0.0, 0.0, 0.0]\nquaternion = [1.0, 0.0, 0.0, 0.0]\nmomentum = [0.0, 0.0, 0.0]\n'
-              'w = [0.0, 0.0, 0.0]\n[[bodies.wheel]]\naxis = [0.0, 0.0, 1.0]\ninertia = 0.1\nspeed = 0.0\n'
-              '[potential]\nkind = "none"\n[integrator]\nstep = 0.1\nduration = 1.0\n')
-    (tmp_path / "bodies.toml").write_text(bodies)
-    proc = run(tmp_path / "bodies.toml", tmp_path / "c")
-    assert proc.returncode == 2 and "'bodies[0].wheel'" in proc.stderr and "single [body]" in proc.stderr, proc.stderr
+    block = FORMATION.replace('name = "alpha"\n', 'name = "alpha"\ncount = 2\nspacing = 10.0\n')
+    (tmp_path / "block.toml").write_text(block)
+    proc = run(tmp_path / "block.toml", tmp_path / "c")
+    assert proc.returncode == 2 and "'bodies[0].wheel'" in proc.stderr and "of its own" in proc.stderr, proc.stderr
+
+
+# Two spacecraft with reaction wheels ([[bodies.wheel]]): see the file's comment.
+FORMATION = (SOURCE / "tests" / "reference" / "formation-wheels.toml").read_text()
+
+
+def _alone(name):
+    """The [body] + [initial] scenario of one spacecraft of FORMATION with its wheels and its wheel-torque."""
+    bodies = FORMATION.split("[[bodies]]")[1:]
+    own = next(b for b in bodies if f'name = "{name}"' in b).split("[potential]")[0]
+    head, wheels = own.split("[[bodies.wheel]]", 1)
+    wheels = wheels.replace("[[bodies.wheel]]", "[[body.wheel]]")
+    body = {k: v for k, v in (line.split(" = ", 1) for line in head.strip().splitlines())}
+    forcing = [f for f in FORMATION.split("[[forcing]]")[1:] if f'body = "{name}"' in f][0].split("[output]")[0]
+    forcing = forcing.replace(f'body = "{name}"\n', "")
+    state = "".join(f"{k} = {body[k]}\n" for k in ("position", "quaternion", "velocity", "omega", "w") if k in body)
+    return (f"[body]\nmass = {body['mass']}\ninertia = {body['inertia']}\n[[body.wheel]]" + wheels +
+            f"[initial]\n{state}\n[potential]\nkind = \"none\"\n[integrator]\nstep = 0.1\nduration = 60.0\n"
+            f"[[forcing]]{forcing}[output]\nevery = 10\n")
+
+
+def test_spacecraft_with_wheels_in_a_system_step_as_each_alone(tmp_path):
+    # [[bodies.wheel]]: with nothing between them, each spacecraft of a system is stepped as the same body
+    # alone ([body] + [[body.wheel]]), to round-off (the same step; 1e-15 leaves room for the system's sums);
+    # the wheels' rows (wheels.csv, SystemResult.wheels) are the single body's wheel columns; every commanded
+    # impulse arrives (alpha's z wheel clipped to 0.01 N m for 20 s, then -0.005 N m for 20 s; beta's
+    # 0.001 N m for 60 s); the total angular momentum is conserved to round-off.
+    import lgvi
+    (tmp_path / "formation.toml").write_text(FORMATION)
+    proc = run(tmp_path / "formation.toml", tmp_path / "f")
+    assert proc.returncode == 0, proc.stderr
+    system = lgvi.load(tmp_path / "f")
+    assert system.summary["max_relative_momentum_error"] < 1e-15
+    assert system.summary["energy_error_is"] == "E - E0 - work"
+    memory = lgvi.simulate(lgvi.Scenario.from_toml(tmp_path / "formation.toml"))
+    for b, name in enumerate(("alpha", "beta")):
+        (tmp_path / f"{name}.toml").write_text(_alone(name))
+        alone, _ = run_and_load(tmp_path / f"{name}.toml", tmp_path / name)
+        assert np.abs(system.q[:, b] - alone.q).max() < 1e-15, name
+        assert np.abs(system.w[:, b] - alone.w).max() < 1e-15 * np.abs(alone.w).max(), name
+        for wheel, columns in alone.wheels.items():
+            for q in ("speed", "momentum", "torque"):
+                got = system.wheels[name][wheel][q]
+                assert np.abs(got - columns[q]).max() <= 1e-15 * max(1.0, np.abs(columns[q]).max()), (name, wheel, q)
+                assert np.array_equal(memory.wheels[name][wheel][q], got)  # lgvi.simulate gives the file's bytes
+        entries = [w for w in system.summary["wheels"] if w["body"] == name]
+        assert [w["name"] for w in entries] == [w["name"] for w in alone.summary["wheels"]]
+        for mine, its in zip(entries, alone.summary["wheels"]):
+            assert mine["max_abs_speed"] == pytest.approx(its["max_abs_speed"], rel=1e-15, abs=0)
+    z = system.wheels["alpha"]["z"]["momentum"]
+    assert z[-1] - z[0] == pytest.approx(0.01 * 20 - 0.005 * 20, rel=1e-13, abs=0)
+    beta = system.wheels["beta"]["wheel0"]["momentum"]
+    assert beta[-1] - beta[0] == pytest.approx(0.001 * 60, rel=1e-13, abs=0)
+    assert system.summary["wheel_totals"]["control_effort"] == pytest.approx(0.2 + 0.1 + 0.06, rel=1e-13)
+
+
+def test_a_wheel_torque_in_a_system_names_its_body(tmp_path):
+    # Several bodies: a wheel-torque must say whose wheel it turns; one command per wheel of each body.
+    for edit, key, words in [
+        (lambda t: t.replace('body = "beta"\nwheel = 0', 'wheel = 0'), "'forcing[1].body'", "missing"),
+        (lambda t: t.replace('body = "beta"\nwheel = 0', 'body = "gamma"\nwheel = 0'), "'forcing[1].body'",
+         "no body is named"),
+        (lambda t: t.replace('body = "beta"\nwheel = 0', 'body = "alpha"\nwheel = "z"'), "'forcing[1].wheel'",
+         "already"),
+        (lambda t: t.replace('body = "beta"\nwheel = 0', 'body = "beta"\nwheel = 1'), "'forcing[1].wheel'",
+         "index in [0, 0]")]:
+        path = tmp_path / "bad.toml"
+        path.write_text(edit(FORMATION))
+        proc = run(path, tmp_path / "bad")
+        assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and key in proc.stderr and words in proc.stderr, \
+            proc.stderr
 
 
 SLEW_WHEELS = SOURCE / "scenarios" / "slew-wheels.toml"
@@ -313,3 +385,44 @@ def test_a_bad_distribution_matrix_is_one_line(tmp_path, rows, key, words):
     proc = run(_distribution_scenario(tmp_path, "bad.toml", rows), tmp_path / "out")
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
     assert f"'{key}'" in proc.stderr and words in proc.stderr, proc.stderr
+
+
+def test_an_interrupted_run_with_wheels_and_sensors_resumes_to_the_same_bytes(tmp_path):
+    # `lgvi run` stopped by SIGINT mid-way and resumed (--resume): the trajectory, the sensors' readings and
+    # the summary's wheel statistics are those of the uninterrupted run, byte for byte (the checkpoint holds
+    # the wheels' momenta, the controller's held commands, the gyro's bias walk and the readings so far;
+    # tests/test_gyrostat.cpp checks a checkpoint inside a held command). 6 million steps (about 2 s: the
+    # spacecraft soon holds still) so that the signal comes mid-way; a 5 s control period keeps sensors.csv
+    # to 120000 rows.
+    text = SLEW_WHEELS.read_text().replace("duration = 300.0", "duration = 600000.0")
+    text = text.replace("period = 0.1 ", "period = 5.0 ").replace("every = 10\n", "every = 10000\n")
+    assert text.count("period = 5.0") == 1 and "every = 10000\n" in text and "duration = 600000.0" in text
+    path = tmp_path / "long.toml"
+    path.write_text(text)
+    full = tmp_path / "full"
+    assert run(path, full).returncode == 0
+    out = tmp_path / "cut"
+    checkpoint = out / "checkpoint.bin"
+    proc = subprocess.Popen([BINARY, "run", str(path), "--out", str(out), "--checkpoint-every", "2000000", "--no-figures",
+                             "-q"], stderr=subprocess.PIPE, text=True)
+    # The first checkpoint (step 2000000 of 6000000) says the loop runs, with the handler installed; the
+    # signal then stops it between there and the end (the CSV sink hands rows over in blocks, so the
+    # trajectory's length says nothing earlier).
+    deadline = time.monotonic() + 60
+    while not checkpoint.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.002)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    if proc.returncode == 0:
+        pytest.skip("the run ended before the signal (a fast machine): nothing to resume")
+    assert proc.returncode == 130 and "--resume" in err, err
+    assert (out / "checkpoint.bin").exists()
+    proc = subprocess.run([BINARY, "run", "--resume", str(out), "--no-figures", "-q"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    for name in ("trajectory.csv", "sensors.csv"):
+        assert (out / name).read_bytes() == (full / name).read_bytes(), name
+    a, b = (json.loads((d / "summary.json").read_text()) for d in (full, out))
+    for key in set(a) | set(b):
+        # The clock's, and the potential's count: a resume evaluates it once more, at the loaded state.
+        if key not in ("wall_seconds", "ns_per_step", "potential_evaluations"):
+            assert a.get(key) == b.get(key), key
