@@ -1002,6 +1002,50 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
       continue;
     }
     const std::size_t body = forcing_body(r, t, prefix, system);
+    // A controller's max_torque and period (attitude-control, or a torque the wheels make); `without_period`
+    // says what leaving the period out means.
+    auto read_sampling = [&](AttitudeControl& c, const std::string& without_period) {
+      if (t.contains("max_torque")) {
+        c.max_torque = r.number(t, prefix, "max_torque");
+        if (!(c.max_torque > 0.0)) r.fail(prefix + ".max_torque", "must be > 0 (leave it out for no limit)");
+      }
+      if (t.contains("period")) {
+        c.period = r.number(t, prefix, "period");
+        if (!(c.period > 0.0)) r.fail(prefix + ".period", "must be > 0 (leave it out " + without_period + ")");
+      }
+    };
+    // The body's reaction wheels make the controller's body torque: u = -A^+ M over them, or D M
+    // (gyrostat.hpp); attitude-control's PD law, or a torque table (set after).
+    auto drive_wheels = [&](const toml::table& t, const std::string& prefix, const AttitudeControl& c) {
+      if (system.size() != 1)
+        r.fail(prefix + ".actuator", "\"wheels\" drives the wheels of a single body so far; this system has " +
+                                         std::to_string(system.size()) + " bodies");
+      if (!system.body(0).has_wheels())
+        r.fail(prefix + ".actuator", "\"wheels\" turns the body with its reaction wheels: give it [[body.wheel]] "
+                                     "tables");
+      if (wheel_control) r.fail(prefix + ".actuator", "one attitude controller drives the wheels; give only one");
+      try {
+        wheel_control = WheelAttitudeControl(c, system.body(0).wheels());
+      } catch (const InvalidInput& e) {
+        r.fail(prefix + ".actuator", e.what());
+      }
+      if (const toml::node* d = t.get("distribution")) {
+        // u = D M: one row per wheel, in the wheels' order.
+        const std::string key = prefix + ".distribution";
+        const std::size_t k = system.body(0).wheels().size();
+        const toml::array* rows = d->as_array();
+        if (!rows || rows->size() != k)
+          r.fail(key, "must have one row [dx, dy, dz] per wheel (" + std::to_string(k) + " rows): u = D M");
+        Eigen::Matrix<double, Eigen::Dynamic, 3> m(static_cast<Eigen::Index>(k), 3);
+        for (std::size_t i = 0; i < k; ++i)
+          m.row(static_cast<Eigen::Index>(i)) = r.vector<3>(*rows->get(i), key + "[" + std::to_string(i) + "]").transpose();
+        try {
+          wheel_control = WheelAttitudeControl(c, system.body(0).wheels(), m);
+        } catch (const InvalidInput& e) {
+          r.fail(key, e.what());
+        }
+      }
+    };
     auto non_negative = [&](const char* key) {
       if (!t.contains(key)) return 0.0;
       const double v = r.number(t, prefix, key);
@@ -1009,8 +1053,18 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
       return v;
     };
     if (kind == "torque" || kind == "force") {
-      r.only_keys(t, prefix, {"kind", "body", "frame", "value", "table"});
       const bool torque = kind == "torque";
+      const bool through_wheels =
+          torque && t.contains("actuator") && r.string(t, prefix, "actuator", {"torque", "wheels"}) == "wheels";
+      if (through_wheels)
+        r.only_keys(t, prefix, {"kind", "body", "frame", "value", "table", "actuator", "max_torque", "period",
+                                "distribution"});
+      else if (torque)
+        for (const char* k : {"max_torque", "period", "distribution"})
+          if (t.contains(k))
+            r.fail(prefix + "." + k, "belongs to a torque the reaction wheels make: give actuator = \"wheels\"");
+      if (!through_wheels) r.only_keys(t, prefix, {"kind", "body", "frame", "value", "table", "actuator"});
+      if (t.contains("actuator") && !torque) r.fail(prefix + ".actuator", "belongs to kind = \"torque\"");
       ForcingFrame frame = torque ? ForcingFrame::Body : ForcingFrame::Inertial;
       if (t.contains("frame")) frame = r.string(t, prefix, "frame", {"body", "inertial"}) == "body" ? ForcingFrame::Body
                                                                                                   : ForcingFrame::Inertial;
@@ -1050,6 +1104,16 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
           r.fail(key, "covers t in [" + std::to_string(profile.t_begin()) + ", " + std::to_string(profile.t_end()) +
                           "]; the run needs [0, " + std::to_string(duration) + "]: extend the table");
       }
+      if (through_wheels) {
+        // The wheels make the table's body torque, sampled at `period` (every step without one) and held.
+        if (frame != ForcingFrame::Body)
+          r.fail(prefix + ".frame", "the wheels make a torque in body axes: give frame = \"body\"");
+        AttitudeControl c;
+        read_sampling(c, "to sample every step");
+        drive_wheels(t, prefix, c);
+        wheel_control->set_torque_table(profile);
+        continue;
+      }
       if (torque) set.add(AppliedTorque{profile, frame}, body);
       else set.add(AppliedForce{profile, frame}, body);
     } else if (kind == "damping") {
@@ -1071,45 +1135,11 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
       c.k_d = non_negative("k_d");
       if (!t.contains("k_p") || !t.contains("k_d"))
         r.fail(prefix, "attitude-control needs the gains k_p and k_d (M = -k_p sgn(e_s) e_v - k_d Omega)");
-      if (t.contains("max_torque")) {
-        c.max_torque = r.number(t, prefix, "max_torque");
-        if (!(c.max_torque > 0.0)) r.fail(prefix + ".max_torque", "must be > 0 (leave it out for no limit)");
-      }
-      if (t.contains("period")) {
-        c.period = r.number(t, prefix, "period");
-        if (!(c.period > 0.0)) r.fail(prefix + ".period", "must be > 0 (leave it out for a continuous controller)");
-      }
+      read_sampling(c, "for a continuous controller");
       attitude_targets.push_back(c.target);
       if (t.contains("actuator") && r.string(t, prefix, "actuator", {"torque", "wheels"}) == "wheels") {
         // The body's reaction wheels make the torque: u = -A^+ M over them (gyrostat.hpp).
-        if (system.size() != 1)
-          r.fail(prefix + ".actuator", "\"wheels\" drives the wheels of a single body so far; this system has " +
-                                           std::to_string(system.size()) + " bodies");
-        if (!system.body(0).has_wheels())
-          r.fail(prefix + ".actuator", "\"wheels\" turns the body with its reaction wheels: give it [[body.wheel]] "
-                                       "tables");
-        if (wheel_control) r.fail(prefix + ".actuator", "one attitude controller drives the wheels; give only one");
-        try {
-          wheel_control = WheelAttitudeControl(c, system.body(0).wheels());
-        } catch (const InvalidInput& e) {
-          r.fail(prefix + ".actuator", e.what());
-        }
-        if (const toml::node* d = t.get("distribution")) {
-          // u = D M: one row per wheel, in the wheels' order.
-          const std::string key = prefix + ".distribution";
-          const std::size_t k = system.body(0).wheels().size();
-          const toml::array* rows = d->as_array();
-          if (!rows || rows->size() != k)
-            r.fail(key, "must have one row [dx, dy, dz] per wheel (" + std::to_string(k) + " rows): u = D M");
-          Eigen::Matrix<double, Eigen::Dynamic, 3> m(static_cast<Eigen::Index>(k), 3);
-          for (std::size_t i = 0; i < k; ++i)
-            m.row(static_cast<Eigen::Index>(i)) = r.vector<3>(*rows->get(i), key + "[" + std::to_string(i) + "]").transpose();
-          try {
-            wheel_control = WheelAttitudeControl(c, system.body(0).wheels(), m);
-          } catch (const InvalidInput& e) {
-            r.fail(key, e.what());
-          }
-        }
+        drive_wheels(t, prefix, c);
         continue;
       }
       if (t.contains("distribution"))

@@ -129,7 +129,8 @@ class HeldTorque {
 /// torques u = -A^+ M (A = [a_1 ... a_k], A^+ = A^T (A A^T)^-1, the least-norm split), which the step
 /// then clips to each wheel's limits. A copy sampled on the same states gives the same commands bit for
 /// bit (the recorder's columns). Needs axes that span space (checked: InvalidInput). With sensors
-/// (set_sensors, sensors.hpp) the law sees their readings at each sample instead of the true state.
+/// (set_sensors, sensors.hpp) the law sees their readings at each sample instead of the true state. The
+/// body torque may instead be a table of time (set_torque_table) or a law of one's own (set_law).
 class WheelAttitudeControl {
  public:
   WheelAttitudeControl() = default;
@@ -177,6 +178,9 @@ class WheelAttitudeControl {
   /// the last sample time: the recorder's copy, sampling the same states, does not call it again, so a
   /// law with a state of its own (an integral term) is called once per sample.
   using Law = std::function<Vector3<double>(double, const AttitudeMeasurement&, const std::vector<double>&)>;
+  /// A commanded body torque of its own in place of the PD law: M = table(t) (body axes) at each sample,
+  /// scaled down to max_torque and split over the wheels (open loop: the state is not read).
+  void set_torque_table(Profile table) { torque_table_ = std::move(table); }
   void set_law(Law law) { custom_ = std::make_shared<CustomLaw>(CustomLaw{std::move(law)}); }
   bool has_custom_law() const { return custom_ != nullptr; }
 
@@ -204,6 +208,9 @@ class WheelAttitudeControl {
         custom_->valid = true;
       }
       m = custom_->torque;
+    } else if (torque_table_) {
+      m = torque_table_->at(t);
+      if (m.norm() > law_.max_torque) m *= law_.max_torque / m.norm();
     } else {
       m = law_.torque_for(measured_.q, measured_.omega);
     }
@@ -272,6 +279,7 @@ class WheelAttitudeControl {
     bool valid = false;
   };
   std::shared_ptr<CustomLaw> custom_;  ///< shared by copies (see set_law)
+  std::optional<Profile> torque_table_;  ///< set_torque_table
   std::int64_t next_sample_ = 0;
   bool sampled_ = false;
 };

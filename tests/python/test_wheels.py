@@ -426,3 +426,68 @@ def test_an_interrupted_run_with_wheels_and_sensors_resumes_to_the_same_bytes(tm
         # The clock's, and the potential's count: a resume evaluates it once more, at the loaded state.
         if key not in ("wall_seconds", "ns_per_step", "potential_evaluations"):
             assert a.get(key) == b.get(key), key
+
+
+def _three_axis_wheels(forcing):
+    """A tumbling 100 kg spacecraft with three wheels on its body axes (A = I, so the least-norm split is
+    u = -M exactly), free of forces, with the given [[forcing]] text; 600 steps of 0.1 s, every step
+    written."""
+    wheels = "".join(f'[[body.wheel]]\nname = "{n}"\naxis = {a}\ninertia = 0.02\nspeed = {s}\n'
+                     for n, a, s in (("x", "[1.0, 0.0, 0.0]", 5.0), ("y", "[0.0, 1.0, 0.0]", -3.0),
+                                     ("z", "[0.0, 0.0, 1.0]", 0.0)))
+    return ('[body]\nmass = 100.0\ninertia = [[10.0, 0.0, 0.0], [0.0, 12.0, 0.0], [0.0, 0.0, 14.0]]\n' + wheels +
+            '[potential]\nkind = "none"\n[initial]\nposition = [0.0, 0.0, 0.0]\nquaternion = [1.0, 0.0, 0.0, 0.0]\n'
+            'momentum = [0.0, 0.0, 0.0]\nomega = [0.02, -0.01, 0.03]\n[integrator]\nstep = 0.1\nduration = 60.0\n'
+            + forcing + '[output]\nevery = 1\n')
+
+
+def test_a_torque_table_through_the_wheels_is_the_wheels_commanded_alike(tmp_path):
+    # [[forcing]] kind = "torque", actuator = "wheels": a body torque M(t) (a table, body axes) made by the
+    # wheels. Sampled every step and held, with axes A = I the wheels get u = -M(t_k) over the step from
+    # t_k: the same run as wheel-torque tables holding -M(t_k) per step, to round-off (the held tables' rows
+    # at t_k = k h may end a last bit away from the step's end, a second segment of ~1e-17 s; such
+    # differences accumulate over the 600 steps: 600 eps = 1.3e-13 relative).
+    # The motors' torques are internal: the total angular momentum holds to round-off. With a period of
+    # 0.5 s the torque columns hold -M at the last sample, exactly.
+    M1 = np.array([0.006, -0.003, 0.012])
+    table = "table = [[0.0, 0.0, 0.0, 0.0], [60.0, 0.006, -0.003, 0.012]]\n"
+    (tmp_path / "table.toml").write_text(_three_axis_wheels(
+        '[[forcing]]\nkind = "torque"\nactuator = "wheels"\n' + table))
+    through, L = run_and_load(tmp_path / "table.toml", tmp_path / "table")
+    assert np.abs(L - L[0]).max() <= 1e-14 * np.linalg.norm(L[0])
+    t = 0.1 * np.arange(601)
+    held = ""
+    for i, n in enumerate("xyz"):
+        rows = ", ".join(f"[{tk!r}, {-(tk / 60.0) * M1[i]!r}]" for tk in t[:-1])
+        held += f'[[forcing]]\nkind = "wheel-torque"\nwheel = "{n}"\ntable = [{rows}]\n'
+    (tmp_path / "held.toml").write_text(_three_axis_wheels(held))
+    wheels, _ = run_and_load(tmp_path / "held.toml", tmp_path / "held")
+    tol = 600 * np.finfo(float).eps
+    assert np.abs(through.q - wheels.q).max() <= tol
+    assert np.abs(through.w - wheels.w).max() <= tol * np.abs(wheels.w).max()
+    assert np.abs(through.q - through.q[0]).max() > 0.1  # it turned
+    for n in "xyz":
+        for q in ("speed", "momentum"):
+            a, b = through.wheels[n][q], wheels.wheels[n][q]
+            assert np.abs(a - b).max() <= tol * np.abs(b).max(), (n, q)
+    (tmp_path / "sampled.toml").write_text(_three_axis_wheels(
+        '[[forcing]]\nkind = "torque"\nactuator = "wheels"\nperiod = 0.5\n' + table))
+    sampled, _ = run_and_load(tmp_path / "sampled.toml", tmp_path / "sampled")
+    ts = sampled.t[:-1]
+    sample = np.floor(ts / 0.5 + 1e-9) * 0.5  # the last sample time at or before each step's start
+    for i, n in enumerate("xyz"):
+        expected = -((sample / 60.0) * M1[i])
+        assert np.abs(sampled.wheels[n]["torque"][:-1] - expected).max() <= 1e-17, n
+
+
+@pytest.mark.parametrize("forcing, key, words", [
+    ('kind = "torque"\nactuator = "wheels"\nframe = "inertial"\nvalue = [0.0, 0.0, 0.01]\n', "'forcing[0].frame'",
+     "body axes"),
+    ('kind = "force"\nactuator = "wheels"\nvalue = [0.0, 0.0, 0.01]\n', "'forcing[0].actuator'", "kind = \"torque\""),
+    ('kind = "torque"\nperiod = 0.5\nvalue = [0.0, 0.0, 0.01]\n', "'forcing[0].period'", 'actuator = "wheels"'),
+])
+def test_a_bad_torque_through_the_wheels_is_one_line(tmp_path, forcing, key, words):
+    (tmp_path / "bad.toml").write_text(_three_axis_wheels("[[forcing]]\n" + forcing))
+    proc = run(tmp_path / "bad.toml", tmp_path / "bad")
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and key in proc.stderr and words in proc.stderr, \
+        proc.stderr
