@@ -12,11 +12,18 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace lgvi::app {
 
 namespace {
+
+/// The two groups of a checkpoint's fields besides the run's own: the stepper's and the observer's.
+constexpr std::string_view stepper_group = "stepper.", recorder_group = "recorder.";
+
+/// Whether a field is in a group (its name starts with the group's prefix).
+bool under(const std::string& name, std::string_view group) { return name.starts_with(group); }
 
 // A checkpoint file (native byte order, little-endian on every platform lgvi
 // builds on) is
@@ -214,7 +221,7 @@ void take_run_fields(CheckpointFields& f, Checkpoint& c) {
   c.sink.crc32 = static_cast<std::uint32_t>(sink[2]);
   std::vector<std::string> unknown;
   for (const CheckpointFields::Field& field : f.fields())
-    if (!field.read && field.name.compare(0, 8, "stepper.") != 0 && field.name.compare(0, 9, "recorder.") != 0)
+    if (!field.read && !under(field.name, stepper_group) && !under(field.name, recorder_group))
       unknown.push_back(field.name);
   if (!unknown.empty()) throw InvalidInput(CheckpointFields::unknown_fields_message(unknown));
 }
@@ -396,12 +403,12 @@ CheckpointFields read_fields(const std::string& path, const std::string& bytes, 
 void write_checkpoint(const std::string& path, const Checkpoint& c) {
   CheckpointFields fields = run_fields(c);
   for (const CheckpointFields::Field& field : c.stepper.fields()) {
-    if (field.name.compare(0, 8, "stepper.") != 0)
+    if (!under(field.name, stepper_group))
       throw std::logic_error("checkpoint field '" + field.name + "' of the stepper is not under 'stepper.'");
     fields.put(field);
   }
   for (const CheckpointFields::Field& field : c.recorder.fields()) {
-    if (field.name.compare(0, 9, "recorder.") != 0)
+    if (!under(field.name, recorder_group))
       throw std::logic_error("checkpoint field '" + field.name + "' of the recorder is not under 'recorder.'");
     fields.put(field);
   }
@@ -460,7 +467,7 @@ Checkpoint read_checkpoint(const std::string& path) {
     throw InvalidInput(path + ": " + e.what());
   }
   for (const CheckpointFields::Field& field : fields.fields())
-    if (!field.read) (field.name.compare(0, 9, "recorder.") == 0 ? c.recorder : c.stepper).put(field);
+    if (!field.read) (under(field.name, recorder_group) ? c.recorder : c.stepper).put(field);
   return c;
 }
 

@@ -744,6 +744,10 @@ std::string run_member_scenario(std::int64_t i, const std::vector<double>& varie
   if (trajectory_dir.empty()) {
     sc.output_every = sc.integrator.steps + 1;
     DiscardSink sink;
+    so.open_side_table = [](const std::string&, const TrajectoryLayout&,
+                            const SinkPosition*) -> std::unique_ptr<TrajectorySink> {
+      return std::make_unique<DiscardSink>();
+    };
     r = simulate(sc, sink, so);
   } else {
     fs::create_directories(trajectory_dir);
@@ -751,10 +755,10 @@ std::string run_member_scenario(std::int64_t i, const std::vector<double>& varie
     auto sink = open_trajectory(sc.output_format,
                                 (fs::path(trajectory_dir) / trajectory_file_name(sc.output_format)).string(),
                                 scenario_layout(sc));
+    so.open_side_table = side_tables_in(trajectory_dir);
     r = simulate(sc, *sink, so);
     sink->close(sc.source_text, sink->stores_summary() ? summary_json(sc, r) : std::string());
     write_summary_file((fs::path(trajectory_dir) / "summary.json").string(), sc, r);
-    write_side_tables(trajectory_dir, r);
   }
   if (r.interrupted) return {};  // not a result: --resume runs it again
   const RunStatistics& st = r.stats;

@@ -97,7 +97,7 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
       if (!resume) {
         fs::remove(checkpoint_path);
         // Nor side tables (SimulationResult::sensors, wheels) that this run may not write.
-        for (const char* side : {"sensors.csv", "wheels.csv"}) fs::remove(fs::path(dir) / side);
+        for (const std::string& side : side_table_files()) fs::remove(fs::path(dir) / side);
         write_file_atomically((fs::path(dir) / "scenario.toml").string(), sc.source_text);
       }
       sink = open_trajectory(sc.output_format, trajectory_path.string(), scenario_layout(sc),
@@ -115,6 +115,7 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
   so.checkpoint_path = checkpoint_path.string();
   so.resume = resume;
   so.stop_flag = stop_flag();
+  so.open_side_table = side_tables_in(dir);
   if (progress.enabled()) {
     progress.start_at(resume ? resume->k : 0, resume ? resume->stats.last_t : 0.0);
     so.progress = [&](std::int64_t k, double t) { progress(k, t); };
@@ -150,7 +151,6 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
     result.completed = false;
   }
   try {
-    write_side_tables(dir, result);
     write_summary_file(summary_path.string(), sc, result);
   } catch (const std::exception& e) {
     std::cerr << "lgvi: error: " << e.what() << "\n";

@@ -3,6 +3,8 @@
 #include "interactions/registry.hpp"
 
 #include "formats/particles.hpp"
+#include "formats/registry.hpp"
+#include "memory_sink.hpp"
 #include "method_registry.hpp"
 #include "output.hpp"
 
@@ -20,6 +22,8 @@
 #include <functional>
 #include <iterator>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <utility>
 #include <variant>
 
@@ -117,18 +121,118 @@ std::vector<std::string> wheel_row_header(const Scenario& s) {
   return {"t", "body", "wheel", "speed", "momentum", "torque"};
 }
 
-void write_side_tables(const std::string& dir, const SimulationResult& result) {
-  for (const SideTable* table : {&result.sensors, &result.wheels}) {
-    if (table->columns.empty()) continue;
-    std::string text;
-    for (std::size_t c = 0; c < table->columns.size(); ++c) text += (c ? "," : "") + table->columns[c];
-    text += "\n";
-    const std::size_t width = table->columns.size();
-    for (std::size_t at = 0; at + width <= table->values.size(); at += width)
-      for (std::size_t c = 0; c < width; ++c)
-        fmt::format_to(std::back_inserter(text), "{:.17g}{}", table->values[at + c], c + 1 < width ? "," : "\n");
-    write_file_atomically((std::filesystem::path(dir) / table->file).string(), text);
+namespace {
+
+/// The side tables: each one's file, its place in the result, its columns, and the checkpoint field of its
+/// position. A checkpoint of an lgvi that held the rows themselves (the field `rows_field`) still resumes:
+/// its rows are written into a new file.
+struct SideTableKind {
+  const char* file;
+  SideTable SimulationResult::* in_result;
+  std::vector<std::string> (*header)(const Scenario&);
+  const char* position_field;
+  const char* rows_field;
+};
+const SideTableKind side_table_kinds[] = {
+    {"sensors.csv", &SimulationResult::sensors, sensor_header, "recorder.sensors.position", "recorder.sensor_readings"},
+    {"wheels.csv", &SimulationResult::wheels, wheel_row_header, "recorder.wheels.position", "recorder.wheel_rows"},
+};
+
+/// A run's side tables: a sink per table the scenario writes (SimulationOptions::open_side_table's, or a
+/// MemorySink), their positions in a checkpoint, and the tables in the result.
+class SideTables {
+ public:
+  SideTables(const Scenario& sc, SideTableOpener opener) : opener_(std::move(opener)) {
+    for (const SideTableKind& kind : side_table_kinds) tables_.push_back(Table{&kind, kind.header(sc)});
   }
+
+  /// A resume: where the checkpoint left each table. Throws InvalidInput naming a missing or malformed field.
+  void load(const CheckpointFields& in) {
+    for (Table& t : tables_) {
+      if (t.columns.empty()) continue;
+      if (in.has(t.kind->rows_field)) {
+        t.rows_to_write = in.f64(t.kind->rows_field);
+        if (t.rows_to_write.size() % t.columns.size() != 0)
+          throw InvalidInput("checkpoint field '" + std::string(t.kind->rows_field) + "' holds " +
+                             std::to_string(t.rows_to_write.size()) + " values, not rows of " +
+                             std::to_string(t.columns.size()));
+        continue;
+      }
+      const std::vector<std::int64_t>& p = in.i64(t.kind->position_field, 3);
+      t.resume = SinkPosition{p[0], p[1], static_cast<std::uint32_t>(p[2])};
+    }
+  }
+
+  /// Opens the sinks: after the trajectory's (the folder is there, the checkpoint has loaded).
+  void open() {
+    for (Table& t : tables_) {
+      if (t.columns.empty()) continue;
+      std::string header;
+      for (const std::string& c : t.columns) header += (header.empty() ? "" : ",") + c;
+      const TrajectoryLayout layout{header, static_cast<int>(t.columns.size()), 0};
+      if (!opener_) {
+        t.sink = std::make_unique<MemorySink>(0, layout);
+        continue;
+      }
+      t.sink = opener_(t.kind->file, layout, t.resume ? &*t.resume : nullptr);
+      for (std::size_t at = 0; at < t.rows_to_write.size(); at += t.columns.size()) t.sink->row(&t.rows_to_write[at]);
+      t.rows_to_write = {};
+    }
+  }
+
+  /// The sink of a table (null: the scenario writes no such table, or not opened yet).
+  TrajectorySink* sink(SideTable SimulationResult::* which) const {
+    for (const Table& t : tables_)
+      if (t.kind->in_result == which) return t.sink.get();
+    return nullptr;
+  }
+
+  /// Each table's rows made durable, and its position into a checkpoint's recorder fields.
+  void save(CheckpointFields& out) const {
+    for (const Table& t : tables_) {
+      if (!t.sink) continue;
+      const SinkPosition p = t.sink->sync();
+      out.put_i64(t.kind->position_field, {p.rows, p.bytes, static_cast<std::int64_t>(p.crc32)});
+    }
+  }
+
+  /// Closes the sinks; the tables' names and columns into the result, and their rows if kept in memory.
+  /// Throws std::runtime_error on a write error.
+  void close(SimulationResult& result) {
+    for (Table& t : tables_) {
+      SideTable& table = result.*(t.kind->in_result);
+      table.file = t.kind->file;
+      table.columns = t.columns;
+      if (!t.sink) continue;
+      t.sink->close("", "");
+      if (auto* memory = dynamic_cast<MemorySink*>(t.sink.get())) table.values = memory->take();
+    }
+  }
+
+ private:
+  struct Table {
+    const SideTableKind* kind;
+    std::vector<std::string> columns;
+    std::unique_ptr<TrajectorySink> sink = nullptr;
+    std::optional<SinkPosition> resume = std::nullopt;
+    std::vector<double> rows_to_write = {};
+  };
+  SideTableOpener opener_;
+  std::vector<Table> tables_;
+};
+
+}  // namespace
+
+SideTableOpener side_tables_in(const std::string& dir) {
+  return [dir](const std::string& file, const TrajectoryLayout& layout, const SinkPosition* resume) {
+    return open_trajectory(TrajectoryFormat(), (std::filesystem::path(dir) / file).string(), layout, resume);
+  };
+}
+
+std::vector<std::string> side_table_files() {
+  std::vector<std::string> files;
+  for (const SideTableKind& kind : side_table_kinds) files.emplace_back(kind.file);
+  return files;
 }
 
 ThermoColumns thermo_columns(const Scenario& s) {
@@ -140,7 +244,9 @@ ThermoColumns thermo_columns(const Scenario& s) {
 
 std::int64_t degrees_of_freedom(const Scenario& s) {
   std::int64_t n = -3;  // less the total momentum's 3
-  for (std::size_t a = 0; a < s.bodies(); ++a) n += 3 + s.system.body(a).rotational_dof();
+  // A reaction wheel's spin is one more: the kinetic energy holds it (Wheels::kinetic_energy).
+  for (std::size_t a = 0; a < s.bodies(); ++a)
+    n += 3 + s.system.body(a).rotational_dof() + static_cast<std::int64_t>(s.system.body(a).wheels().size());
   return n;
 }
 
@@ -278,23 +384,25 @@ struct Recorder {
   std::vector<double> wheel_commands = {};  ///< per wheel, its command at the observed state
   std::vector<double> wheel_speeds = {};    ///< per wheel, its speed relative to the body there
   std::vector<double> wheel_columns = {};   ///< per wheel, its speed, momentum and applied torque there
-  std::vector<double> sensor_readings = {};  ///< SimulationResult::sensors' values
+  TrajectorySink* sensor_table = nullptr;  ///< SimulationResult::sensors' sink (SideTables)
+  std::vector<double> sensor_row = {};
   bool wheels = scenario.system.has_wheels();
-  /// A system's wheels at the written frames (SimulationResult::wheel_rows).
-  std::vector<double> wheel_rows = {};
+  /// A system's wheels at the written frames: SimulationResult::wheels' sink (SideTables).
+  TrajectorySink* wheel_table = nullptr;
 
   /// A row of sensors.csv (sensor_header's columns).
   void record_sensors(double t, const AttitudeSensors& sensors, const AttitudeMeasurement& m) {
-    sensor_readings.push_back(t);
+    sensor_row.assign(1, t);
     for (const SensorColumn& c : sensor_columns)
-      if (has_column(sensors, c)) sensor_readings.push_back(c.value(m));
+      if (has_column(sensors, c)) sensor_row.push_back(c.value(m));
+    if (sensor_table) sensor_table->row(sensor_row.data());
   }
   /// SimulationOptions::observe_step (may be empty).
   std::function<void(std::int64_t, double, const SystemState&)> observe_step = {};
 
   /// The wheels of every body that has them, at this state and every step: into the statistics (per wheel,
   /// body by body), body 0's columns (speed, momentum, torque per wheel) into wheel_columns for a single
-  /// body's rows, and at a written frame of a system one row per wheel into wheel_rows (WheelRow). The
+  /// body's rows, and at a written frame of a system one row per wheel into wheel_table. The
   /// torque is the command at t after the limits (Wheel::applied_torque), as the step from t applies it
   /// (lgvi.hpp's kick_wheels).
   void observe_wheels(const SystemStepInfo& i, bool written) {
@@ -338,9 +446,10 @@ struct Recorder {
         if (limited) st.time_limited += h;
         if (!end && wheel_control && a == 0) stats.wheel_effort += std::abs(u) * h;  // held over the step
         if (a == 0 && !scenario.bodies_format) wheel_columns.insert(wheel_columns.end(), {speed, s.eta[a][w], u});
-        if (rows)
-          wheel_rows.insert(wheel_rows.end(),
-                            {i.t, static_cast<double>(a), static_cast<double>(w), speed, s.eta[a][w], u});
+        if (rows && wheel_table) {
+          const double row[] = {i.t, static_cast<double>(a), static_cast<double>(w), speed, s.eta[a][w], u};
+          wheel_table->row(row);
+        }
       }
       // A wheel-torque table may switch inside a step: its effort is the impulse the step gives (kick_wheels).
       if (!end)
@@ -358,7 +467,7 @@ struct Recorder {
   /// The kinetic temperature and the pressure of a written frame (thermo_columns),
   /// into the statistics: T = 2 K / (k_B n_f), n_f = 6 N - 3 (LAMMPS's count for
   /// rigid bodies: 3 translational and 3 rotational per body, 2 for a linear
-  /// body and none for a point, less the 3 of the total momentum), k_B = 1 (T in energy units); P = (2 K_trans + W) / (3 V),
+  /// body and none for a point, one per reaction wheel, less the 3 of the total momentum), k_B = 1 (T in energy units); P = (2 K_trans + W) / (3 V),
   /// W the pair forces' molecular virial (PairInteraction::virial), V the box's volume.
   std::pair<double, double> thermodynamics(const SystemState& s, double kinetic) {
     const System& sys = scenario.system;
@@ -562,9 +671,9 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
   // folder as it was. A step that fails at the loaded state is the run's
   // failure at that step, reported with the sink open as for any other.
   std::optional<StepFailure> load_failure;
-  // The recorder's copy of the wheel controller and the sensors' readings so far (Recorder).
+  // The recorder's copy of the wheel controller (Recorder), and the side tables.
   std::optional<WheelAttitudeControl> recorder_control = sc.wheel_control;
-  std::vector<double> sensor_readings, wheel_rows;
+  SideTables side_tables(sc, opt.open_side_table);
   if (opt.resume) {
     stats = opt.resume->stats;
     k0 = opt.resume->k;
@@ -577,27 +686,20 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
       const CheckpointFields& in = opt.resume->recorder;
       if (recorder_control)
         recorder_control->load(in, "recorder.wheel_control", static_cast<double>(k0) * sc.integrator.step, true);
-      // The side tables' rows so far (SimulationResult::sensors, wheels).
-      for (auto [name, width, rows] : {std::tuple{"recorder.sensor_readings", sensor_header(sc).size(), &sensor_readings},
-                                       std::tuple{"recorder.wheel_rows", wheel_row_header(sc).size(), &wheel_rows}}) {
-        if (width == 0) continue;
-        *rows = in.f64(name);
-        if (rows->size() % width != 0)
-          throw InvalidInput("checkpoint field '" + std::string(name) + "' holds " + std::to_string(rows->size()) +
-                             " values, not rows of " + std::to_string(width));
-      }
+      side_tables.load(in);
       in.require_all_read();
     } catch (const InvalidInput& e) {
       throw CheckpointError(opt.resume->path + ": " + e.what());
     }
   }
   TrajectorySink& sink = open_sink();
+  side_tables.open();
   ContactWatch contact(sc, stats);
   if (opt.resume) contact.resume_at(k0);
   Recorder recorder{sc, sink, stats, contact};
   recorder.wheel_control = std::move(recorder_control);
-  recorder.sensor_readings = std::move(sensor_readings);
-  recorder.wheel_rows = std::move(wheel_rows);
+  recorder.sensor_table = side_tables.sink(&SimulationResult::sensors);
+  recorder.wheel_table = side_tables.sink(&SimulationResult::wheels);
   recorder.observe_step = opt.observe_step;
   recorder.thermo = thermo_columns(sc);
   if (opt.resume && recorder.thermo != ThermoColumns::none && stats.thermo.frames == 0) {
@@ -621,8 +723,7 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
     c.state = state;
     stepper.save(c.stepper);
     if (recorder.wheel_control) recorder.wheel_control->save(c.recorder, "recorder.wheel_control");
-    if (!sensor_header(sc).empty()) c.recorder.put_f64("recorder.sensor_readings", recorder.sensor_readings);
-    if (!wheel_row_header(sc).empty()) c.recorder.put_f64("recorder.wheel_rows", recorder.wheel_rows);
+    side_tables.save(c.recorder);
     c.stats = stats;
     c.stats.wall_seconds_before += elapsed();
     c.stats.potential_evaluations += evaluations;  // this leg's so far: a resumed run's total counts them
@@ -692,8 +793,12 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
   }
   result.wall_seconds = stats.wall_seconds_before + elapsed();
   result.final_state = state;
-  result.sensors = {"sensors.csv", sensor_header(sc), std::move(recorder.sensor_readings)};
-  result.wheels = {"wheels.csv", wheel_row_header(sc), std::move(recorder.wheel_rows)};
+  try {
+    side_tables.close(result);
+  } catch (const std::exception& e) {
+    if (result.error.empty()) result.error = e.what();
+    result.completed = false;
+  }
   return result;
 }
 

@@ -18,6 +18,7 @@
 #include <csignal>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <variant>
 #include <string>
@@ -76,6 +77,30 @@ Parallelism scenario_parallelism(const Scenario& s);
 ScenarioSystemPotential scenario_system_potential(const Scenario& s, const CallablePotential* field,
                                                   std::int64_t* evaluations);
 
+/// A table of numbers written beside the trajectory, DIR/file: a header of its columns, then its rows
+/// (17 significant digits: the same doubles read back), as a CSV trajectory is. The run streams its rows
+/// to SimulationOptions::open_side_table's sink; without that opener it keeps them here. No columns: no
+/// table.
+struct SideTable {
+  std::string file;
+  std::vector<std::string> columns;
+  std::vector<double> values;  ///< the rows, row-major, when kept in memory
+  std::size_t rows() const { return columns.empty() ? 0 : values.size() / columns.size(); }
+};
+
+/// Opens a side table's sink (SideTable): `file` its name in the run folder, `layout` its columns (the
+/// single-body layout's fields, no bodies); `resume` where a checkpoint left it (null: a new file with
+/// its header). The run closes the sink at its end.
+using SideTableOpener = std::function<std::unique_ptr<TrajectorySink>(
+    const std::string& file, const TrajectoryLayout& layout, const SinkPosition* resume)>;
+
+/// The side tables streamed as CSV files into the folder `dir`.
+SideTableOpener side_tables_in(const std::string& dir);
+
+/// The file names of every side table a run may write (sensors.csv, wheels.csv): a new run in a folder
+/// removes them first, so that none is left from an earlier run that this one does not write.
+std::vector<std::string> side_table_files();
+
 struct SimulationOptions {
   /// Write a checkpoint to `checkpoint_path` every this many steps (0: never).
   std::int64_t checkpoint_every = 0;
@@ -90,15 +115,10 @@ struct SimulationOptions {
   /// Called at every observed step (the initial state's k = 0 too) with (k, t, state), after its
   /// diagnostics: what an ensemble member measures besides them (its pointing error).
   std::function<void(std::int64_t, double, const SystemState&)> observe_step;
-};
-
-/// A table of numbers written beside the trajectory, DIR/file: a header of its columns, then its rows
-/// ({:.17g}: the same doubles read back). No columns: no file.
-struct SideTable {
-  std::string file;
-  std::vector<std::string> columns;
-  std::vector<double> values;  ///< the rows, row-major
-  std::size_t rows() const { return columns.empty() ? 0 : values.size() / columns.size(); }
+  /// Where the side tables (SimulationResult::sensors, wheels) are streamed; empty: kept in memory in the
+  /// result (on resume, the rows of the resumed leg only, as a memory trajectory sink holds them). A
+  /// checkpoint holds each table's position (SinkPosition), not its rows.
+  SideTableOpener open_side_table;
 };
 
 struct SimulationResult {
@@ -124,9 +144,6 @@ std::vector<std::string> sensor_header(const Scenario& s);
 /// The columns of a system's wheels.csv (SimulationResult::wheels); empty without wheels on [[bodies]].
 std::vector<std::string> wheel_row_header(const Scenario& s);
 
-/// A run's side tables (SimulationResult::sensors, wheels) in DIR, also of a failed run up to where it
-/// stopped; nothing for a table without columns.
-void write_side_tables(const std::string& dir, const SimulationResult& result);
 
 /// The diagnostics of one step of one body, as a row of the single-body
 /// layout (trajectory_header): t, x, q (scalar first), p, w, energy, its
