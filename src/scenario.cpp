@@ -1002,6 +1002,15 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
       continue;
     }
     const std::size_t body = forcing_body(r, t, prefix, system);
+    // Damping and the body-torque controller read the body's rate as a rigid body's, J^-1 w / 2, which for a
+    // gyrostat is not its rate: not on a body with reaction wheels. (A torque or a force reads no rate.)
+    auto reads_no_gyrostat_rate = [&](const std::string& what) {
+      const bool wheels = body == ForcingSet::all_bodies ? system.has_wheels() : system.body(body).has_wheels();
+      if (wheels)
+        r.fail(prefix + ".kind", what + " reads the body's rate as a rigid body's, which a body with reaction wheels "
+                                        "does not have; give it to a body without wheels (body = \"name\")" +
+                                        (kind == "attitude-control" ? ", or actuator = \"wheels\"" : ""));
+    };
     // A controller's max_torque and period (attitude-control, or a torque the wheels make); `without_period`
     // says what leaving the period out means.
     auto read_sampling = [&](AttitudeControl& c, const std::string& without_period) {
@@ -1121,6 +1130,7 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
       Damping d{non_negative("c"), non_negative("c_linear")};
       if (!(d.c > 0.0 || d.c_linear > 0.0))
         r.fail(prefix, "give c > 0 (body torque -c Omega) and/or c_linear > 0 (force -c_linear v)");
+      reads_no_gyrostat_rate("damping");
       set.add(d, body);
     } else {
       r.only_keys(t, prefix, {"kind", "body", "target", "k_p", "k_d", "max_torque", "period", "actuator", "distribution"});
@@ -1144,6 +1154,7 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
       }
       if (t.contains("distribution"))
         r.fail(prefix + ".distribution", "splits the torque over reaction wheels: give actuator = \"wheels\"");
+      reads_no_gyrostat_rate("attitude-control with actuator = \"torque\"");
       set.add(c, body);
     }
   }
@@ -1606,8 +1617,8 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
                       "kind = \"wheel-torque\" with it");
   read_sensors(r, root, sc.wheel_control);
   if (sc.system.has_wheels()) {
-    // The gyrostat step (wheels.hpp) is the Hamiltonian LGVI's, at one step size; a forcing that reads the
-    // momenta would take the rigid body's rate J^-1 w / 2 for the gyrostat's.
+    // The gyrostat step (wheels.hpp) is the Hamiltonian LGVI's, at one step size (read_forcing refuses a
+    // forcing that reads a gyrostat's rate).
     if (integrator.method.traits().name != std::string_view("lgvi"))
       r.fail("integrator.method", "a body with reaction wheels ([[body.wheel]]) is stepped by \"lgvi\" only");
     if (integrator.composition.gamma().size() != 1)
@@ -1616,10 +1627,6 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
       r.fail("integrator.time_transform", "a body with reaction wheels takes a fixed step so far");
     if (integrator.solver.kind != SolverKind::Newton)
       r.fail("integrator.solver", "a body with reaction wheels is solved by \"newton\" (the Cayley chart) only so far");
-    if (!sc.forcing.empty())
-      r.fail("forcing", "a body with reaction wheels takes [[forcing]] kind = \"wheel-torque\", or "
-                        "\"attitude-control\" with actuator = \"wheels\", only so far (other forcing reads the "
-                        "body's rate as a rigid body's)");
   }
   if (!sc.forcing.empty() && !integrator.method.traits().accepts_forcing)
     r.fail("forcing", std::string("integrator.method \"") + to_string(integrator.method) +

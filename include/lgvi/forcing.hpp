@@ -281,12 +281,13 @@ class ForcingSet {
     }
   }
 
-  /// The power of a wrench at a state: sum_a F_a . v_a + M_a . Omega_a.
+  /// The power of a wrench at a state: sum_a F_a . v_a + M_a . Omega_a (Omega_a a gyrostat's rate for a
+  /// body with reaction wheels: body_angular_velocity).
   static double power(const SystemState& s, const System& sys, const std::vector<Vector3<double>>& force,
                       const std::vector<Vector3<double>>& torque) {
     double p = 0.0;
     for (std::size_t a = 0; a < sys.size(); ++a)
-      p += force[a].dot(s.p[a]) / sys.body(a).mass() + torque[a].dot(0.5 * (sys.body(a).inertia_inverse() * s.w[a]));
+      p += force[a].dot(s.p[a]) / sys.body(a).mass() + torque[a].dot(body_angular_velocity(s, sys, a));
     return p;
   }
 

@@ -220,15 +220,21 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
     // only a failure is examined again, serially, for the same message (the
     // lowest failing body) as before. Every body is updated either way.
     const bool checked = this->forcing().empty();
-    this->end_step(s, t + h, h, [&](std::size_t a) {
-      this->kick(s, a, h);
-      const RigidBody& body = sys.body(a);
-      s.w[a] = body.admissible_momentum(f_[a].inverse().act(body.admissible_momentum(w_half_[a])) + h * this->torque(a));
-      if (checked) this->note_finite(s, a);
-    });
-    // (Not in the kick: a forcing that reads the momenta calls it more than once.)
-    if (!gyrostats_.empty())
-      for (std::size_t a = 0; a < sys.size(); ++a) finish_wheels(s, a);
+    this->end_step(
+        s, t + h, h,
+        [&](std::size_t a) {
+          this->kick(s, a, h);
+          const RigidBody& body = sys.body(a);
+          s.w[a] =
+              body.admissible_momentum(f_[a].inverse().act(body.admissible_momentum(w_half_[a])) + h * this->torque(a));
+          if (checked) this->note_finite(s, a);
+        },
+        // The wheels' second half-impulse once w is final (not in the kick: a forcing that reads the
+        // momenta calls it more than once), before the forcing's work, whose power reads their rate.
+        [&] {
+          if (!gyrostats_.empty())
+            for (std::size_t a = 0; a < sys.size(); ++a) finish_wheels(s, a);
+        });
     this->finish_step(s, checked);
   }
 

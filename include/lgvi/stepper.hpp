@@ -232,11 +232,14 @@ class StepperBase {
   /// torque(a), for every body. When the forcing reads the momenta, the new
   /// momenta are a fixed point of (evaluate, kick): iterated until they
   /// change by less than 4 eps relative (or stagnate at round-off), at most
-  /// 50 times; a StepFailure otherwise. Adds the step's work.
-  template <class Kick>
-  void end_step(SystemState& s, double t1, double h, Kick&& kick) {
+  /// 50 times; a StepFailure otherwise. Then `finish()` completes the state
+  /// (a gyrostat's wheels take the second half of their impulse, lgvi.hpp),
+  /// and the step's work is added at the completed state.
+  template <class Kick, class Finish = void (*)()>
+  void end_step(SystemState& s, double t1, double h, Kick&& kick, Finish&& finish = [] {}) {
     if (forcing_.empty()) {
       for_each_body(system_, par_, kick);
+      finish();
       return;
     }
     evaluate_forcing(t1, s);
@@ -274,6 +277,7 @@ class StepperBase {
         previous = change;
       }
     }
+    finish();
     work_ += 0.5 * h * (power0_ + ForcingSet::power(s, system_, ext_force_, ext_torque_));
   }
 

@@ -219,6 +219,14 @@ inline double kinetic_energy(const SystemState& s, const System& sys, std::size_
   return s.p[a].squaredNorm() / (2.0 * body.mass()) + body.wheels().kinetic_energy(s.w[a], s.eta[a].data());
 }
 
+/// Body a's angular velocity Omega in body axes: a rigid body's J^-1 w / 2, or with reaction wheels the
+/// gyrostat's (Wheels::body_rate; with the wheels' momenta in s.eta).
+inline Vector3<double> body_angular_velocity(const SystemState& s, const System& sys, std::size_t a) {
+  const RigidBody& body = sys.body(a);
+  if (!body.has_wheels() || s.eta.empty()) return 0.5 * (body.inertia_inverse() * s.w[a]);
+  return body.wheels().body_rate(s.w[a], s.eta[a].data());
+}
+
 /// Kinetic energy of the system, summed over bodies in order.
 inline double kinetic_energy(const SystemState& s, const System& sys) {
   double t = kinetic_energy(s, sys, 0);
