@@ -93,11 +93,26 @@ std::string csv_field(const std::string& s) {
 // ---------------------------------------------------------------------------
 // The sweep file
 
+/// A key's parts between its dots; an entry of an array of tables may also be written NAME[I] before the
+/// last part ("body.wheel[0].inertia", as the reader's messages name it, is "body.wheel.0.inertia"). In the
+/// last part, brackets index an array's elements (Leaf).
 std::vector<std::string> split_key(const std::string& key) {
   std::vector<std::string> parts;
   std::stringstream ss(key);
   for (std::string p; std::getline(ss, p, '.');) parts.push_back(p);
-  return parts;
+  std::vector<std::string> split;
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    const std::string& p = parts[i];
+    const std::size_t open = p.find('[');
+    if (i + 1 < parts.size() && open != std::string::npos && open > 0 && p.back() == ']' &&
+        p.find_first_of("[]", open + 1) == p.size() - 1) {
+      split.push_back(p.substr(0, open));
+      split.push_back(p.substr(open + 1, p.size() - open - 2));
+    } else {
+      split.push_back(p);
+    }
+  }
+  return split;
 }
 
 /// The table holding the key's last part, in a scenario's document: tables by
@@ -570,8 +585,8 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
     toml::table* t = key_table(base, split_key(v.key), leaf_text);
     if (!t)
       r.fail(p, "\"" + v.key + "\" names no table of the base scenario (e.g. \"initial.omega\", \"integrator.step\", "
-                "\"bodies.NAME.omega\", \"forcing.0.k_p\" for the first [[forcing]], \"body.inertia[0][0]\" for an "
-                "element)");
+                "\"bodies.NAME.omega\", \"forcing.0.k_p\" or \"forcing[0].k_p\" for the first [[forcing]], "
+                "\"body.wheel[0].inertia\", \"body.inertia[0][0]\" for an element)");
     const std::optional<Leaf> leaf = parse_leaf(leaf_text);
     if (!leaf)
       r.fail(p, "\"" + v.key + "\": its last part must be a name, or a name and indices from 0 such as inertia[0][2]");

@@ -586,7 +586,50 @@ def draw_figures(source, out_dir=None):
     _error_plot(plt, t, err, "|L(t) - L(0)|", title, "momentum_error.png",
                 out_dir, written, scale=l0 if l0 > 0.0 else None)
     _wheels(plt, c, summary, out_dir, written)
+    _pointing_error(plt, c, _scenario_text(source), out_dir, written)
     return written
+
+
+def _scenario_text(source):
+    """The scenario's TOML text of a run folder, trajectory file or result; None if unknown."""
+    if isinstance(source, (str, bytes, os.PathLike)):
+        path = os.fsdecode(source)
+        if os.path.isdir(path):
+            toml_path = os.path.join(path, "scenario.toml")
+            if not os.path.isfile(toml_path):
+                return None
+            with open(toml_path, encoding="utf-8") as f:
+                return f.read()
+        return getattr(load(path), "scenario_toml", None)
+    return getattr(source, "scenario_toml", None)
+
+
+def _pointing_error(plt, c, scenario_text, out_dir, written):
+    """pointing_error.png for a body under one attitude controller ([[forcing]] kind = "attitude-control"):
+    the angle between its attitude and the controller's target, 2 atan2(|Im e|, |Re e|) with e = target* q,
+    against t (log scale), the final value in the title."""
+    if scenario_text is None:
+        return
+    import tomllib
+    controllers = [f for f in tomllib.loads(scenario_text).get("forcing", [])
+                   if isinstance(f, dict) and f.get("kind") == "attitude-control" and "target" in f]
+    if len(controllers) != 1:
+        return
+    target = np.asarray(controllers[0]["target"], dtype=float)
+    target = target / np.linalg.norm(target)
+    q = np.column_stack([c["qw"], c["qx"], c["qy"], c["qz"]])
+    # e = target* q (Hamilton product, scalar first)
+    w, v = target[0], target[1:]
+    e_w = w * q[:, 0] + q[:, 1:] @ v
+    e_v = w * q[:, 1:] - q[:, :1] * v - np.cross(v, q[:, 1:])
+    degrees = np.degrees(2.0 * np.arctan2(np.linalg.norm(e_v, axis=1), np.abs(e_w)))
+    fig, ax = plt.subplots(figsize=FIGSIZE)
+    ax.plot(c["t"], degrees, lw=0.9)
+    if np.all(degrees[1:] > 0.0):
+        ax.set_yscale("log")
+    ax.set(title=f"Pointing error (final {degrees[-1]:.3g} deg)", xlabel="t", ylabel="pointing error (deg)")
+    ax.grid(True, which="both", lw=0.3)
+    _save(fig, out_dir, "pointing_error.png", written)
 
 
 def _wheels(plt, c, summary, out_dir, written):

@@ -165,8 +165,23 @@ def test_an_inertia_element_is_varied_by_its_indices(tmp_path):
         assert inertia == [[10.0, 0.0, 0.0], [0.0, value, 0.0], [0.0, 0.0, 14.0]]
 
 
+@pytest.mark.parametrize("key", ["body.wheel[1].max_torque", "body.wheel.1.max_torque"])
+def test_a_wheel_parameter_is_varied_by_its_wheels_index(tmp_path, key):
+    # The second wheel's limit, in the form the reader's messages name it (body.wheel[1]) or by a dotted
+    # index: that wheel's key alone changes, and the column is the key as given.
+    from lgvi import _core
+    sweep = f'[ensemble]\nscenario = "slew-wheels.toml"\n[[vary]]\nkey = "{key}"\nvalues = [0.002, 0.02]\n'
+    plan = _core.ensemble_plan(sweep, "sweep", SLEW_WHEELS.read_text())
+    assert plan.header.split(",")[1] == key
+    for i, value in enumerate((0.002, 0.02)):
+        wheels = tomllib.loads(plan.member_toml(i))["body"]["wheel"]
+        assert [w["max_torque"] for w in wheels] == [0.01, value, 0.01, 0.01]
+
+
 BAD = [
     ('key = "body.inertia[3][0]"\nvalues = [1.0]', "vary[0].key", "names no element"),
+    ('key = "body.wheel[4].inertia"\nvalues = [0.01]', "vary[0].key", "names no table"),
+    ('key = "body.wheel[01].inertia"\nvalues = [0.01]', "vary[0].key", "names no table"),
     ('key = "body.inertia[0]"\nvalues = [1.0]', "vary[0].key", "another shape"),
     ('key = "body.inertia[0][01]"\nvalues = [1.0]', "vary[0].key", "indices from 0"),
     ('key = "initial.quaternion"\nattitude_error_deg = -1.0', "vary[0].attitude_error_deg", "[0, 180]"),

@@ -526,3 +526,59 @@ def test_a_bad_torque_through_the_wheels_is_one_line(tmp_path, forcing, key, wor
     proc = run(tmp_path / "bad.toml", tmp_path / "bad")
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and key in proc.stderr and words in proc.stderr, \
         proc.stderr
+
+
+def test_a_controlled_run_draws_its_pointing_error(tmp_path):
+    # One attitude controller ([[forcing]] kind = "attitude-control", here through the wheels): its pointing
+    # error against t is a figure of its own; a run without a controller (the open-loop slew) has none.
+    from lgvi import plot
+    text = (SOURCE / "scenarios" / "slew-wheels.toml").read_text().replace("duration = 300.0", "duration = 20.0")
+    (tmp_path / "controlled.toml").write_text(text)
+    for scenario, drawn in ((tmp_path / "controlled.toml", True), (SLEW, False)):
+        out = tmp_path / scenario.stem
+        assert run(scenario, out).returncode == 0
+        names = {os.path.basename(p) for p in plot.draw_figures(out)}
+        assert ("pointing_error.png" in names) == drawn and "wheels.png" in names, names
+
+
+def test_a_torque_limited_slew_takes_longer_within_its_limits(tmp_path):
+    # scenarios/slew-wheels.toml with its wheels' max_torque raised to 0.1 N m (never reached: the controller
+    # asks for at most 0.012) and lowered to 0.003 N m: the limited slew stays within 0.003 on every wheel, is
+    # at a limit for a long time (measured 24.9 s, against 0), and settles into 0.2 deg later (measured 87 s
+    # against 75 s; both then hold the same 0.054 deg offset of the gyro's bias).
+    import lgvi
+    settled, saturated = {}, {}
+    for limit in (0.1, 0.003):
+        text = (SOURCE / "scenarios" / "slew-wheels.toml").read_text().replace("max_torque = 0.01\n",
+                                                                              f"max_torque = {limit}\n")
+        assert text.count(f"max_torque = {limit}\n") == 4
+        (tmp_path / f"{limit}.toml").write_text(text)
+        out = tmp_path / f"out{limit}"
+        assert run(tmp_path / f"{limit}.toml", out).returncode == 0
+        r = lgvi.load(out)
+        error = pointing_error_deg(r.q)
+        outside = np.nonzero(error > 0.2)[0]
+        settled[limit] = r.t[outside[-1] + 1]
+        saturated[limit] = r.summary["wheel_totals"]["time_saturated"]
+        for name, w in r.wheels.items():
+            assert np.abs(w["torque"]).max() <= limit, name
+    assert saturated[0.1] == 0.0 and saturated[0.003] > 20.0
+    assert settled[0.003] > settled[0.1] + 5.0, settled
+
+
+def test_a_wheel_at_max_speed_stops_accelerating(tmp_path):
+    # The open-loop slew with max_speed = 4 rad/s: under its +0.02 N m command the wheel reaches the limit
+    # (at t = 10 s), overshoots it by at most one step's increment (u h / j = 0.04 rad/s; measured 0.010) and
+    # holds there, its applied torque 0, until the command turns it back; the summary counts the time.
+    import lgvi
+    text = SLEW.read_text().replace("max_speed = 600.0", "max_speed = 4.0").replace("every = 10", "every = 1")
+    (tmp_path / "capped.toml").write_text(text)
+    assert run(tmp_path / "capped.toml", tmp_path / "out").returncode == 0
+    r = lgvi.load(tmp_path / "out")
+    speed, torque, t = r.wheels["z"]["speed"], r.wheels["z"]["torque"], r.t
+    assert np.abs(speed).max() <= 4.0 + 0.02 * 0.1 / 0.05
+    reached = np.argmax(speed >= 4.0)
+    assert 9.0 < t[reached] < 11.0  # eta = u t, the speed eta / j less the body's share
+    held = (t > t[reached]) & (t < 25.0)
+    assert np.all(torque[held] == 0.0) and np.ptp(speed[held]) < 1e-12
+    assert r.summary["wheels"][0]["time_at_a_limit"] > 14.0  # from ~10 s to 25 s, and again on the way back
