@@ -226,6 +226,10 @@ TEST(Gyrostat, MotorTorquesKeepTheTotalAngularMomentumToRoundOff) {
   const lgvi::Wheels& wheels = body.wheels();
   const V3 wheels0 = s0.q[0].act(wheels.momentum(s0.eta[0].data())), wheels1 = s.q[0].act(wheels.momentum(s.eta[0].data()));
   EXPECT_GT((wheels1 - wheels0).norm(), 0.1 * l0.norm());
+  // The body's reaction, equal and opposite: its own momentum R J_s omega changed by minus the wheels' change.
+  const V3 body0 = s0.q[0].act(wheels.reduced_inertia() * wheels.body_rate(s0.w[0], s0.eta[0].data()));
+  const V3 body1 = s.q[0].act(wheels.reduced_inertia() * wheels.body_rate(s.w[0], s.eta[0].data()));
+  EXPECT_LT(((body1 - body0) + (wheels1 - wheels0)).norm(), 1e-13 * l0.norm());
 }
 
 TEST(Gyrostat, TheEnergyBalanceClosesAtSecondOrder) {
