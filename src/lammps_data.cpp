@@ -6,6 +6,7 @@
 #include <lgvi/error.hpp>
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
 
 #include <fmt/format.h>
 
@@ -33,6 +34,76 @@ struct Fnv1a {
     }
   }
   std::string hex() const { return fmt::format("{:016x}", h); }
+};
+
+/// The kinds of a data file's bodies. A body joins an earlier kind when its
+/// balls, in the same order (increasing atom ID), have that kind's types,
+/// masses and radii, and a rotation S (Kabsch: the proper rotation that fits
+/// them best) takes its principal-axes positions to the kind's, each to
+/// 1e-12 of the kind's size: identical molecules differ only by the sign
+/// and, for equal moments, the choice of their principal axes, and by
+/// round-off. Its state is then the kind's: the attitude q S^T, the body
+/// momentum S w. A file whose molecules differ beyond that (coordinates of
+/// a few digits) gives each its own kind; a species is compared with its
+/// first `candidates` kinds only, so that set-up stays O(N).
+class KindMatcher {
+ public:
+  static constexpr std::size_t candidates = 8;
+
+  /// The kind of `body` (principal axes) with state `s`, changed to the kind's frame if it joins one.
+  std::uint32_t add(RigidBody body, RigidBodyState& s) {
+    std::vector<std::uint32_t>& species = by_species_[species_hash(body)];
+    for (const std::uint32_t k : species) {
+      const std::optional<Matrix3<double>> turn = fit(kinds[k], body);
+      if (!turn) continue;
+      s.q = s.q * S3d::from_rotation_matrix(*turn).inverse();
+      s.w = kinds[k].admissible_momentum(*turn * s.w);
+      return k;
+    }
+    kinds.push_back(std::move(body));
+    const auto k = static_cast<std::uint32_t>(kinds.size() - 1);
+    if (species.size() < candidates) species.push_back(k);
+    return k;
+  }
+
+  std::vector<RigidBody> kinds;
+
+ private:
+  static std::uint64_t species_hash(const RigidBody& body) {
+    Fnv1a h;
+    auto add = [&h](const auto& v) { h.add(reinterpret_cast<const char*>(&v), sizeof v); };
+    add(body.balls().size());
+    for (const Ball& b : body.balls()) {
+      add(b.type);
+      add(b.mass);
+      add(b.radius);
+    }
+    return h.h;
+  }
+
+  /// S with S p_i = kind's p_i for every ball to 1e-12 of the kind's size, if the species agree.
+  static std::optional<Matrix3<double>> fit(const RigidBody& kind, const RigidBody& body) {
+    const std::vector<Ball>& a = kind.balls();
+    const std::vector<Ball>& b = body.balls();
+    if (a.size() != b.size()) return std::nullopt;
+    double size = 0.0;
+    Matrix3<double> h = Matrix3<double>::Zero();
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      if (a[i].type != b[i].type || a[i].mass != b[i].mass || a[i].radius != b[i].radius) return std::nullopt;
+      size = std::max(size, a[i].position.norm());
+      h += a[i].position * b[i].position.transpose();
+    }
+    if (size == 0.0) return Matrix3<double>::Identity();  // a point (one atom)
+    const Eigen::JacobiSVD<Matrix3<double>> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Matrix3<double> d = Matrix3<double>::Identity();
+    d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
+    const Matrix3<double> turn = svd.matrixU() * d * svd.matrixV().transpose();
+    for (std::size_t i = 0; i < a.size(); ++i)
+      if (!((turn * b[i].position - a[i].position).norm() <= 1e-12 * size)) return std::nullopt;
+    return turn;
+  }
+
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> by_species_;
 };
 
 /// The file read line by line: comments ('#' to the end) cut off and kept,
@@ -355,6 +426,7 @@ LammpsDataBodies read_lammps_data(const std::string& path, const std::vector<dou
     return radius.empty() ? 0.0 : radius.size() == 1 ? radius[0] : radius[static_cast<std::size_t>(type - 1)];
   };
   std::vector<Ball> balls;
+  KindMatcher kinds;
   for (std::size_t first = 0; first < order.size();) {
     const Atom& head = atom[order[first]];
     std::size_t last = first + 1;
@@ -409,11 +481,12 @@ LammpsDataBodies read_lammps_data(const std::string& path, const std::vector<dou
     // little off the line (within RigidBody::linear_threshold): removed, as
     // LAMMPS's omega has none.
     s.w = body->admissible_momentum(2.0 * (r.transpose() * l));
-    out.bodies.push_back(std::move(*body));
+    out.kind.push_back(kinds.add(std::move(*body), s));
     out.names.push_back(name);
     out.states.push_back(s);
     first = last;
   }
+  out.kinds = std::move(kinds.kinds);
   out.checksum = in.checksum();
   return out;
 }

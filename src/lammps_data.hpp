@@ -27,8 +27,11 @@ namespace lgvi::app {
 
 /// The bodies of a LAMMPS data file: one per molecule, in increasing
 /// molecule ID, then one per atom of molecule ID 0, in increasing atom ID.
+/// Identical molecules share a kind (as the bodies of a [[bodies]] block do):
+/// body a is kinds[kind[a]], in its principal axes.
 struct LammpsDataBodies {
-  std::vector<RigidBody> bodies;
+  std::vector<RigidBody> kinds;
+  std::vector<std::uint32_t> kind;  ///< per body
   std::vector<std::string> names;  ///< "mol<ID>" or, for molecule ID 0, "atom<ID>"
   std::vector<RigidBodyState> states;
   /// The file's IDs: per body its molecule ID (0 for a body made of an atom

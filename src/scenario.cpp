@@ -802,11 +802,10 @@ Box read_import(const Reader& r, toml::table& root, const std::string& scenario_
   if (recorded && data.checksum != *recorded) changed(data.checksum);
   const std::string& checksum = data.checksum;
   site_types = data.atom_types;
-  if (data.bodies.size() > 1000000) r.fail("import.lammps_data", "more than 10^6 bodies");
-  for (RigidBody& b : data.bodies) {
-    bodies.kinds.push_back(std::move(b));
-    bodies.kind.push_back(static_cast<std::uint32_t>(bodies.kinds.size() - 1));
-  }
+  if (data.kind.size() > 1000000) r.fail("import.lammps_data", "more than 10^6 bodies");
+  const auto first_kind = static_cast<std::uint32_t>(bodies.kinds.size());
+  for (RigidBody& b : data.kinds) bodies.kinds.push_back(std::move(b));
+  for (const std::uint32_t k : data.kind) bodies.kind.push_back(first_kind + k);
   names = std::move(data.names);
   ids = std::move(data.ids);
   state = SystemState(data.states.size());

@@ -839,3 +839,72 @@ TEST(ScenarioInput, HugeNumberOfBallsIsRejected) {
 }
 
 }  // namespace
+
+// [import] lammps_data: identical molecules share one kind (lammps_data.cpp, KindMatcher), as the bodies
+// of a [[bodies]] block do. Three triangles turned three ways, a fourth with one atom moved by 1e-7 (its
+// own kind), two linear molecules turned two ways and two single atoms make 8 bodies of 4 kinds; every
+// body still puts its atoms where the file does (x + R(q) p_i, to 1e-14 of the coordinates, from the
+// kind's positions and the attitude turned by the fit) and has the angular momentum of its atoms' rigid
+// projection, sum m (r - c) x v (to 1e-14).
+TEST(ImportedKinds, IdenticalMoleculesShareAKindAndKeepTheirAtomsAndMomenta) {
+  using V3 = lgvi::Vector3<double>;
+  struct Atom {
+    int molecule, type;
+    V3 x, v;
+  };
+  const V3 triangle[] = {V3(0.0, 0.0, 0.0), V3(1.0, 0.0, 0.0), V3(0.3, 0.8, 0.0)};
+  const V3 line[] = {V3(0.0, 0.0, 0.0), V3(1.1, 0.0, 0.0)};
+  const lgvi::S3d turns[] = {lgvi::S3d(1.0, 0.0, 0.0, 0.0), lgvi::S3d(0.5, 0.5, -0.5, 0.5),
+                             lgvi::S3d(std::cos(0.4), 0.0, std::sin(0.4) * 0.6, std::sin(0.4) * 0.8)};
+  std::vector<Atom> atoms;
+  auto velocity = [&] {  // a different, non-rigid velocity per atom
+    const double k = static_cast<double>(atoms.size());
+    return V3(0.1 * std::sin(k), 0.2 * std::cos(1.3 * k), -0.05 * k);
+  };
+  for (int m = 0; m < 4; ++m)
+    for (int i = 0; i < 3; ++i) {
+      V3 p = turns[m % 3].act(triangle[i]) + V3(4.0 * m, 0.0, 0.0);
+      if (m == 3 && i == 2) p.y() += 1e-7;
+      atoms.push_back({m + 1, i == 2 ? 2 : 1, p, velocity()});
+    }
+  for (int m = 0; m < 2; ++m)
+    for (int i = 0; i < 2; ++i)
+      atoms.push_back({5 + m, i + 1, turns[m + 1].act(line[i]) + V3(4.0 * m, 5.0, 0.0), velocity()});
+  for (int m = 0; m < 2; ++m) atoms.push_back({0, 1, V3(4.0 * m, -5.0, 1.0), velocity()});
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("lgvi-test-kinds-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  {
+    std::ofstream data(dir / "kinds.data");
+    data << "kinds\n\n" << atoms.size() << " atoms\n2 atom types\n-10.0 30.0 xlo xhi\n-10.0 30.0 ylo yhi\n"
+         << "-10.0 30.0 zlo zhi\n\nMasses\n\n1 1.0\n2 3.0\n\nAtoms # molecular\n\n";
+    for (std::size_t i = 0; i < atoms.size(); ++i)
+      data << fmt::format("{} {} {} {:.17g} {:.17g} {:.17g}\n", i + 1, atoms[i].molecule, atoms[i].type,
+                          atoms[i].x.x(), atoms[i].x.y(), atoms[i].x.z());
+    data << "\nVelocities\n\n";
+    for (std::size_t i = 0; i < atoms.size(); ++i)
+      data << fmt::format("{} {:.17g} {:.17g} {:.17g}\n", i + 1, atoms[i].v.x(), atoms[i].v.y(), atoms[i].v.z());
+  }
+  const Scenario sc = parse_scenario(
+      "[import]\nlammps_data = \"kinds.data\"\nperiodic = [false, false, false]\n[potential]\nkind = \"none\"\n"
+      "[integrator]\nstep = 0.001\nduration = 0.01\n",
+      (dir / "kinds.toml").string());
+  std::filesystem::remove_all(dir);
+  ASSERT_EQ(sc.bodies(), 8u);
+  EXPECT_EQ(sc.system.kinds(), 4u);
+  // The bodies in the file's order: molecules 1-6, then the atoms of molecule 0.
+  std::size_t next = 0;
+  for (std::size_t a = 0; a < sc.bodies(); ++a) {
+    const lgvi::RigidBody& body = sc.system.body(a);
+    const lgvi::S3d& q = sc.initial_state.q[a];
+    EXPECT_NEAR(q.quaternion().norm(), 1.0, 4e-16);
+    V3 l = V3::Zero();
+    for (const lgvi::Ball& ball : body.balls()) {
+      const Atom& atom = atoms[next++];
+      EXPECT_LT((sc.initial_state.x[a] + q.act(ball.position) - atom.x).norm(), 1e-14 * 20.0) << "body " << a;
+      l += ball.mass * (atom.x - sc.initial_state.x[a]).cross(atom.v);
+    }
+    EXPECT_LT((q.act(0.5 * sc.initial_state.w[a]) - l).norm(), 1e-14) << "body " << a;
+  }
+  EXPECT_EQ(next, atoms.size());
+}
