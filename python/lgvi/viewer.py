@@ -96,8 +96,9 @@ def _parts(bodies, potential):
         if balls:
             rho = np.array([ball["position"] for ball in balls], dtype=float)
             radii = np.array([float(ball.get("radius", 0.0)) for ball in balls])
-            if not np.any(radii > 0):  # point masses: dots a twentieth of the body's size
-                radii[:] = 0.05 * max(float(np.max(np.linalg.norm(rho, axis=1))), 1e-3)
+            extent = float(np.max(np.linalg.norm(rho, axis=1)))
+            if not np.any(radii > 0):  # point masses: dots a twentieth of the body's size (a single one: none)
+                radii[:] = 0.05 * extent
             for r_, rad in zip(rho, radii):
                 rows.append([b, *r_, 1.0, 0.0, 0.0, 0.0, rad, rad, rad])
             continue
@@ -107,9 +108,22 @@ def _parts(bodies, potential):
             inertia = inertia - mass * (chi @ chi * np.eye(3) - np.outer(chi, chi))
             offset = chi
             com[b] = chi
-        axes, q = inertia_ellipsoid(mass, inertia)
+        axes, q = inertia_ellipsoid(mass, inertia) if np.any(inertia != 0.0) else (np.zeros(3), [1.0, 0, 0, 0])
         rows.append([b, *offset, *q, *axes])
     return np.array(rows, dtype=float).reshape(-1, 11), com
+
+
+def _size_points(parts, lo, hi):
+    """Point bodies (a single point mass, or a mass without inertia) have no size of their own: drawn as
+    balls of half the median size of the other parts, or, with nothing else, of a hundredth of the scene's
+    extent (1 if the scene is a point)."""
+    point = np.all(parts[:, 8:11] == 0.0, axis=1)
+    if not np.any(point):
+        return
+    others = parts[~point, 8:11].max(axis=1)
+    extent = float(np.linalg.norm(np.asarray(hi) - np.asarray(lo)))
+    radius = 0.5 * float(np.median(others)) if len(others) else (0.01 * extent if extent > 0.0 else 1.0)
+    parts[point, 8:11] = radius
 
 
 # ---------------------------------------------------------------- data
@@ -178,6 +192,7 @@ def page_data(result, max_frames=MAX_FRAMES, max_bytes=MAX_BYTES):
         lower, upper = np.array(box["lower"], dtype=float), np.array(box["upper"], dtype=float)
         lo, hi = np.where(periodic, lower, lo), np.where(periodic, upper, hi)
         periodic_box = {"lower": lower.tolist(), "upper": upper.tolist(), "periodic": periodic.tolist()}
+    _size_points(parts, lo, hi)
     size = float(np.max(parts[:, 8:11])) if len(parts) else 0.0
     reach = float(np.max(np.linalg.norm(parts[:, 1:4], axis=1) + parts[:, 8:11].max(axis=1))) if len(parts) else 0.0
     meta = {

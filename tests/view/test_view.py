@@ -157,6 +157,23 @@ def test_inertia_ellipsoid_has_the_bodys_inertia():
     np.testing.assert_allclose(np.linalg.det(Rq), 1.0, atol=1e-12)
 
 
+def test_point_bodies_are_drawn_with_a_size():
+    """A point body (a single point mass, or a mass without inertia) has no size of its own: drawn as a ball
+    of half the median size of the other parts (a triangle of point masses: dots a twentieth of its
+    extent), or with nothing else of a hundredth of the scene's extent; never of size 0."""
+    triangle = {"mass": 3.0, "balls": [{"position": p, "mass": 1.0} for p in ([1.0, 0, 0], [-0.5, 0.8, 0], [-0.5, -0.8, 0])]}
+    atom = {"mass": 1.0, "balls": [{"position": [0.0, 0.0, 0.0], "mass": 1.0}]}
+    bare = {"mass": 1.0, "inertia": [[0.0] * 3] * 3}
+    parts, _ = viewer._parts([triangle, atom, bare], {})
+    viewer._size_points(parts, [0.0, 0.0, 0.0], [10.0, 0.0, 0.0])
+    dot = 0.05 * 1.0  # the farthest point mass from the centre: 1.0
+    np.testing.assert_allclose(parts[:3, 8:11], dot, rtol=1e-15)
+    np.testing.assert_allclose(parts[3:, 8:11], 0.5 * dot, rtol=1e-15)  # the atom and the bare mass
+    parts, _ = viewer._parts([atom, bare], {})
+    viewer._size_points(parts, [0.0, 0.0, 0.0], [3.0, 4.0, 0.0])
+    np.testing.assert_allclose(parts[:, 8:11], 0.05, rtol=1e-15)  # |extent| = 5
+
+
 def test_decimation_is_even_and_keeps_the_last_row():
     idx = viewer._frames(1000001, 2000, 60, 36_000_000)
     assert len(idx) <= 2000 and idx[0] == 0 and idx[-1] == 1000000
