@@ -2,6 +2,7 @@
 // draws, one member's run and row, the journal, and the threads runner.
 #include "ensemble.hpp"
 
+#include "formats/registry.hpp"
 #include "json_io.hpp"
 
 #include "output.hpp"

@@ -1,5 +1,6 @@
 #include "run.hpp"
 
+#include "formats/registry.hpp"
 #include "output.hpp"
 #include "progress_line.hpp"
 #include "simulation.hpp"

@@ -1,4 +1,6 @@
 #include "scenario.hpp"
+
+#include "formats/registry.hpp"
 #include "interactions/registry.hpp"
 #include "lammps_data.hpp"
 #include "toml_reader.hpp"

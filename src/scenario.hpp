@@ -13,8 +13,7 @@
 #include <lgvi/system.hpp>
 
 #include "method.hpp"
-#include "formats/registry.hpp"
-#include "trajectory_sink.hpp"
+#include "formats/format.hpp"
 
 #include <cstdint>
 #include <functional>

@@ -4,6 +4,8 @@
 // the run loop, checkpoints and resume do not depend on the format.
 #pragma once
 
+#include "formats/format.hpp"
+
 #include <lgvi/box.hpp>
 
 #include <array>
@@ -67,15 +69,6 @@ struct BodyShape {
   /// centre of mass, with the radius of the uniform sphere of its mean
   /// moment (tr J / 3 = 2/5 m r^2).
   std::vector<Site> sites;
-};
-
-/// The IDs a data file gave the bodies and their sites (an [import]'s:
-/// lammps_data.hpp), which the LAMMPS dump writes in place of its own
-/// numbering.
-struct FileIds {
-  std::vector<std::int64_t> molecule;  ///< per body
-  std::vector<std::int64_t> atom;      ///< per site, the bodies' balls in order
-  bool empty() const { return molecule.empty(); }
 };
 
 /// What a trajectory file holds: the column names, and how many rows make

@@ -7,6 +7,7 @@
 // only: a new format is its file and its line in registry.cpp.
 #pragma once
 
+#include "formats/format.hpp"
 #include "trajectory_sink.hpp"
 
 #include <cstdint>
@@ -57,25 +58,6 @@ struct FormatDescriptor {
   /// if members.csv is all the format asks for.
   void (*write_table)(const std::string& path, const ColumnTable& table) = nullptr;
   std::string_view table_file_name = {};
-};
-
-/// Every format, in registration order (formats/registry.cpp); the first is the default.
-std::span<const FormatDescriptor* const> trajectory_formats();
-
-/// A registered format (a value: compares by which format it is). Default:
-/// the first registered, CSV.
-class TrajectoryFormat {
- public:
-  TrajectoryFormat() : descriptor_(trajectory_formats().front()) {}
-  /// The format of that name; throws InvalidInput naming `where` (e.g.
-  /// "output.format") and the registered names if there is none.
-  static TrajectoryFormat named(std::string_view name, const std::string& where = "output.format");
-  const FormatDescriptor& descriptor() const { return *descriptor_; }
-  bool operator==(const TrajectoryFormat& o) const { return descriptor_ == o.descriptor_; }
-
- private:
-  explicit TrajectoryFormat(const FormatDescriptor* d) : descriptor_(d) {}
-  const FormatDescriptor* descriptor_;
 };
 
 /// The scenario name of a format ("csv", ...).

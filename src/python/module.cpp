@@ -15,6 +15,7 @@
 
 #include "memory_sink.hpp"
 #include "ensemble.hpp"
+#include "formats/registry.hpp"
 #include "interactions/registry.hpp"
 #include "method_registry.hpp"
 #include "scenario.hpp"
