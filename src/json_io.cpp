@@ -119,9 +119,13 @@ bool write_json(std::FILE* file, const Json& doc, const JsonLayout& layout) {
   return drain.ok && std::fwrite(out.data(), 1, out.size(), file) == out.size();
 }
 
-Json parse_json_file_text(const std::string& text, const std::string& file) {
+namespace {
+
+/// Parses with `parse`; a parse error as parse_json_file_text's message.
+template <class Parse>
+Json parsed_or_one_line(const std::string& file, Parse&& parse) {
   try {
-    return Json::parse(text);
+    return parse();
   } catch (const Json::exception& e) {
     // e.what() is "[json.exception.parse_error.101] parse error at line 4,
     // column 3: ..." (nlohmann writes the control characters it quotes as
@@ -131,6 +135,16 @@ Json parse_json_file_text(const std::string& text, const std::string& file) {
     if (what.rfind("[json.exception.", 0) == 0 && tag_end != std::string::npos) what.erase(0, tag_end + 2);
     throw InvalidInput(file + ": not valid JSON (" + what + ")");
   }
+}
+
+}  // namespace
+
+Json parse_json_file_text(const std::string& text, const std::string& file) {
+  return parsed_or_one_line(file, [&] { return Json::parse(text); });
+}
+
+Json parse_json_file_stream(std::istream& in, const std::string& file, const Json::parser_callback_t& keep) {
+  return parsed_or_one_line(file, [&] { return Json::parse(in, keep); });
 }
 
 }  // namespace lgvi::app

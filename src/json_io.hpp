@@ -53,4 +53,8 @@ bool write_json(std::FILE* file, const Json& doc, const JsonLayout& layout = {})
 /// not JSON.
 Json parse_json_file_text(const std::string& text, const std::string& file);
 
+/// The same, read from a stream as it is parsed, with nlohmann's parser
+/// callback (return false to drop an element as soon as it is parsed).
+Json parse_json_file_stream(std::istream& in, const std::string& file, const Json::parser_callback_t& keep);
+
 }  // namespace lgvi::app

@@ -9,7 +9,6 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 
 namespace lgvi::app {
 
@@ -49,9 +48,28 @@ void show_run(const std::string& dir, std::ostream& out) {
   const std::string file = (std::filesystem::path(dir) / "summary.json").string();
   std::ifstream in(file);
   if (!in) throw InvalidInput(file + ": no summary here; is '" + dir + "' a run folder written by lgvi run?");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  const Json summary = parse_json_file_text(ss.str(), file);
+  // The per-body lists (final_bodies, setup.bodies) are most of a large system's summary (about 1 GB at
+  // 10^6 bodies) and this reads only their length: their entries are counted and dropped as they are
+  // parsed, so that the memory stays that of the rest.
+  std::size_t final_bodies = 0;
+  bool in_final_bodies = false, in_setup = false, in_setup_bodies = false;
+  const Json summary = parse_json_file_stream(in, file, [&](int depth, Json::parse_event_t event, Json& parsed) {
+    using Event = Json::parse_event_t;
+    if (event == Event::key) {
+      if (depth == 1) {
+        in_final_bodies = parsed == "final_bodies";
+        in_setup = parsed == "setup";
+      }
+      if (depth == 2) in_setup_bodies = in_setup && parsed == "bodies";
+      return true;
+    }
+    const bool element = (event == Event::object_end || event == Event::array_end || event == Event::value);
+    if (element && depth == 2 && in_final_bodies) {
+      ++final_bodies;
+      return false;
+    }
+    return !(element && depth == 3 && in_setup_bodies);
+  });
   const auto field = [&summary](const char* key) { return member(&summary, key); };
   const bool completed = text(field("completed")) == "true";
   auto row = [&](const std::string& name, const std::string& value) { out << fmt::format("{:<22} {}\n", name, value); };
@@ -98,8 +116,7 @@ void show_run(const std::string& dir, std::ostream& out) {
                                       text(field("initial_angular_momentum")), number(field("max_momentum_error")),
                                       number(field("max_relative_momentum_error")),
                                       is_change("max_momentum_error") ? change_note : ""));
-  const Json* bodies = field("final_bodies");
-  const std::size_t n = bodies && bodies->is_array() ? bodies->size() : 1;
+  const std::size_t n = std::max<std::size_t>(final_bodies, 1);
   if (n > 1) {
     row("bodies", fmt::format("{} (the final state of each is in summary.json, final_bodies)", n));
     row("linear momentum", fmt::format("max |P - P0| / sum |p_a0| = {:.3e}{}", number(field("max_linear_momentum_error")),

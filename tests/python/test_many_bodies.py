@@ -361,3 +361,18 @@ def test_the_periodic_start_equals_lammps():
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "| pressure of the rigid molecules |" in proc.stdout
+
+
+def test_show_counts_the_bodies_without_holding_their_lists(tmp_path):
+    # lgvi show drops the per-body lists (final_bodies, setup.bodies) as it parses summary.json, counting the
+    # first: the count and every row read from the rest (here the energy's E0 and the solver's iterations) are
+    # the summary's, the lists' entries being skipped, not the keys after them.
+    gas = variant(tmp_path, "lj-gas", [("count = 1000", "count = 27"), ("duration = 2.0", "duration = 0.02")])
+    assert run(gas, "--out", tmp_path / "gas").returncode == 0
+    summary = json.loads((tmp_path / "gas" / "summary.json").read_text())
+    shown = subprocess.run([BINARY, "show", str(tmp_path / "gas")], capture_output=True, text=True, check=True).stdout
+    rows = {line.split("  ")[0]: line for line in shown.splitlines()}
+    assert rows["bodies"].split()[1] == str(len(summary["final_bodies"])) == "27"
+    e0 = float(rows["energy"].split("E0 = ")[1].split(",")[0])  # printed to 10 digits
+    assert e0 == pytest.approx(summary["initial_energy"], rel=1e-9)
+    assert f"(max {summary['solver_iterations_max']})" in rows["solver iterations"]
