@@ -90,8 +90,8 @@ struct Checkpoint {
   /// The stepper's fields, all named "stepper.*" (SystemStepper's save, load);
   /// read from a file of versions 2 to 4: its numbers as "stepper.internal".
   CheckpointFields stepper;
-  /// The observer's fields, all named "recorder.*" (e.g. its copy of a wheel controller, the sensors'
-  /// readings so far): written and read by the run loop (simulation.cpp).
+  /// The observer's fields, all named "recorder.*" (e.g. its copy of a wheel controller, how far each
+  /// side table was written): written and read by the run loop (simulation.cpp).
   CheckpointFields recorder;
   RunStatistics stats;
   SinkPosition sink;

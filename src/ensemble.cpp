@@ -95,8 +95,9 @@ std::string csv_field(const std::string& s) {
 // The sweep file
 
 /// A key's parts between its dots; an entry of an array of tables may also be written NAME[I] before the
-/// last part ("body.wheel[0].inertia", as the reader's messages name it, is "body.wheel.0.inertia"). In the
-/// last part, brackets index an array's elements (Leaf).
+/// last part ("body.wheel[0].inertia", as the reader's messages name it, is "body.wheel.0.inertia"), but
+/// for a [[bodies]] entry's name, which may hold brackets ("bodies.sat[1].omega"). In the last part,
+/// brackets index an array's elements (Leaf).
 std::vector<std::string> split_key(const std::string& key) {
   std::vector<std::string> parts;
   std::stringstream ss(key);
@@ -105,7 +106,8 @@ std::vector<std::string> split_key(const std::string& key) {
   for (std::size_t i = 0; i < parts.size(); ++i) {
     const std::string& p = parts[i];
     const std::size_t open = p.find('[');
-    if (i + 1 < parts.size() && open != std::string::npos && open > 0 && p.back() == ']' &&
+    const bool body_name = i == 1 && parts[0] == "bodies";
+    if (!body_name && i + 1 < parts.size() && open != std::string::npos && open > 0 && p.back() == ']' &&
         p.find_first_of("[]", open + 1) == p.size() - 1) {
       split.push_back(p.substr(0, open));
       split.push_back(p.substr(open + 1, p.size() - open - 2));
@@ -141,7 +143,8 @@ toml::table* key_table(toml::table& root, const std::vector<std::string>& parts,
   for (; i + 1 < parts.size(); ++i) {
     if (toml::array* entries = (*t)[parts[i]].as_array()) {  // [[forcing]]: the next part is an index
       const std::string& index = parts[i + 1];
-      // One spelling per entry (0, 1, ..., no leading zero): the key is also the members.csv column's name.
+      // One spelling per index (0, 1, ..., no leading zero); NAME[I] and NAME.I are the same entry, which
+      // the plan refuses to vary twice (parse_ensemble_with).
       if (i + 2 >= parts.size() || index.empty() || index.size() > 6 || (index.size() > 1 && index[0] == '0') ||
           index.find_first_not_of("0123456789") != std::string::npos)
         return nullptr;
@@ -582,6 +585,10 @@ static EnsemblePlan parse_ensemble_with(const std::string& sweep_text, const std
   for (std::size_t i = 0; i < plan.vary.size(); ++i) {
     VarySpec& v = plan.vary[i];
     const std::string p = "vary[" + std::to_string(i) + "].key";
+    for (std::size_t j = 0; j < i; ++j)
+      if (split_key(plan.vary[j].key) == split_key(v.key))
+        r.fail(p, "\"" + v.key + "\" varies the same value as vary[" + std::to_string(j) + "] (\"" +
+                      plan.vary[j].key + "\"); give each key once");
     std::string leaf_text;
     toml::table* t = key_table(base, split_key(v.key), leaf_text);
     if (!t)

@@ -1131,7 +1131,7 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
       Damping d{non_negative("c"), non_negative("c_linear")};
       if (!(d.c > 0.0 || d.c_linear > 0.0))
         r.fail(prefix, "give c > 0 (body torque -c Omega) and/or c_linear > 0 (force -c_linear v)");
-      reads_no_gyrostat_rate("damping");
+      if (d.c > 0.0) reads_no_gyrostat_rate("damping with c > 0");  // c_linear reads p alone
       set.add(d, body);
     } else {
       r.only_keys(t, prefix, {"kind", "body", "target", "k_p", "k_d", "max_torque", "period", "actuator", "distribution"});

@@ -59,6 +59,7 @@ void show_run(const std::string& dir, std::ostream& out) {
       if (depth == 1) {
         in_final_bodies = parsed == "final_bodies";
         in_setup = parsed == "setup";
+        in_setup_bodies = false;
       }
       if (depth == 2) in_setup_bodies = in_setup && parsed == "bodies";
       return true;
@@ -100,7 +101,10 @@ void show_run(const std::string& dir, std::ostream& out) {
     row("energy", fmt::format("E0 = {}, max |E - E0 - W| = {:.3e} (W: the {} work, {:.6g} at the end)",
                               text(field("initial_energy")), number(field("max_abs_energy_error")),
                               // Motor torques on reaction wheels alone: no external forcing (momentum_error_is).
-                              field("wheels") && !field("momentum_error_is") ? "motors'" : "forcing's", number(work)));
+                              !field("wheels")               ? "forcing's"
+                              : field("momentum_error_is") ? "forcing's and the motors'"
+                                                           : "motors'",
+                              number(work)));
   else
     row("energy", fmt::format("E0 = {}, max |E - E0| = {:.3e}", text(field("initial_energy")),
                               number(field("max_abs_energy_error"))));

@@ -692,8 +692,17 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
       throw CheckpointError(opt.resume->path + ": " + e.what());
     }
   }
+  // A resume opens the side tables first (the folder is there): one that is missing or shorter than the
+  // checkpoint recorded is refused before the trajectory is truncated.
+  if (opt.resume) {
+    try {
+      side_tables.open();
+    } catch (const std::exception& e) {
+      throw CheckpointError(opt.resume->path + ": " + e.what());
+    }
+  }
   TrajectorySink& sink = open_sink();
-  side_tables.open();
+  if (!opt.resume) side_tables.open();
   ContactWatch contact(sc, stats);
   if (opt.resume) contact.resume_at(k0);
   Recorder recorder{sc, sink, stats, contact};

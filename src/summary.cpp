@@ -229,7 +229,8 @@ auto with_summary(const Scenario& sc, const SimulationResult& r, Use&& use) {
                       : 0.0;
   s["solver_iterations_max"] = st.iterations_max;
   s["potential_evaluations"] = st.potential_evaluations;
-  s["final"] = state_json(r.final_state.body(0));
+  // (No state: a run that failed before its first step, e.g. writing its folder.)
+  s["final"] = r.final_state.size() > 0 ? state_json(r.final_state.body(0)) : Json();
   s["final_bodies"] = Json::array();  // one body at a time as it is written (below)
   if (sc.bodies_format && sc.on_contact != OnContact::Ignore) {
     // The episodes of overlap (the one that stopped the run under "stop").

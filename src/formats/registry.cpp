@@ -43,6 +43,13 @@ std::FILE* open_appendable_file(const std::string& path, const SinkPosition* res
   std::FILE* file = nullptr;
   if (resume) {
     std::error_code ec;
+    // Shorter than the checkpoint recorded: not the file the run wrote (resizing would pad it with zeros).
+    const std::uintmax_t size = std::filesystem::file_size(path, ec);
+    if (ec) throw std::runtime_error("cannot resume " + path + ": " + ec.message());
+    if (size < static_cast<std::uintmax_t>(resume->bytes))
+      throw std::runtime_error("cannot resume " + path + ": it holds " + std::to_string(size) +
+                               " bytes, fewer than the " + std::to_string(resume->bytes) +
+                               " the checkpoint recorded; it was cut or replaced since");
     std::filesystem::resize_file(path, static_cast<std::uintmax_t>(resume->bytes), ec);
     if (ec) throw std::runtime_error("cannot truncate " + path + " to resume: " + ec.message());
     file = std::fopen(path.c_str(), "ab");

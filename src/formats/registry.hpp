@@ -84,7 +84,8 @@ inline std::unique_ptr<TrajectorySink> open_trajectory(TrajectoryFormat format, 
 /// The file of a format that appends to one file (csv, xyz, lammps-dump):
 /// new and empty, or on resume truncated back to the checkpoint's
 /// `resume->bytes` and opened for appending. Throws std::runtime_error
-/// naming the file when it cannot be truncated or opened.
+/// naming the file when it cannot be truncated or opened, or is missing or
+/// shorter than `resume->bytes`.
 std::FILE* open_appendable_file(const std::string& path, const SinkPosition* resume);
 
 }  // namespace lgvi::app

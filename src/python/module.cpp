@@ -221,7 +221,8 @@ CallablePotential make_python_potential(py::object spec) { return CallablePotent
 /// torque in the body frame, q scalar-first.
 Scenario with_python_forcing(const Scenario& sc, py::object forcing) {
   if (forcing.is_none()) return sc;
-  // As the reader's rule for [[forcing]] beside wheels: a forcing reads a body's rate as a rigid body's.
+  // A Python forcing may read any body's rate, which it is given as a rigid body's: refused with wheels
+  // anywhere in the scenario (the reader refuses only the rate-reading kinds, and per body).
   if (sc.system.has_wheels())
     throw py::value_error("forcing: a scenario with reaction wheels takes no Python forcing (it would read the "
                           "body's rate as a rigid body's, not the gyrostat's)");

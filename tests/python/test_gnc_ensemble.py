@@ -320,3 +320,21 @@ def test_a_failing_member_has_nan_metrics_and_a_padded_curve(tmp_path):
     curve = [float(c["pointing_error_deg"]) for c in rows(tmp_path / "out" / "pointing_error.csv")
              if c["index"] == "1"]
     assert len(curve) == 31 and curve[0] == pytest.approx(30.0, abs=1e-9) and all(math.isnan(e) for e in curve[1:])
+
+
+def test_one_value_is_varied_once_whatever_its_spelling():
+    # body.wheel[1] and body.wheel.1 are the same wheel: two [[vary]] of it are one line naming both.
+    from lgvi import _core
+    sweep = ('[ensemble]\nscenario = "slew-wheels.toml"\n[[vary]]\nkey = "body.wheel[1].max_torque"\n'
+             'values = [0.002]\n[[vary]]\nkey = "body.wheel.1.max_torque"\nvalues = [0.02]\n')
+    with pytest.raises(ValueError, match=r"'vary\[1\].key'.*the same value as vary\[0\]"):
+        _core.ensemble_plan(sweep, "sweep", SLEW_WHEELS.read_text())
+
+
+def test_a_body_named_with_brackets_is_varied_by_its_name():
+    # A [[bodies]] name may hold brackets: "bodies.sat[1].omega" is that body's, not an entry's index.
+    from lgvi import _core
+    base = (SOURCE / "tests" / "reference" / "formation-wheels.toml").read_text().replace('"alpha"', '"sat[1]"')
+    sweep = '[ensemble]\nscenario = "formation.toml"\n[[vary]]\nkey = "bodies.sat[1].omega"\nvalues = [[0.0, 0.0, 0.1]]\n'
+    plan = _core.ensemble_plan(sweep, "sweep", base)
+    assert tomllib.loads(plan.member_toml(0))["bodies"][0]["omega"] == [0.0, 0.0, 0.1]

@@ -125,7 +125,7 @@ def test_motor_torques_keep_a_tumbling_spacecrafts_angular_momentum(tmp_path):
     (('wheel = "z"', 'wheel = "y"'), "forcing[0].wheel", 'no wheel is named "y"'),
     (('wheel = "z"', 'wheel = 3'), "forcing[0].wheel", "an index in [0, 0]"),
     (("[[forcing]]\nkind = \"wheel-torque\"", "[[forcing]]\nkind = \"damping\"\nc = 0.1\n"
-      "[[forcing]]\nkind = \"wheel-torque\""), "forcing[0].kind", "damping reads the body's rate as a rigid body's"),
+      "[[forcing]]\nkind = \"wheel-torque\""), "forcing[0].kind", "reads the body's rate as a rigid body's"),
     (("[[forcing]]\nkind = \"wheel-torque\"", "[[forcing]]\nkind = \"attitude-control\"\n"
       "target = [1.0, 0.0, 0.0, 0.0]\nk_p = 1.0\nk_d = 1.0\n[[forcing]]\nkind = \"wheel-torque\""), "forcing[0].kind",
      "or actuator = \"wheels\""),
@@ -582,3 +582,11 @@ def test_a_wheel_at_max_speed_stops_accelerating(tmp_path):
     held = (t > t[reached]) & (t < 25.0)
     assert np.all(torque[held] == 0.0) and np.ptp(speed[held]) < 1e-12
     assert r.summary["wheels"][0]["time_at_a_limit"] > 14.0  # from ~10 s to 25 s, and again on the way back
+
+
+def test_linear_damping_reads_no_rate_and_runs_beside_the_wheels(tmp_path):
+    # damping with c_linear alone (a force -c_linear v, from p) reads no rate: accepted on a body with wheels.
+    text = SLEW.read_text().replace("[output]", '[[forcing]]\nkind = "damping"\nc_linear = 0.5\n\n[output]')
+    (tmp_path / "drag.toml").write_text(text)
+    proc = run(tmp_path / "drag.toml", tmp_path / "out")
+    assert proc.returncode == 0, proc.stderr
