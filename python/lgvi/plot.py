@@ -221,20 +221,26 @@ def _step_size(plt, t, energy_error, summary, out_dir, written):
 
 
 def _columns_and_summary(source):
-    """(columns, summary, default out_dir) of a run folder/trajectory file or an in-memory result."""
+    """(columns, summary, scenario TOML text or None, default out_dir) of a run folder/trajectory file or an
+    in-memory result."""
     if isinstance(source, (str, bytes, os.PathLike)):
         path = os.fsdecode(source)
         if os.path.isdir(path):
             columns, summary = load_run(path)
-            return columns, summary, path
+            toml_path = os.path.join(path, "scenario.toml")
+            scenario = None
+            if os.path.isfile(toml_path):
+                with open(toml_path, encoding="utf-8") as f:
+                    scenario = f.read()
+            return columns, summary, scenario, path
         result = load(path)
-        return result.columns, result.summary, os.path.dirname(path) or "."
+        return result.columns, result.summary, result.scenario_toml, os.path.dirname(path) or "."
     columns = getattr(source, "columns", None)
     summary = getattr(source, "summary", None)
     if not isinstance(columns, dict) or not isinstance(summary, dict):
         raise TypeError("draw_figures: source must be a run folder, a trajectory file or an lgvi.Result "
                         f"(with .columns and .summary), got {type(source).__name__}")
-    return columns, summary, None
+    return columns, summary, getattr(source, "scenario_toml", None), None
 
 
 def _system_result(source):
@@ -554,7 +560,7 @@ def draw_figures(source, out_dir=None):
             raise ValueError("draw_figures: the trajectory has no rows")
         os.makedirs(out_dir, exist_ok=True)
         return _draw_system(_pyplot(), system, out_dir, [])
-    c, summary, default_out = _columns_and_summary(source)
+    c, summary, scenario_text, default_out = _columns_and_summary(source)
     missing = [n for n in REQUIRED_COLUMNS if n not in c]
     if missing:
         raise ValueError(f"trajectory.csv: missing column(s) {', '.join(missing)}")
@@ -586,22 +592,8 @@ def draw_figures(source, out_dir=None):
     _error_plot(plt, t, err, "|L(t) - L(0)|", title, "momentum_error.png",
                 out_dir, written, scale=l0 if l0 > 0.0 else None)
     _wheels(plt, c, summary, out_dir, written)
-    _pointing_error(plt, c, _scenario_text(source), out_dir, written)
+    _pointing_error(plt, c, scenario_text, out_dir, written)
     return written
-
-
-def _scenario_text(source):
-    """The scenario's TOML text of a run folder, trajectory file or result; None if unknown."""
-    if isinstance(source, (str, bytes, os.PathLike)):
-        path = os.fsdecode(source)
-        if os.path.isdir(path):
-            toml_path = os.path.join(path, "scenario.toml")
-            if not os.path.isfile(toml_path):
-                return None
-            with open(toml_path, encoding="utf-8") as f:
-                return f.read()
-        return getattr(load(path), "scenario_toml", None)
-    return getattr(source, "scenario_toml", None)
 
 
 def _pointing_error(plt, c, scenario_text, out_dir, written):
