@@ -701,6 +701,28 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
       throw CheckpointError(opt.resume->path + ": " + e.what());
     }
   }
+  // What the stepper or the recorder refuses at the initial state (InvalidInput:
+  // an adaptive step with V = 0 and no monitor_scale, a pressure without a
+  // potential) is refused before the sink is opened, so nothing is written.
+  // A step that fails there is the run's failure at step 0, reported with the
+  // sink open as any other.
+  std::optional<StepFailure> initial_failure;
+  if (!opt.resume) {
+    try {
+      stepper.initialize(state, 0.0);
+    } catch (const StepFailure& f) {
+      initial_failure = f;
+    }
+  }
+  const ThermoColumns thermo = thermo_columns(sc);
+  std::function<double(const SystemState&)> virial;
+  if (thermo == ThermoColumns::temperature_and_pressure) {
+    if constexpr (requires { stepper.potential().virial(state); }) {
+      virial = [&stepper](const SystemState& s) { return stepper.potential().virial(s).value(); };
+    } else {
+      throw InvalidInput("the pressure needs the stepper's potential; this method has none");
+    }
+  }
   TrajectorySink& sink = open_sink();
   if (!opt.resume) side_tables.open();
   ContactWatch contact(sc, stats);
@@ -710,19 +732,13 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
   recorder.sensor_table = side_tables.sink(&SimulationResult::sensors);
   recorder.wheel_table = side_tables.sink(&SimulationResult::wheels);
   recorder.observe_step = opt.observe_step;
-  recorder.thermo = thermo_columns(sc);
+  recorder.thermo = thermo;
+  recorder.virial = std::move(virial);
   if (opt.resume && recorder.thermo != ThermoColumns::none && stats.thermo.frames == 0) {
     // A checkpoint from before the thermodynamic columns: the first frame and the
     // sums over the earlier leg are unknown (the summary says null), not the resumed leg's.
     const double unknown = std::numeric_limits<double>::quiet_NaN();
     stats.thermo = {unknown, unknown, unknown, unknown, unknown, unknown, 1};
-  }
-  if (recorder.thermo == ThermoColumns::temperature_and_pressure) {
-    if constexpr (requires { stepper.potential().virial(state); }) {
-      recorder.virial = [&stepper](const SystemState& s) { return stepper.potential().virial(s).value(); };
-    } else {
-      throw InvalidInput("the pressure needs the stepper's potential; this method has none");
-    }
   }
   const double h = sc.integrator.step;
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
@@ -745,12 +761,9 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
   try {
     if (load_failure) {
       throw IntegrationFailure(k0, sc.integrator.adaptive() ? stats.last_t : static_cast<double>(k0) * h, *load_failure);
+    } else if (initial_failure) {
+      throw IntegrationFailure(0, 0.0, *initial_failure);
     } else if (!opt.resume) {
-      try {
-        stepper.initialize(state, 0.0);
-      } catch (const StepFailure& f) {
-        throw IntegrationFailure(0, 0.0, f);
-      }
       recorder(SystemStepInfo{0, 0.0, state, stepper.evaluation(), SolveReport{}});
     }
     // Steps are taken in legs that end at checkpoints and progress reports,

@@ -131,8 +131,8 @@ class TimeTransformedLieGroupVariationalIntegrator : public detail::ImplicitStep
     reference_energy_ = total_energy(s, this->system_, this->eval_);
     scale_ = tt_.monitor_scale > 0.0 ? tt_.monitor_scale : std::abs(this->eval_.energy);
     if (!(scale_ > 0.0 && std::isfinite(scale_)))
-      throw InvalidInput("integrator.monitor_scale: the potential energy at the start is " +
-                         std::to_string(this->eval_.energy) +
+      throw InvalidInput(std::string("integrator.monitor_scale: the potential energy at the start is ") +
+                         (this->eval_.energy == 0.0 ? "0 (or underflows)" : "not finite") +
                          ", which gives no default scale; give monitor_scale (the size of -V where steps should "
                          "start to shrink)");
   }
