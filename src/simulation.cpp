@@ -613,14 +613,11 @@ struct Recorder {
       tail[tail_size++] = temperature;
       if (thermo == ThermoColumns::temperature_and_pressure) tail[tail_size++] = pressure;
     }
+    const SystemRowTotals totals{energy, de, P, dp, L, dl};
+    double row[bodies_trajectory_columns + 3];
     for (std::size_t a = 0; a < n; ++a) {
-      const auto& q = s.q[a].quaternion();
-      const Vector3<double>&x = s.x[a], &p = s.p[a], &w = s.w[a];
-      const double row[bodies_trajectory_columns + 3] = {
-          i.t,     static_cast<double>(a), x.x(),   x.y(), x.z(), q.w(), q.x(),  q.y(),  q.z(),
-          p.x(),   p.y(), p.z(), w.x(),   w.y(), w.z(), s.q[a].norm_error(), energy, de, P.x(), P.y(), P.z(), dp,
-          L.x(),   L.y(), L.z(), dl,      tail[0], tail[1], tail[2]};  // the sink reads the layout's columns
-      sink.row(row);
+      system_row(i.t, s, a, totals, tail, tail_size, row);
+      sink.row(row);  // the layout's columns
     }
   }
 };

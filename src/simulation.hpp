@@ -15,6 +15,7 @@
 #include <lgvi/state.hpp>
 #include <lgvi/system.hpp>
 
+#include <algorithm>
 #include <csignal>
 #include <cstdint>
 #include <functional>
@@ -161,6 +162,36 @@ struct SingleBodyRow {
                work.value_or(0.0)},
         columns(trajectory_columns + (work ? 1 : 0)) {}
 };
+
+/// The system's totals repeated in each row of the long format: the energy,
+/// its error, the total linear momentum P and its error |P - P0| / sum |p_a0|
+/// (absolute when every body starts at rest), the total angular momentum L
+/// and |L - L0|.
+struct SystemRowTotals {
+  double energy, energy_error;
+  Vector3<double> P;
+  double linear_momentum_error;
+  Vector3<double> L;
+  double momentum_error;
+};
+
+/// Body a's row of the long format (bodies_trajectory_columns: t, a, x, q
+/// scalar first, p, w, |q| - 1, then the totals), followed by `tail_size` <= 3
+/// optional columns (the work when forced, then the thermodynamic ones), into
+/// `row` (room for bodies_trajectory_columns + 3). The one row builder of a
+/// system for the run loop and the Python Stepper.
+inline void system_row(double t, const SystemState& s, std::size_t a, const SystemRowTotals& c, const double* tail,
+                       int tail_size, double* row) {
+  const auto& q = s.q[a].quaternion();
+  const Vector3<double>&x = s.x[a], &p = s.p[a], &w = s.w[a];
+  const double head[bodies_trajectory_columns] = {
+      t,     static_cast<double>(a), x.x(),   x.y(),  x.z(),  q.w(), q.x(), q.y(), q.z(),
+      p.x(), p.y(),                  p.z(),   w.x(),  w.y(),  w.z(), s.q[a].norm_error(),
+      c.energy, c.energy_error, c.P.x(), c.P.y(), c.P.z(), c.linear_momentum_error,
+      c.L.x(), c.L.y(), c.L.z(), c.momentum_error};
+  std::copy_n(head, bodies_trajectory_columns, row);
+  std::copy_n(tail, tail_size, row + bodies_trajectory_columns);
+}
 
 /// The thermodynamic columns of a scenario's trajectory (ThermoColumns): a
 /// many-body scenario with a short-range pair interaction (one with a reach)

@@ -1042,8 +1042,14 @@ class Stepper:
     (3,), ``omega`` Omega (3,), ``velocity`` (3,), ``rotation_matrix`` (3,
     3); time ``t`` = k h (never accumulated), step index ``k``; diagnostics
     ``energy``, ``energy_error`` (against k = 0), ``angular_momentum``,
-    ``potential_energy``, ``force`` and ``torque`` at the current state;
-    ``state`` (all as a dict).
+    ``linear_momentum``, ``potential_energy``, ``force`` and ``torque`` at
+    the current state; ``state`` (all as a dict).
+
+    A [[bodies]] scenario of N bodies is stepped as a whole (``bodies`` is
+    N): each per-body array gains a leading body axis, (N, 3), (N, 4) and
+    (N, 3, 3), row a for body a in the scenario's order, both when read and
+    when given to ``set_state``; the energy and the momenta are the
+    system's totals, and ``row`` is the long format's N rows.
 
     Changing forces between steps:
 
@@ -1091,20 +1097,35 @@ class Stepper:
 
         ``position`` (3,), ``quaternion`` (4,) scalar-first (w, x, y, z) within
         1e-6 of unit norm (then normalized), ``momentum`` or ``velocity``,
-        ``w`` or ``omega``. k and t are unchanged; energy_error stays
-        relative to k = 0.
+        ``w`` or ``omega``; for N bodies (N, 3) and (N, 4), all bodies' at
+        once. k and t are unchanged; energy_error stays relative to k = 0.
         """
         for a, b, va, vb in (("momentum", "velocity", momentum, velocity), ("w", "omega", w, omega)):
             if va is not None and vb is not None:
                 raise ValueError(f"{a}, {b}: give one of them, not both")
-        x = None if position is None else _check.vector3(position, "position")
-        q = None if quaternion is None else _check.quaternion(quaternion, "quaternion")
-        p = None if momentum is None else _check.vector3(momentum, "momentum")
-        if velocity is not None:
-            p = self._scenario._core.body.mass * _check.vector3(velocity, "velocity")
-        ww = None if w is None else _check.vector3(w, "w")
-        if omega is not None:
-            ww = 2.0 * (self._scenario._core.body.inertia @ _check.vector3(omega, "omega"))
+        n = self._core.bodies
+        if n == 1:
+            x = None if position is None else _check.vector3(position, "position")
+            q = None if quaternion is None else _check.quaternion(quaternion, "quaternion")
+            p = None if momentum is None else _check.vector3(momentum, "momentum")
+            if velocity is not None:
+                p = self._scenario._core.body.mass * _check.vector3(velocity, "velocity")
+            ww = None if w is None else _check.vector3(w, "w")
+            if omega is not None:
+                ww = 2.0 * (self._scenario._core.body.inertia @ _check.vector3(omega, "omega"))
+        else:
+            x = None if position is None else _check.array(position, "position", (n, 3))
+            q = None
+            if quaternion is not None:
+                q = _check.array(quaternion, "quaternion", (n, 4))
+                for a in range(n):
+                    _core.check_quaternion(q[a], f"quaternion[{a}]")
+            p = None if momentum is None else _check.array(momentum, "momentum", (n, 3))
+            if velocity is not None:
+                p = self._core.masses[:, None] * _check.array(velocity, "velocity", (n, 3))
+            ww = None if w is None else _check.array(w, "w", (n, 3))
+            if omega is not None:
+                ww = 2.0 * np.einsum("aij,aj->ai", self._core.inertias, _check.array(omega, "omega", (n, 3)))
         try:
             self._core.set_state(x, q, p, ww)
         except ValueError as e:
@@ -1119,6 +1140,11 @@ class Stepper:
     def potential(self):
         """The Python potential in use, or None for the scenario's built-in one."""
         return self._potential
+
+    @property
+    def bodies(self):
+        """N, the number of bodies stepped (1 for a [body] scenario)."""
+        return self._core.bodies
 
     @property
     def k(self):
@@ -1202,8 +1228,13 @@ class Stepper:
 
     @property
     def angular_momentum(self):
-        """Total angular momentum about the origin, L = x cross p + R w / 2 (3,)."""
+        """Total angular momentum about the origin, L = sum_a x_a cross p_a + R_a w_a / 2 (3,)."""
         return self._core.angular_momentum
+
+    @property
+    def linear_momentum(self):
+        """Total linear momentum P = sum_a p_a (3,)."""
+        return self._core.linear_momentum
 
     @property
     def solver_iterations(self):
@@ -1213,7 +1244,8 @@ class Stepper:
     @property
     def row(self):
         """The 21 trajectory columns at the current step (lgvi.COLUMNS order; 22 with "work" when forced), exactly
-        as simulate() writes them."""
+        as simulate() writes them; for N bodies the long format's N rows (lgvi.BODIES_COLUMNS order, with
+        "work" when forced; not the temperature and pressure), shape (N, 26) or (N, 27)."""
         return self._core.row()
 
     @property

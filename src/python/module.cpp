@@ -83,6 +83,16 @@ py::array_t<double> matrix_array(const Matrix3<double>& m) {
   return a;
 }
 
+/// One vector per body: (3,) for one body (the single-body face), (N, 3) for N.
+py::array_t<double> body_vectors(const std::vector<Vector3<double>>& v) {
+  if (v.size() == 1) return array3(v[0]);
+  py::array_t<double> a({static_cast<py::ssize_t>(v.size()), py::ssize_t{3}});
+  auto r = a.mutable_unchecked<2>();
+  for (std::size_t i = 0; i < v.size(); ++i)
+    for (py::ssize_t j = 0; j < 3; ++j) r(static_cast<py::ssize_t>(i), j) = v[i][j];
+  return a;
+}
+
 void make_read_only(py::array& a) {
   py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
 }
@@ -125,6 +135,20 @@ double number(py::handle v, const std::string& name) {
     throw py::value_error(name + " must be a number, got " + std::string(py::repr(v)));
   }
   return d;
+}
+
+/// `obj` as finite float64 numbers of shape (n, width); ValueError naming `name` otherwise.
+Numbers body_rows(py::handle obj, const std::string& name, py::ssize_t n, py::ssize_t width) {
+  Numbers a = Numbers::ensure(obj);
+  const std::string want = "(" + std::to_string(n) + ", " + std::to_string(width) + "), one row per body";
+  if (!a) throw py::value_error(name + ": must be numbers of shape " + want + ", got " + std::string(py::repr(obj)));
+  if (!(a.ndim() == 2 && a.shape(0) == n && a.shape(1) == width))
+    throw py::value_error(name + ": must have shape " + want + ", got shape " + shape_text(a));
+  for (py::ssize_t i = 0; i < a.size(); ++i)
+    if (!std::isfinite(a.data()[i]))
+      throw py::value_error(name + "[" + std::to_string(i / width) + "]: must be finite, got " +
+                            std::to_string(a.data()[i]));
+  return a;
 }
 
 Vector3<double> vec3(py::handle obj, const std::string& name, bool any_value = false) {
@@ -255,22 +279,22 @@ Scenario with_python_forcing(const Scenario& sc, py::object forcing) {
 // ---------------------------------------------------------------------------
 // Type-erased steppers
 
-/// The Python Stepper's view of a method: one body (body 0 of the system),
-/// advanced by the same N-body stepper as simulate() builds.
+/// The Python Stepper's view of a method: the system's state, advanced by the
+/// same N-body stepper as simulate() builds.
 class AnyStepper {
  public:
   virtual ~AnyStepper() = default;
-  virtual void initialize(const RigidBodyState& s) = 0;
-  /// Steps body `s` from step k towards k_end (time k h) with the run loop's
+  virtual void initialize(SystemState& s) = 0;
+  /// Steps `s` from step k towards k_end (time k h) with the run loop's
   /// integrate_range, asking `stop` before each step; `k` counts the steps
   /// taken. On a failure (IntegrationFailure, or what a Python potential or
   /// forcing raised) `s` and `k` are the last good step's.
-  virtual void advance(RigidBodyState& s, std::int64_t& k, std::int64_t k_end, double h,
+  virtual void advance(SystemState& s, std::int64_t& k, std::int64_t k_end, double h,
                        const std::function<bool()>& stop) = 0;
-  virtual const PotentialEvaluation& evaluation() const = 0;
+  virtual const SystemEvaluation& evaluation() const = 0;
   virtual SolveReport last_solve() const = 0;
   virtual std::vector<double> internal_state() const = 0;
-  virtual void resume(const RigidBodyState& s, const std::vector<double>& internal) = 0;
+  virtual void resume(SystemState& s, const std::vector<double>& internal) = 0;
   /// The forcing's work since initialize (0 without forcing).
   virtual double work() const = 0;
 };
@@ -280,53 +304,42 @@ class StepperModel final : public AnyStepper {
  public:
   StepperModel(S&& s, std::shared_ptr<std::int64_t> evaluations)
       : s_(std::move(s)), evaluations_(std::move(evaluations)) {}
-  void initialize(const RigidBodyState& s) override {
-    state_ = SystemState(s);
-    s_.initialize(state_, 0.0);
-    eval_ = s_.evaluation().body(0);
+  void initialize(SystemState& s) override {
+    s_.initialize(s, 0.0);
+    eval_ = s_.evaluation();
   }
-  void advance(RigidBodyState& s, std::int64_t& k, std::int64_t k_end, double h,
+  void advance(SystemState& s, std::int64_t& k, std::int64_t k_end, double h,
                const std::function<bool()>& stop) override {
-    state_.set_body(0, s);
-    try {
-      integrate_range(s_, state_, 0.0, h, k, k_end, [&k](const SystemStepInfo& i) { k = i.k; }, stop);
-    } catch (...) {
-      s = state_.body(0);  // integrate_range left the last good state there
-      throw;
-    }
-    s = state_.body(0);
-    eval_ = s_.evaluation().body(0);
+    // integrate_range leaves the last good state in `s` on a failure.
+    integrate_range(s_, s, 0.0, h, k, k_end, [&k](const SystemStepInfo& i) { k = i.k; }, stop);
+    eval_ = s_.evaluation();
   }
-  const PotentialEvaluation& evaluation() const override { return eval_; }
+  const SystemEvaluation& evaluation() const override { return eval_; }
   SolveReport last_solve() const override { return s_.last_solve(); }
   std::vector<double> internal_state() const override { return s_.internal_state(); }
   double work() const override { return lgvi::detail::forcing_work(s_); }
-  void resume(const RigidBodyState& s, const std::vector<double>& internal) override {
-    state_ = SystemState(s);
-    s_.resume(state_, 0.0, internal);
-    eval_ = s_.evaluation().body(0);
+  void resume(SystemState& s, const std::vector<double>& internal) override {
+    s_.resume(s, 0.0, internal);
+    eval_ = s_.evaluation();
   }
 
  private:
   S s_;
   std::shared_ptr<std::int64_t> evaluations_;  // the system potential counts into it
-  SystemState state_;
-  PotentialEvaluation eval_;
+  SystemEvaluation eval_;
 };
 
 /// The stepper of the scenario's method for its system potential, as
 /// simulate() builds it (scenario_system_potential), with `field` (a Python
 /// potential) in place of its [potential] when given.
 std::unique_ptr<AnyStepper> make_stepper(const Scenario& sc, const CallablePotential* field) {
-  if (sc.bodies() != 1)
-    throw py::value_error("scenario: Stepper steps one body; this scenario has " + std::to_string(sc.bodies()) +
-                          " bodies (use lgvi.simulate for [[bodies]] scenarios)");
   if (sc.integrator.adaptive())
     throw py::value_error("scenario: Stepper takes fixed steps (its t is k h); this scenario has [integrator] "
                           "time_transform = \"potential\" (use lgvi.simulate, which runs it)");
-  if (sc.body().has_wheels())
-    throw py::value_error("scenario: Stepper steps a rigid body's state (x, q, p, w); this body has reaction wheels "
-                          "([[body.wheel]]), whose momenta it does not hold yet (use lgvi.simulate, which runs it)");
+  if (sc.system.has_wheels())
+    throw py::value_error("scenario: Stepper steps rigid bodies' states (x, q, p, w); this scenario has reaction "
+                          "wheels ([[body.wheel]]), whose momenta it does not hold yet (use lgvi.simulate, which "
+                          "runs it)");
   auto evaluations = std::make_shared<std::int64_t>(0);
   const lgvi::app::ScenarioSystemPotential pot =
       lgvi::app::scenario_system_potential(sc, field, evaluations.get());
@@ -431,10 +444,12 @@ class PyStepper {
   PyStepper(const Scenario& sc, py::object potential, py::object forcing)
       : sc_(with_python_forcing(sc, std::move(forcing))), python_forcing_(sc_.forcing.size() != sc.forcing.size()) {
     set_potential_impl(std::move(potential));
-    state_ = sc_.initial();
+    state_ = sc_.initial_state;
     initialize_at(state_, "initial state");
     energy0_ = energy();
     momentum0_ = angular_momentum(state_);
+    linear_momentum0_ = linear_momentum(state_);
+    for (const Vector3<double>& p : state_.p) linear_momentum_scale_ += p.norm();
   }
 
   void step(std::int64_t n) {
@@ -476,32 +491,65 @@ class PyStepper {
     }
   }
 
+  /// Each part None (kept) or, for one body, shape (3,) ((4,) for q); for N
+  /// bodies shape (N, 3) ((N, 4)), row a body a's.
   void set_state(py::object x, py::object q, py::object p, py::object w) {
-    RigidBodyState s = state_;
-    if (!x.is_none()) s.x = vec3(x, "position");
-    if (!q.is_none()) s.q = unit_quaternion(q, "quaternion");
-    if (!p.is_none()) s.p = vec3(p, "momentum");
+    SystemState s = state_;
+    const std::size_t n = s.size();
+    auto vectors = [n](py::handle obj, const std::string& name, std::vector<Vector3<double>>& out) {
+      if (n == 1) {
+        out[0] = vec3(obj, name);
+        return;
+      }
+      const Numbers a = body_rows(obj, name, static_cast<py::ssize_t>(n), 3);
+      for (std::size_t b = 0; b < n; ++b) out[b] = Vector3<double>(a.data() + 3 * b);
+    };
+    if (!x.is_none()) vectors(x, "position", s.x);
+    if (!q.is_none()) {
+      if (n == 1) {
+        s.q[0] = unit_quaternion(q, "quaternion");
+      } else {
+        const Numbers a = body_rows(q, "quaternion", static_cast<py::ssize_t>(n), 4);
+        for (std::size_t b = 0; b < n; ++b) {
+          const double* d = a.data() + 4 * b;
+          try {
+            s.q[b] = S3d::from_quaternion_checked(d[0], d[1], d[2], d[3]);
+          } catch (const InvalidInput& e) {
+            throw py::value_error("quaternion[" + std::to_string(b) + "]: " + e.what());
+          }
+        }
+      }
+    }
+    if (!p.is_none()) vectors(p, "momentum", s.p);
     if (!w.is_none()) {
-      s.w = vec3(w, "w");
+      vectors(w, "w", s.w);
       // As the scenario reader: a linear body has no momentum about its axis
       // (a point none), beyond round-off, which is removed.
-      const RigidBody& body = sc_.body();
-      if (!body.admits_momentum(s.w))
-        throw py::value_error(std::string("w: the body is ") +
-                              (body.rotational_dof() == 2 ? "linear: it has no angular momentum about its axis"
-                                                          : "a point mass: it has no angular momentum; give w = 0"));
-      s.w = body.admissible_momentum(s.w);
+      for (std::size_t b = 0; b < n; ++b) {
+        const RigidBody& body = sc_.system.body(b);
+        if (!body.admits_momentum(s.w[b]))
+          throw py::value_error((n == 1 ? std::string("w") : "w[" + std::to_string(b) + "]") + ": the body is " +
+                                (body.rotational_dof() == 2 ? "linear: it has no angular momentum about its axis"
+                                                            : "a point mass: it has no angular momentum; give w = 0"));
+        s.w[b] = body.admissible_momentum(s.w[b]);
+      }
     }
     initialize_at(s, "state");
-    state_ = s;
+    state_ = std::move(s);
   }
 
   std::int64_t k() const { return k_; }
   double t() const { return static_cast<double>(k_) * sc_.integrator.step; }
   double h() const { return sc_.integrator.step; }
-  const RigidBodyState& state() const { return state_; }
-  const PotentialEvaluation& evaluation() const { return impl_->evaluation(); }
-  double energy() const { return total_energy(state_, sc_.body(), impl_->evaluation()); }
+  const SystemState& state() const { return state_; }
+  /// One quantity of each body's state in rotation-matrix form (state.hpp's project: Omega, x-dot).
+  std::vector<Vector3<double>> projected(Vector3<double> RotationMatrixState::*quantity) const {
+    std::vector<Vector3<double>> v;
+    for (std::size_t b = 0; b < state_.size(); ++b) v.push_back(project(state_.body(b), sc_.system.body(b)).*quantity);
+    return v;
+  }
+  const SystemEvaluation& evaluation() const { return impl_->evaluation(); }
+  double energy() const { return total_energy(state_, sc_.system, impl_->evaluation()); }
   double energy0() const { return energy0_; }
   /// The forcing's work since k = 0 (0 without forcing).
   double work() const { return impl_->work(); }
@@ -510,17 +558,34 @@ class PyStepper {
   SolveReport last_solve() const { return impl_->last_solve(); }
   bool python_potential() const { return python_; }
 
-  /// The trajectory row simulate() would write at this step.
+  /// The trajectory row simulate() would write at this step: one body's
+  /// (SingleBodyRow); for a system its rows of the long format (one per body,
+  /// through "work" when forced; not the thermodynamic columns).
   py::array_t<double> row() const {
     const double e = energy();
     const Vector3<double> L = angular_momentum(state_);
     const bool forced = !sc_.forcing.empty();
     // With a forcing: E - E0 - W and the column "work", as simulate() writes them.
     const double de = forced ? e - energy0_ - work() : e - energy0_;
-    const SingleBodyRow row(t(), state_, e, de, state_.q.norm_error(), L, (L - momentum0_).norm(),
-                            forced ? std::optional(work()) : std::nullopt);
-    py::array_t<double> a(row.columns);
-    std::copy_n(row.values, row.columns, a.mutable_data());
+    if (!sc_.bodies_format) {
+      const SingleBodyRow row(t(), state_.body(0), e, de, state_.q[0].norm_error(), L, (L - momentum0_).norm(),
+                              forced ? std::optional(work()) : std::nullopt);
+      py::array_t<double> a(row.columns);
+      std::copy_n(row.values, row.columns, a.mutable_data());
+      return a;
+    }
+    const Vector3<double> P = linear_momentum(state_);
+    const double dp_abs = (P - linear_momentum0_).norm();
+    const SystemRowTotals totals{e, de, P, linear_momentum_scale_ > 0.0 ? dp_abs / linear_momentum_scale_ : dp_abs,
+                                 L, (L - momentum0_).norm()};
+    const double tail[1] = {forced ? work() : 0.0};
+    const int columns = bodies_trajectory_columns + (forced ? 1 : 0);
+    py::array_t<double> a({static_cast<py::ssize_t>(state_.size()), static_cast<py::ssize_t>(columns)});
+    double buffer[bodies_trajectory_columns + 3];
+    for (std::size_t b = 0; b < state_.size(); ++b) {
+      system_row(t(), state_, b, totals, tail, forced ? 1 : 0, buffer);
+      std::copy_n(buffer, columns, a.mutable_data() + static_cast<std::ptrdiff_t>(b) * columns);
+    }
     return a;
   }
 
@@ -538,7 +603,7 @@ class PyStepper {
     }
   }
 
-  void initialize_at(const RigidBodyState& s, const char* what) {
+  void initialize_at(SystemState& s, const char* what) {
     try {
       impl_->initialize(s);
     } catch (const StepFailure& f) {
@@ -546,7 +611,7 @@ class PyStepper {
     }
   }
 
-  void resume_at(const RigidBodyState& s, const std::vector<double>& internal) {
+  void resume_at(SystemState& s, const std::vector<double>& internal) {
     try {
       impl_->resume(s, internal);
     } catch (const StepFailure& f) {
@@ -582,10 +647,12 @@ class PyStepper {
   std::unique_ptr<AnyStepper> impl_;
   py::object python_object_ = py::none();
   bool python_ = false;
-  RigidBodyState state_;
+  SystemState state_;
   std::int64_t k_ = 0;
   double energy0_ = 0.0;
   Vector3<double> momentum0_ = Vector3<double>::Zero();
+  Vector3<double> linear_momentum0_ = Vector3<double>::Zero();
+  double linear_momentum_scale_ = 0.0;  // sum |p_a| at k = 0, as the run's statistics
 };
 
 // ---------------------------------------------------------------------------
@@ -867,40 +934,88 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("k", &PyStepper::k, "Steps taken.")
       .def_property_readonly("t", &PyStepper::t, "Time k h (never accumulated).")
       .def_property_readonly("h", &PyStepper::h, "Step size.")
-      .def_property_readonly("position", [](const PyStepper& s) { return array3(s.state().x); }, "x (3,).")
-      .def_property_readonly("quaternion", [](const PyStepper& s) { return quaternion_array(s.state().q); },
-                             "q (4,), scalar-first (w, x, y, z).")
-      .def_property_readonly("momentum", [](const PyStepper& s) { return array3(s.state().p); }, "p (3,).")
-      .def_property_readonly("w", [](const PyStepper& s) { return array3(s.state().w); }, "w = 2 J Omega (3,).")
+      .def_property_readonly("bodies", [](const PyStepper& s) { return s.state().size(); }, "N, the bodies stepped.")
       .def_property_readonly(
-          "omega",
-          [](const PyStepper& s) { return array3(project(s.state(), s.scenario().body()).omega); },
-          "Body angular velocity Omega = J^-1 w / 2 (3,).")
+          "masses",
+          [](const PyStepper& s) {
+            const System& sys = s.scenario().system;
+            py::array_t<double> a(static_cast<py::ssize_t>(sys.size()));
+            for (std::size_t b = 0; b < sys.size(); ++b) a.mutable_data()[b] = sys.body(b).mass();
+            return a;
+          },
+          "The bodies' masses m_a (N,).")
       .def_property_readonly(
-          "velocity", [](const PyStepper& s) { return array3(project(s.state(), s.scenario().body()).xdot); },
-          "Velocity p / m (3,).")
-      .def_property_readonly("rotation_matrix",
-                             [](const PyStepper& s) { return matrix_array(s.state().q.matrix()); },
-                             "R = pi(q) (3x3), body to inertial.")
+          "inertias",
+          [](const PyStepper& s) {
+            const System& sys = s.scenario().system;
+            py::array_t<double> a({static_cast<py::ssize_t>(sys.size()), py::ssize_t{3}, py::ssize_t{3}});
+            for (std::size_t b = 0; b < sys.size(); ++b) {
+              const py::array_t<double> m = matrix_array(sys.body(b).inertia());
+              std::copy_n(m.data(), 9, a.mutable_data() + 9 * static_cast<std::ptrdiff_t>(b));
+            }
+            return a;
+          },
+          "The bodies' inertia tensors J_a in body axes (N, 3, 3).")
+      .def_property_readonly("position", [](const PyStepper& s) { return body_vectors(s.state().x); },
+                             "x (3,), or (N, 3).")
+      .def_property_readonly(
+          "quaternion",
+          [](const PyStepper& s) {
+            const SystemState& st = s.state();
+            if (st.size() == 1) return quaternion_array(st.q[0]);
+            py::array_t<double> a({static_cast<py::ssize_t>(st.size()), py::ssize_t{4}});
+            for (std::size_t b = 0; b < st.size(); ++b) {
+              const py::array_t<double> q = quaternion_array(st.q[b]);
+              std::copy_n(q.data(), 4, a.mutable_data() + 4 * static_cast<std::ptrdiff_t>(b));
+            }
+            return a;
+          },
+          "q (4,), or (N, 4), scalar-first (w, x, y, z).")
+      .def_property_readonly("momentum", [](const PyStepper& s) { return body_vectors(s.state().p); },
+                             "p (3,), or (N, 3).")
+      .def_property_readonly("w", [](const PyStepper& s) { return body_vectors(s.state().w); },
+                             "w = 2 J Omega (3,), or (N, 3).")
+      .def_property_readonly(
+          "omega", [](const PyStepper& s) { return body_vectors(s.projected(&RotationMatrixState::omega)); },
+          "Body angular velocity Omega = J^-1 w / 2 (3,), or (N, 3).")
+      .def_property_readonly(
+          "velocity", [](const PyStepper& s) { return body_vectors(s.projected(&RotationMatrixState::xdot)); },
+          "Velocity p / m (3,), or (N, 3).")
+      .def_property_readonly(
+          "rotation_matrix",
+          [](const PyStepper& s) {
+            const SystemState& st = s.state();
+            if (st.size() == 1) return matrix_array(st.q[0].matrix());
+            py::array_t<double> a({static_cast<py::ssize_t>(st.size()), py::ssize_t{3}, py::ssize_t{3}});
+            for (std::size_t b = 0; b < st.size(); ++b) {
+              const py::array_t<double> m = matrix_array(st.q[b].matrix());
+              std::copy_n(m.data(), 9, a.mutable_data() + 9 * static_cast<std::ptrdiff_t>(b));
+            }
+            return a;
+          },
+          "R = pi(q) (3x3), or (N, 3, 3), body to inertial.")
       .def_property_readonly("energy", &PyStepper::energy, "Total energy (kinetic + potential).")
       .def_property_readonly("initial_energy", &PyStepper::energy0, "Energy at k = 0.")
       .def_property_readonly("initial_angular_momentum", [](const PyStepper& s) { return array3(s.momentum0()); },
                              "L at k = 0.")
       .def_property_readonly("potential_energy", [](const PyStepper& s) { return s.evaluation().energy; },
                              "V at the current state.")
-      .def_property_readonly("force", [](const PyStepper& s) { return array3(s.evaluation().force); },
-                             "Force -dV/dx at the current state (3,), inertial frame.")
-      .def_property_readonly("torque", [](const PyStepper& s) { return array3(s.evaluation().torque); },
-                             "Body-frame torque M at the current state (3,).")
+      .def_property_readonly("force", [](const PyStepper& s) { return body_vectors(s.evaluation().force); },
+                             "Force -dV/dx_a at the current state (3,), or (N, 3), inertial frame.")
+      .def_property_readonly("torque", [](const PyStepper& s) { return body_vectors(s.evaluation().torque); },
+                             "Body-frame torque M_a at the current state (3,), or (N, 3).")
       .def_property_readonly("angular_momentum", [](const PyStepper& s) { return array3(angular_momentum(s.state())); },
-                             "Total angular momentum about the origin L = x cross p + R w / 2 (3,).")
+                             "Total angular momentum about the origin L = sum_a x_a cross p_a + R_a w_a / 2 (3,).")
+      .def_property_readonly("linear_momentum", [](const PyStepper& s) { return array3(linear_momentum(s.state())); },
+                             "Total linear momentum P = sum_a p_a (3,).")
       .def_property_readonly("solver_iterations", [](const PyStepper& s) { return s.last_solve().iterations; },
                              "Iterations of the last step's rotation solve.")
       .def_property_readonly("python_potential", &PyStepper::python_potential,
                              "Whether the potential is written in Python.")
       .def_property_readonly("work", &PyStepper::work, "The forcing's work since k = 0 (0 without forcing).")
       .def("row", &PyStepper::row,
-           "The 21 trajectory columns at the current step (22 with the forcing's work), as simulate() writes them.");
+           "The 21 trajectory columns at the current step (22 with the forcing's work), as simulate() writes them; "
+           "for N bodies the long format's rows (N, 26), 27 columns with the work.");
 
   // Ensembles (lgvi.ensemble): the plan of `lgvi ensemble` and one member's row.
   py::class_<lgvi::app::EnsemblePlan>(m, "EnsemblePlan", "A sweep, read and checked: members and their varied values.")
