@@ -2,8 +2,11 @@
 // line-wrapping estimate; see toml_writer.hpp for why.
 #include "toml_writer.hpp"
 
+#include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
+#include <string>
 #include <sstream>
 #include <string_view>
 #include <vector>
@@ -73,6 +76,91 @@ std::size_t inline_columns(const toml::node& node) {
   return 0u;
 }
 
+/// A finite or non-finite double as Python's repr spells it (the shortest
+/// digits that read back to the same double; positional when the decimal
+/// exponent e of d.ddd x 10^e is in [-5, 15], with ".0" added to a whole
+/// number, else d.ddde+XX with two exponent digits at least), so a scenario
+/// written by lgvi reads "0.1" where the user wrote 0.1, from C++ and from
+/// Python alike; "nan", "inf", "-inf" as TOML spells them.
+std::string float_text(double x) {
+  if (std::isnan(x)) return "nan";
+  if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
+  std::string out;
+  if (std::signbit(x)) out += '-';
+  if (x == 0.0) {
+    out += "0.0";
+    return out;
+  }
+  char buffer[40];
+  const auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, std::fabs(x), std::chars_format::scientific);
+  (void)ec;  // 40 characters hold any double's shortest scientific form (at most 24)
+  const std::string_view text(buffer, static_cast<std::size_t>(end - buffer));
+  const std::size_t e_at = text.find('e');
+  std::string digits;  // d1 d2 ... without the point
+  for (const char c : text.substr(0, e_at))
+    if (c != '.') digits += c;
+  const int exponent = std::atoi(std::string(text.substr(e_at + 1)).c_str());
+  if (exponent < -4 || exponent >= 16) {
+    out += digits[0];
+    if (digits.size() > 1) {
+      out += '.';
+      out.append(digits, 1, std::string::npos);
+    }
+    out += exponent < 0 ? "e-" : "e+";
+    const int magnitude = std::abs(exponent);
+    if (magnitude < 10) out += '0';
+    out += std::to_string(magnitude);
+  } else if (exponent < 0) {
+    out += "0.";
+    out.append(static_cast<std::size_t>(-exponent - 1), '0');
+    out += digits;
+  } else {
+    const auto whole = static_cast<std::size_t>(exponent) + 1;  // digits before the point
+    if (digits.size() <= whole) {
+      out += digits;
+      out.append(whole - digits.size(), '0');
+      out += ".0";
+    } else {
+      out.append(digits, 0, whole);
+      out += '.';
+      out.append(digits, whole, std::string::npos);
+    }
+  }
+  return out;
+}
+
+/// A string as a TOML basic string, "...", with the escapes TOML and JSON
+/// share (\" \\ \b \t \n \f \r, other control characters as \u00XX) and
+/// every other byte as given (UTF-8 passes through): what a user writes, and
+/// what json.dumps wrote for the package before (toml++ would choose a
+/// literal '...' or a multi-line string).
+std::string basic_string_text(std::string_view text) {
+  std::string out = "\"";
+  for (const char c : text) {
+    switch (c) {
+      case '"': out += "\\\""; break;
+      case '\\': out += "\\\\"; break;
+      case '\b': out += "\\b"; break;
+      case '\t': out += "\\t"; break;
+      case '\n': out += "\\n"; break;
+      case '\f': out += "\\f"; break;
+      case '\r': out += "\\r"; break;
+      default:
+        if (static_cast<unsigned char>(c) < 0x20 || c == '\x7f') {
+          constexpr char hex[] = "0123456789abcdef";
+          const auto u = static_cast<unsigned char>(c);
+          out += "\\u00";
+          out += hex[u >> 4];
+          out += hex[u & 15];
+        } else {
+          out += c;
+        }
+    }
+  }
+  out += '"';
+  return out;
+}
+
 bool is_bare_key(std::string_view k) {
   if (k.empty()) return false;
   for (const char c : k)
@@ -137,9 +225,17 @@ class Writer {
     }
   }
 
-  /// A scalar, printed by toml++ (strings quoted and escaped as it chooses,
-  /// floats to round-trip).
+  /// A scalar: a float as float_text spells it, a string as
+  /// basic_string_text, others printed by toml++.
   void scalar(const toml::node& v) {
+    if (const toml::value<double>* f = v.as_floating_point()) {
+      raw(float_text(f->get()));
+      return;
+    }
+    if (const toml::value<std::string>* t = v.as_string()) {
+      raw(basic_string_text(t->get()));
+      return;
+    }
     std::ostringstream os;
     os << toml::toml_formatter(v);
     raw(os.str());
@@ -150,12 +246,7 @@ class Writer {
       raw(k);
       return;
     }
-    // A key that must be quoted: toml++ quotes it as it would a single-line
-    // string value.
-    std::ostringstream os;
-    os << toml::toml_formatter(toml::value<std::string>(std::string(k)),
-                               toml::toml_formatter::default_flags & ~toml::format_flags::allow_multi_line_strings);
-    raw(os.str());
+    raw(basic_string_text(k));  // a key that must be quoted
   }
 
   void any_value(const toml::node& v) {

@@ -1,6 +1,7 @@
-// Writing a TOML document back to text (the run's copy of a scenario whose
-// file tables were inlined or whose orbit / attitude was converted, and each
-// ensemble member's scenario).
+// Writing a TOML document back to text: the run's copy of a scenario whose
+// file tables were inlined or whose orbit / attitude was converted, each
+// ensemble member's scenario, and every scenario and sweep the Python package
+// builds (lgvi._core.toml_text): the one TOML writer.
 //
 // Why not toml++'s own toml_formatter: its line-wrapping estimate
 // (toml_formatter_count_inline_columns in toml++ 3.3, Debian 12) casts
@@ -9,9 +10,11 @@
 // pull request 276); the fuzzer's UBSan build stops on it. This writer lays
 // the document out exactly as toml_formatter does (same order, indentation,
 // table separators, the same 120-column rule for breaking an array over
-// lines) with that estimate defined, and prints every scalar and key through
-// toml++ itself, so the text is toml_formatter's wherever toml_formatter is
-// defined, and it parses back to the same values.
+// lines) with that estimate defined. Floats are spelled as Python's repr
+// spells them (the shortest text that reads back to the same double: 0.1, not
+// toml++'s 0.10000000000000001), strings and quoted keys as "..." basic
+// strings (not toml++'s '...'), other scalars by toml++. The text parses back
+// to the same values.
 #pragma once
 
 #include <string>

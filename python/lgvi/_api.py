@@ -13,7 +13,7 @@ from . import _check, _core
 from . import forcing as _forcing
 from . import potential as _potential
 from ._result import Result, SystemResult
-from ._toml import scenario_text as _toml_text, toml_value as _toml_value
+from ._toml import toml_text as _toml_text
 
 __version__ = _core.__version__
 
@@ -555,18 +555,12 @@ class Scenario:
         if atom_style is not None:
             table["atom_style"] = _check.choice(atom_style, "atom_style", ("full", "molecular", "bond", "angle"))
         integ, run = _integrator_and_run(method, step, duration, order, threads, on_contact)
-        lines = []
         tables = (("import", table), ("potential", _potential.spec(potential)),
                   ("interaction", _interaction(interaction)), ("integrator", integ),
                   ("output", {"every": _check.integer(every, "every", 1)}), ("run", run or None))
-        for key, t in tables:
-            if t is None:
-                continue
-            lines.append(f"[{key}]")
-            lines.extend(f"{k} = {_toml_value(v)}" for k, v in t.items())
-            lines.append("")
         stem = os.path.splitext(os.path.basename(path))[0]
-        return cls._wrap(_parse("\n".join(lines), _check_name(stem if name is None else name)))
+        text = _toml_text({key: t for key, t in tables if t is not None})
+        return cls._wrap(_parse(text, _check_name(stem if name is None else name)))
 
     def replace(self, **changes):
         """A copy with some arguments changed, e.g. ``scenario.replace(step=0.005, duration=10)``.
@@ -811,29 +805,18 @@ def _rows(value, name, n, width):
 
 def _system_toml(bodies, rows, names, potential, interaction, integrator, every, run, box=None):
     """TOML text of a [[bodies]] scenario."""
-    lines = []
+    tables = []
     for a, body in enumerate(bodies):
-        lines.append("[[bodies]]")
-        if names is not None:
-            lines.append(f"name = {_toml_value(names[a])}")
-        for key, array in rows.items():
-            lines.append(f"{key} = {_toml_value(_floats(array[a]))}")
-        spec = body._spec
-        if "ball" in spec:
-            for ball in spec["ball"]:
-                lines.append("[[bodies.ball]]")
-                lines.extend(f"{k} = {_toml_value(v)}" for k, v in ball.items())
-        else:  # mass + inertia (+ radius), or a shape
-            lines.extend(f"{k} = {_toml_value(v)}" for k, v in spec.items())
-        lines.append("")
+        t = {} if names is None else {"name": names[a]}
+        t.update((key, _floats(array[a])) for key, array in rows.items())
+        t.update(body._spec)  # [[bodies.ball]] tables; or mass + inertia (+ radius), or a shape
+        tables.append(t)
+    doc = {"bodies": tables}
     for table, t in (("potential", potential), ("interaction", interaction), ("box", box),
                      ("integrator", integrator), ("output", {"every": every}), ("run", run or None)):
-        if t is None:
-            continue
-        lines.append(f"[{table}]")
-        lines.extend(f"{k} = {_toml_value(v)}" for k, v in t.items())
-        lines.append("")
-    return "\n".join(lines)
+        if t is not None:
+            doc[table] = t
+    return _toml_text(doc)
 
 
 def _from_arrays(cls, *, bodies, positions, quaternions, step, duration, momenta=None, velocities=None, w=None,

@@ -13,24 +13,24 @@ import os
 import numpy as np
 
 from . import _check  # _core is imported where a member runs: plotting works from the source tree
-from ._toml import toml_value as _toml_value  # the scenario writer's spelling of numbers and strings
+from ._toml import toml_text as _toml_text  # the CLI's TOML writer
 
 
 def _sweep_text(scenario_name, vary, members, seed, trajectories, metrics=None, settle_band_deg=None,
                 sensor_noise=None):
-    lines = ["[ensemble]", f"scenario = {_toml_value(scenario_name + '.toml')}"]
+    ensemble = {"scenario": scenario_name + ".toml"}
     if sensor_noise is not None:
-        lines.append(f"sensor_noise = {_toml_value(str(sensor_noise))}")
+        ensemble["sensor_noise"] = str(sensor_noise)
     if metrics is not None:
         if isinstance(metrics, str):
             metrics = [metrics]
-        lines.append(f"metrics = {_toml_value([str(m) for m in metrics])}")
+        ensemble["metrics"] = [str(m) for m in metrics]
     if settle_band_deg is not None:
-        lines.append(f"settle_band_deg = {_toml_value(float(settle_band_deg))}")
+        ensemble["settle_band_deg"] = float(settle_band_deg)
     if members is not None:
-        lines.append(f"members = {_check.integer(members, 'members', 1)}")
+        ensemble["members"] = _check.integer(members, "members", 1)
     if seed is not None:
-        lines.append(f"seed = {_check.integer(seed, 'seed', 0)}")
+        ensemble["seed"] = _check.integer(seed, "seed", 0)
     if trajectories != "none":
         raise ValueError("trajectories: lgvi.ensemble returns the members table only; keep every member's run "
                          "folder with the CLI (lgvi ensemble, [ensemble] trajectories = \"all\")")
@@ -42,23 +42,17 @@ def _sweep_text(scenario_name, vary, members, seed, trajectories, metrics=None, 
     for i, v in enumerate(vary):
         if not isinstance(v, dict):
             raise ValueError(f"vary[{i}]: must be a dict with key and one of normal, uniform, values, rotation")
-        lines.append("")
-        lines.append("[[vary]]")
-        for k, x in v.items():
-            if isinstance(x, dict):
-                inner = ", ".join(f"{kk} = {_toml_value(_plain(xx))}" for kk, xx in x.items())
-                lines.append(f"{k} = {{ {inner} }}")
-            else:
-                lines.append(f"{k} = {_toml_value(_plain(x))}")
-    return "\n".join(lines) + "\n"
+    return _toml_text({"ensemble": ensemble, "vary": [_plain(v) for v in vary]})
 
 
 def _plain(x):
-    """numpy arrays and scalars as lists and floats (TOML values)."""
+    """numpy arrays and scalars as lists and floats (TOML values), in lists and dicts too."""
     if isinstance(x, np.ndarray):
         return _plain(x.tolist())
     if isinstance(x, (list, tuple)):
         return [_plain(v) for v in x]
+    if isinstance(x, dict):
+        return {k: _plain(v) for k, v in x.items()}
     if isinstance(x, np.generic):
         return x.item()
     return x

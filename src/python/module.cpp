@@ -21,6 +21,7 @@
 #include "scenario.hpp"
 #include "simulation.hpp"
 #include "summary.hpp"
+#include "toml_writer.hpp"
 
 #include <lgvi/error.hpp>
 #include <lgvi/forcing.hpp>
@@ -274,6 +275,59 @@ Scenario with_python_forcing(const Scenario& sc, py::object forcing) {
   };
   out.forcing.add(lgvi::CallableForcing{call, spec[2].cast<bool>()}, body);
   return out;
+}
+
+// ---------------------------------------------------------------------------
+// TOML text of the package's documents (scenarios and sweeps built in Python),
+// by the CLI's writer (toml_writer.hpp): one writer, whatever wrote the file.
+
+toml::table toml_table(const py::dict& d, bool inline_subtables);
+
+/// A TOML value as built from Python (toml_value).
+using TomlValue = std::variant<bool, std::int64_t, double, std::string, toml::array, toml::table>;
+
+/// A Python value as TOML: bool, int (64 bits), float, str, list or tuple (an
+/// array; of tables, [[key]], when every element is a dict), dict (a table,
+/// inline when `inline_table`); TypeError otherwise, as json.dumps refuses
+/// what it cannot write.
+TomlValue toml_value(py::handle v, bool inline_table) {
+  if (PyBool_Check(v.ptr())) return v.ptr() == Py_True;
+  if (PyLong_Check(v.ptr())) {
+    int overflow = 0;
+    const long long i = PyLong_AsLongLongAndOverflow(v.ptr(), &overflow);
+    if (overflow != 0)
+      throw py::value_error("cannot write " + std::string(py::repr(v)) + " as TOML: an integer beyond 64 bits");
+    return static_cast<std::int64_t>(i);
+  }
+  if (PyFloat_Check(v.ptr())) return PyFloat_AsDouble(v.ptr());
+  if (PyUnicode_Check(v.ptr())) return v.cast<std::string>();
+  if (PyDict_Check(v.ptr())) {
+    toml::table t = toml_table(v.cast<py::dict>(), true);
+    t.is_inline(inline_table);
+    return t;
+  }
+  if (PyList_Check(v.ptr()) || PyTuple_Check(v.ptr())) {
+    const py::sequence seq = v.cast<py::sequence>();
+    bool of_tables = seq.size() > 0;
+    for (const py::handle e : seq) of_tables = of_tables && PyDict_Check(e.ptr());
+    toml::array a;
+    for (const py::handle e : seq) std::visit([&a](auto&& x) { a.push_back(std::move(x)); }, toml_value(e, !of_tables));
+    return a;
+  }
+  throw py::type_error("cannot write " + std::string(py::repr(v)) + " as TOML");
+}
+
+/// The dict as a TOML table; its dict values inline tables when `inline_subtables` (every table but the
+/// document: a scenario's [initial] orbit = { ... }).
+toml::table toml_table(const py::dict& d, bool inline_subtables) {
+  toml::table t;
+  for (const auto item : d) {
+    if (!PyUnicode_Check(item.first.ptr()))
+      throw py::type_error("cannot write the key " + std::string(py::repr(item.first)) + " as TOML (keys are str)");
+    const std::string key = item.first.cast<std::string>();
+    std::visit([&](auto&& x) { t.insert_or_assign(key, std::move(x)); }, toml_value(item.second, inline_subtables));
+  }
+  return t;
 }
 
 // ---------------------------------------------------------------------------
@@ -887,6 +941,11 @@ PYBIND11_MODULE(_core, m) {
       py::arg("q"), py::arg("name"),
       "Raises ValueError (naming `name`) unless q is a scalar-first (w, x, y, z) quaternion within 1e-6 of unit "
       "norm: the library's S3::from_quaternion_checked, the check of scenario files.");
+  m.def(
+      "toml_text", [](const py::dict& document) { return write_toml(toml_table(document, false)); },
+      py::arg("document"),
+      "A document (a dict of tables: dicts of bool, int, float, str, lists and dicts) as TOML text, by the "
+      "CLI's writer (toml_writer.hpp); TypeError for a value TOML cannot hold.");
   m.def("parse_scenario", &parse_scenario, py::arg("text"), py::arg("name"),
         "Parses and validates scenario TOML text exactly as the CLI does; ValueError with the CLI's message "
         "(\"NAME: key 'K': ...\") otherwise.");

@@ -423,7 +423,7 @@ def test_an_ensemble_reads_the_data_file_beside_its_scenario(tmp_path, monkeypat
                            "--threads", "1"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     copy = (tmp_path / "ens" / "scenario.toml").read_text()
-    assert f"lammps_data = '{data}'" in copy and "checksum = '" in copy
+    assert f'lammps_data = "{data}"' in copy and 'checksum = "' in copy
 
 
 def test_the_run_copy_refuses_a_changed_data_file(tmp_path):
@@ -431,7 +431,7 @@ def test_the_run_copy_refuses_a_changed_data_file(tmp_path):
     data = write_data(tmp_path / "mixed.data", atoms, velocities)
     assert run(scenario(tmp_path, data.name), "--out", tmp_path / "run").returncode == 0
     copy = (tmp_path / "run" / "scenario.toml").read_text()
-    assert f"lammps_data = '{data}'" in copy and "checksum = '" in copy  # absolute: the copy runs from anywhere
+    assert f'lammps_data = "{data}"' in copy and 'checksum = "' in copy  # absolute: the copy runs from anywhere
     assert run(tmp_path / "run" / "scenario.toml", "--out", tmp_path / "again").returncode == 0
     data.write_text(data.read_text().replace("Velocities", "Velocities # changed"))
     proc = run(tmp_path / "run" / "scenario.toml", "--out", tmp_path / "changed")
@@ -465,7 +465,7 @@ def test_the_checksum_is_fnv1a_of_the_files_bytes(tmp_path, ending):
     data.write_bytes(raw)
     assert run(scenario(tmp_path, data.name), "--out", tmp_path / "run").returncode == 0
     copy = (tmp_path / "run" / "scenario.toml").read_text()
-    assert f"checksum = '{fnv1a(raw)}'" in copy
+    assert f'checksum = "{fnv1a(raw)}"' in copy
 
 
 BAD = {
