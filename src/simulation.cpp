@@ -568,8 +568,7 @@ struct Recorder {
     stats.work = i.work;
     require_finite_diagnostics(i, energy, de, L, P, rot_energy);
     // |P - P0| relative to sum |p_a0|; absolute when every body starts at rest.
-    const double dp_abs = (P - stats.linear_momentum0).norm();
-    const double dp = stats.linear_momentum_scale > 0.0 ? dp_abs / stats.linear_momentum_scale : dp_abs;
+    const double dp = linear_momentum_error(P, stats.linear_momentum0, stats.linear_momentum_scale);
     stats.max_energy_error = std::max(stats.max_energy_error, std::abs(de));
     stats.max_quat_error = std::max(stats.max_quat_error, std::abs(dq));
     stats.max_momentum_error = std::max(stats.max_momentum_error, dl);

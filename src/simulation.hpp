@@ -175,6 +175,13 @@ struct SystemRowTotals {
   double momentum_error;
 };
 
+/// |P - P0| / sum_a |p_a0|, or |P - P0| when every body starts at rest (scale 0): the long
+/// format's linear_momentum_error.
+inline double linear_momentum_error(const Vector3<double>& P, const Vector3<double>& P0, double scale) {
+  const double change = (P - P0).norm();
+  return scale > 0.0 ? change / scale : change;
+}
+
 /// Body a's row of the long format (bodies_trajectory_columns: t, a, x, q
 /// scalar first, p, w, |q| - 1, then the totals), followed by `tail_size` <= 3
 /// optional columns (the work when forced, then the thermodynamic ones), into

@@ -78,7 +78,7 @@ std::size_t inline_columns(const toml::node& node) {
 
 /// A finite or non-finite double as Python's repr spells it (the shortest
 /// digits that read back to the same double; positional when the decimal
-/// exponent e of d.ddd x 10^e is in [-5, 15], with ".0" added to a whole
+/// exponent e of d.ddd x 10^e is in [-4, 15], with ".0" added to a whole
 /// number, else d.ddde+XX with two exponent digits at least), so a scenario
 /// written by lgvi reads "0.1" where the user wrote 0.1, from C++ and from
 /// Python alike; "nan", "inf", "-inf" as TOML spells them.
@@ -129,14 +129,40 @@ std::string float_text(double x) {
   return out;
 }
 
-/// A string as a TOML basic string, "...", with the escapes TOML and JSON
-/// share (\" \\ \b \t \n \f \r, other control characters as \u00XX) and
-/// every other byte as given (UTF-8 passes through): what a user writes, and
-/// what json.dumps wrote for the package before (toml++ would choose a
-/// literal '...' or a multi-line string).
+/// A string as a TOML basic string, "...", in ASCII (the scenario reader
+/// takes no other character outside a comment): the escapes TOML and JSON
+/// share (\" \\ \b \t \n \f \r, other control characters and DEL as
+/// \u00XX), and every character beyond ASCII as its code point, \uXXXX or
+/// \UXXXXXXXX (an invalid UTF-8 byte as U+FFFD), as json.dumps wrote for
+/// the package before.
 std::string basic_string_text(std::string_view text) {
+  constexpr char hex[] = "0123456789abcdef";
   std::string out = "\"";
-  for (const char c : text) {
+  auto code_point = [&](char32_t cp) {
+    const int digits = cp <= 0xffff ? 4 : 8;
+    out += digits == 4 ? "\\u" : "\\U";
+    for (int shift = 4 * (digits - 1); shift >= 0; shift -= 4) out += hex[(cp >> shift) & 15];
+  };
+  for (std::size_t i = 0; i < text.size();) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (c >= 0x80) {
+      const std::size_t length = c >= 0xf0 ? 4 : c >= 0xe0 ? 3 : c >= 0xc0 ? 2 : 1;
+      char32_t cp = length == 4 ? c & 0x07u : length == 3 ? c & 0x0fu : c & 0x1fu;
+      bool valid = length > 1 && i + length <= text.size();
+      for (std::size_t j = 1; valid && j < length; ++j) {
+        const auto next = static_cast<unsigned char>(text[i + j]);
+        valid = (next & 0xc0u) == 0x80u;
+        cp = (cp << 6) | (next & 0x3fu);
+      }
+      if (!valid || cp > 0x10ffff || (cp >= 0xd800 && cp <= 0xdfff)) {
+        code_point(0xfffd);
+        ++i;
+      } else {
+        code_point(cp);
+        i += length;
+      }
+      continue;
+    }
     switch (c) {
       case '"': out += "\\\""; break;
       case '\\': out += "\\\\"; break;
@@ -146,16 +172,12 @@ std::string basic_string_text(std::string_view text) {
       case '\f': out += "\\f"; break;
       case '\r': out += "\\r"; break;
       default:
-        if (static_cast<unsigned char>(c) < 0x20 || c == '\x7f') {
-          constexpr char hex[] = "0123456789abcdef";
-          const auto u = static_cast<unsigned char>(c);
-          out += "\\u00";
-          out += hex[u >> 4];
-          out += hex[u & 15];
-        } else {
-          out += c;
-        }
+        if (c < 0x20 || c == 0x7f)
+          code_point(c);
+        else
+          out += static_cast<char>(c);
     }
+    ++i;
   }
   out += '"';
   return out;

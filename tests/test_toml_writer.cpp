@@ -129,11 +129,17 @@ TEST(TomlWriter, FloatsAreSpelledAsPythonsRepr) {
   }
 }
 
-TEST(TomlWriter, StringsAreBasicStringsWithTheEscapesTomlAndJsonShare) {
-  const toml::table doc{{"s", "tab\there \"q\" back\\slash caf\xc3\xa9 \x01 end\n"}};
+TEST(TomlWriter, StringsAreAsciiBasicStringsWithTheEscapesTomlAndJsonShare) {
+  // The expected text is json.dumps's (ensure_ascii) of the same string: "é" U+00E9, "𝛀" U+1D6C0 (JSON
+  // writes a surrogate pair, TOML \U0001d6c0), DEL, a control character.
+  const toml::table doc{{"s", "tab\there \"q\" back\\slash caf\xc3\xa9 \xf0\x9d\x9b\x80 \x7f\x01 end\n"}};
   const std::string text = write_toml(doc);
-  EXPECT_EQ(text, "s = \"tab\\there \\\"q\\\" back\\\\slash caf\xc3\xa9 \\u0001 end\\n\"");
+  EXPECT_EQ(text,
+            "s = \"tab\\there \\\"q\\\" back\\\\slash caf\\u00e9 \\U0001d6c0 \\u007f\\u0001 end\\n\"");
+  EXPECT_TRUE(std::all_of(text.begin(), text.end(), [](char c) { return static_cast<unsigned char>(c) < 0x80; }));
   EXPECT_EQ(toml::parse(text), doc);
+  // A byte that is not UTF-8 is U+FFFD (TOML strings are Unicode).
+  EXPECT_EQ(write_toml(toml::table{{"s", std::string("a\xff")}}), "s = \"a\\ufffd\"");
   const toml::table key{{"a key", 1.0}};
   EXPECT_EQ(write_toml(key), "\"a key\" = 1.0");
 }

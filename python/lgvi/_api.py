@@ -1146,42 +1146,42 @@ class Stepper:
 
     @property
     def position(self):
-        """Centre of mass x (3,)."""
+        """Centre of mass x (3,); (N, 3) for N bodies."""
         return self._core.position
 
     @property
     def quaternion(self):
-        """Attitude q (4,), scalar-first (w, x, y, z)."""
+        """Attitude q (4,), scalar-first (w, x, y, z); (N, 4) for N bodies."""
         return self._core.quaternion
 
     @property
     def momentum(self):
-        """Linear momentum p (3,)."""
+        """Linear momentum p (3,); (N, 3) for N bodies."""
         return self._core.momentum
 
     @property
     def velocity(self):
-        """Velocity p / m (3,)."""
+        """Velocity p / m (3,); (N, 3) for N bodies."""
         return self._core.velocity
 
     @property
     def w(self):
-        """The paper's w = 2 J Omega (3,)."""
+        """The paper's w = 2 J Omega (3,); (N, 3) for N bodies."""
         return self._core.w
 
     @property
     def omega(self):
-        """Body angular velocity Omega = J^-1 w / 2 (3,)."""
+        """Body angular velocity Omega = J^-1 w / 2 (3,); (N, 3) for N bodies."""
         return self._core.omega
 
     @property
     def rotation_matrix(self):
-        """R = pi(q) (3x3), body to inertial frame."""
+        """R = pi(q) (3x3), body to inertial frame; (N, 3, 3) for N bodies."""
         return self._core.rotation_matrix
 
     @property
     def energy(self):
-        """Total energy at the current state."""
+        """Total energy at the current state (the system's for N bodies)."""
         return self._core.energy
 
     @property
@@ -1201,12 +1201,12 @@ class Stepper:
 
     @property
     def force(self):
-        """Force -dV/dx at the current state (3,), inertial frame."""
+        """Force -dV/dx at the current state (3,), inertial frame; (N, 3) for N bodies."""
         return self._core.force
 
     @property
     def torque(self):
-        """Body-frame torque M at the current state (3,)."""
+        """Body-frame torque M at the current state (3,); (N, 3) for N bodies."""
         return self._core.torque
 
     @property

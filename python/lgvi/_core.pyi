@@ -60,6 +60,7 @@ class Scenario:
     def evaluate_potential(self, position: Any, quaternion: Any) -> Tuple[float, Array, Array]: ...
 
 def check_quaternion(q: npt.ArrayLike, name: str) -> None: ...
+def toml_text(document: Dict[str, Any]) -> str: ...
 def parse_scenario(text: str, name: str) -> Scenario: ...
 def read_scenario(path: str) -> Scenario: ...
 def simulate(scenario: Scenario, potential: Any = ..., forcing: Any = ...,
@@ -76,6 +77,9 @@ class Stepper:
     def set_state(self, position: Optional[Any] = ..., quaternion: Optional[Any] = ...,
                   momentum: Optional[Any] = ..., w: Optional[Any] = ...) -> None: ...
     def row(self) -> Array: ...
+    bodies: int
+    masses: Array
+    inertias: Array
     k: int
     t: float
     h: float
@@ -93,6 +97,7 @@ class Stepper:
     force: Array
     torque: Array
     angular_momentum: Array
+    linear_momentum: Array
     solver_iterations: int
     python_potential: bool
 

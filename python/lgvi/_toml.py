@@ -8,6 +8,7 @@ it. The compiled module is imported on the first call, so that importing this mo
 def toml_text(document):
     """A document -- a dict of tables, each a dict of bool, int, float, str, lists and dicts -- as TOML
     text: every table, its keys in sorted order; a list of dicts is an array of tables ([[key]]), a dict
-    inside a table an inline table. TypeError for a value TOML cannot hold (a numpy array: .tolist())."""
+    inside a table an inline table. TypeError for a value TOML cannot hold (a numpy array: .tolist()),
+    ValueError for an int beyond 64 bits."""
     from . import _core
     return _core.toml_text(document)

@@ -37,6 +37,7 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <csignal>
 #include <cstdint>
@@ -286,11 +287,28 @@ toml::table toml_table(const py::dict& d, bool inline_subtables);
 /// A TOML value as built from Python (toml_value).
 using TomlValue = std::variant<bool, std::int64_t, double, std::string, toml::array, toml::table>;
 
-/// A Python value as TOML: bool, int (64 bits), float, str, list or tuple (an
-/// array; of tables, [[key]], when every element is a dict), dict (a table,
-/// inline when `inline_table`); TypeError otherwise, as json.dumps refuses
-/// what it cannot write.
+/// A str as UTF-8; what Python raises (UnicodeEncodeError, a ValueError) for a lone surrogate.
+std::string utf8(py::handle s) {
+  Py_ssize_t size = 0;
+  const char* data = PyUnicode_AsUTF8AndSize(s.ptr(), &size);
+  if (!data) throw py::error_already_set();
+  return {data, static_cast<std::size_t>(size)};
+}
+
+/// A Python value as TOML: bool, int (64 bits; ValueError beyond), float,
+/// str, list or tuple (an array; of tables, [[key]], when every element is a
+/// dict), dict (a table, inline when `inline_table`); TypeError otherwise, as
+/// json.dumps refuses what it cannot write, and RecursionError for a list or
+/// dict that holds itself.
 TomlValue toml_value(py::handle v, bool inline_table) {
+  struct Depth {
+    Depth() {
+      if (Py_EnterRecursiveCall(" while writing TOML") != 0) throw py::error_already_set();
+    }
+    ~Depth() { Py_LeaveRecursiveCall(); }
+    Depth(const Depth&) = delete;
+    Depth& operator=(const Depth&) = delete;
+  } depth;
   if (PyBool_Check(v.ptr())) return v.ptr() == Py_True;
   if (PyLong_Check(v.ptr())) {
     int overflow = 0;
@@ -300,7 +318,7 @@ TomlValue toml_value(py::handle v, bool inline_table) {
     return static_cast<std::int64_t>(i);
   }
   if (PyFloat_Check(v.ptr())) return PyFloat_AsDouble(v.ptr());
-  if (PyUnicode_Check(v.ptr())) return v.cast<std::string>();
+  if (PyUnicode_Check(v.ptr())) return utf8(v);
   if (PyDict_Check(v.ptr())) {
     toml::table t = toml_table(v.cast<py::dict>(), true);
     t.is_inline(inline_table);
@@ -324,7 +342,7 @@ toml::table toml_table(const py::dict& d, bool inline_subtables) {
   for (const auto item : d) {
     if (!PyUnicode_Check(item.first.ptr()))
       throw py::type_error("cannot write the key " + std::string(py::repr(item.first)) + " as TOML (keys are str)");
-    const std::string key = item.first.cast<std::string>();
+    const std::string key = utf8(item.first);
     std::visit([&](auto&& x) { t.insert_or_assign(key, std::move(x)); }, toml_value(item.second, inline_subtables));
   }
   return t;
@@ -395,11 +413,19 @@ std::unique_ptr<AnyStepper> make_stepper(const Scenario& sc, const CallablePoten
                           "wheels ([[body.wheel]]), whose momenta it does not hold yet (use lgvi.simulate, which "
                           "runs it)");
   auto evaluations = std::make_shared<std::int64_t>(0);
+  // A Python potential is called with the GIL held, from this thread only (the results are the same on any
+  // number of threads).
+  const Parallelism parallelism = field ? Parallelism{1} : lgvi::app::scenario_parallelism(sc);
+  Scenario one_thread;
+  if (field) {
+    one_thread = sc;
+    one_thread.threads = 1;
+  }
   const lgvi::app::ScenarioSystemPotential pot =
-      lgvi::app::scenario_system_potential(sc, field, evaluations.get());
+      lgvi::app::scenario_system_potential(field ? one_thread : sc, field, evaluations.get());
   // The same method table as the CLI's run loop (method_registry.hpp).
   return lgvi::app::with_stepper(
-      sc, pot, lgvi::app::scenario_parallelism(sc), [&](auto& stepper) -> std::unique_ptr<AnyStepper> {
+      sc, pot, parallelism, [&](auto& stepper) -> std::unique_ptr<AnyStepper> {
         return std::make_unique<StepperModel<std::decay_t<decltype(stepper)>>>(std::move(stepper), evaluations);
       });
 }
@@ -453,8 +479,11 @@ py::tuple run_simulation(const Scenario& scenario_in, py::object potential, py::
     throw py::value_error("potential: a scenario with time_transform = \"potential\" adapts its step to U = -V of "
                           "its own field (gravity, checked by the reader); run it with that field, or use "
                           "time_transform = \"none\" with a Python potential");
-  const Scenario sc = with_python_forcing(scenario, std::move(forcing));
+  Scenario sc = with_python_forcing(scenario, std::move(forcing));
   const bool python_forcing = sc.forcing.size() != scenario.forcing.size();
+  // Python is called with the GIL held, from this thread only: the run's per-body loops on one thread
+  // (the results are the same on any number).
+  if (!potential.is_none() || python_forcing || !control.is_none()) sc.threads = 1;
   const std::int64_t every = sc.output_every;
   const TrajectoryLayout layout = lgvi::app::scenario_layout(sc);
   // An adaptive run's steps are not known before it ends (steps is its max_steps): room for duration / epsilon.
@@ -497,6 +526,7 @@ class PyStepper {
  public:
   PyStepper(const Scenario& sc, py::object potential, py::object forcing)
       : sc_(with_python_forcing(sc, std::move(forcing))), python_forcing_(sc_.forcing.size() != sc.forcing.size()) {
+    if (python_forcing_) sc_.threads = 1;  // called with the GIL held, from this thread only
     set_potential_impl(std::move(potential));
     state_ = sc_.initial_state;
     initialize_at(state_, "initial state");
@@ -507,13 +537,22 @@ class PyStepper {
   }
 
   void step(std::int64_t n) {
+    require_idle();
     if (n < 0) throw py::value_error("n: must be >= 0, got " + std::to_string(n));
     if (python_ || python_forcing_ || n < 64) {
       advance(n);
       return;
     }
     // A built-in potential: without the GIL, in legs of 4096 steps with a
-    // check for Ctrl-C between them.
+    // check for Ctrl-C between them. Meanwhile another Python thread is
+    // refused the state (require_idle), which changes under it.
+    struct Busy {
+      std::atomic<bool>& flag;
+      explicit Busy(std::atomic<bool>& f) : flag(f) { flag = true; }
+      ~Busy() { flag = false; }
+      Busy(const Busy&) = delete;
+      Busy& operator=(const Busy&) = delete;
+    } busy(busy_);
     for (std::int64_t done = 0; done < n;) {
       const std::int64_t leg = std::min<std::int64_t>(n - done, 4096);
       {
@@ -527,9 +566,13 @@ class PyStepper {
 
   /// Re-evaluates the potential at the current state (after the parameters
   /// of a Python potential changed), keeping the solver's warm start.
-  void refresh() { resume_at(state_, impl_->internal_state()); }
+  void refresh() {
+    require_idle();
+    resume_at(state_, impl_->internal_state());
+  }
 
   void set_potential(py::object potential) {
+    require_idle();
     const std::vector<double> internal = impl_->internal_state();
     py::object old_object = python_object_;
     std::unique_ptr<AnyStepper> old = std::move(impl_);
@@ -548,6 +591,7 @@ class PyStepper {
   /// Each part None (kept) or, for one body, shape (3,) ((4,) for q); for N
   /// bodies shape (N, 3) ((N, 4)), row a body a's.
   void set_state(py::object x, py::object q, py::object p, py::object w) {
+    require_idle();
     SystemState s = state_;
     const std::size_t n = s.size();
     auto vectors = [n](py::handle obj, const std::string& name, std::vector<Vector3<double>>& out) {
@@ -588,34 +632,61 @@ class PyStepper {
         s.w[b] = body.admissible_momentum(s.w[b]);
       }
     }
-    initialize_at(s, "state");
+    // Refused there: the integrator is put back as it was at the current state.
+    const std::vector<double> internal = impl_->internal_state();
+    try {
+      initialize_at(s, "state");
+    } catch (...) {
+      try {
+        impl_->resume(state_, internal);
+      } catch (...) {  // the current state was stepped to, so it evaluates; nothing better to do otherwise
+      }
+      throw;
+    }
     state_ = std::move(s);
   }
 
-  std::int64_t k() const { return k_; }
-  double t() const { return static_cast<double>(k_) * sc_.integrator.step; }
+  std::int64_t k() const {
+    require_idle();
+    return k_;
+  }
+  double t() const { return static_cast<double>(k()) * sc_.integrator.step; }
   double h() const { return sc_.integrator.step; }
-  const SystemState& state() const { return state_; }
+  const SystemState& state() const {
+    require_idle();
+    return state_;
+  }
   /// One quantity of each body's state in rotation-matrix form (state.hpp's project: Omega, x-dot).
   std::vector<Vector3<double>> projected(Vector3<double> RotationMatrixState::*quantity) const {
+    require_idle();
     std::vector<Vector3<double>> v;
     for (std::size_t b = 0; b < state_.size(); ++b) v.push_back(project(state_.body(b), sc_.system.body(b)).*quantity);
     return v;
   }
-  const SystemEvaluation& evaluation() const { return impl_->evaluation(); }
+  const SystemEvaluation& evaluation() const {
+    require_idle();
+    return impl_->evaluation();
+  }
   double energy() const { return total_energy(state_, sc_.system, impl_->evaluation()); }
   double energy0() const { return energy0_; }
   /// The forcing's work since k = 0 (0 without forcing).
-  double work() const { return impl_->work(); }
+  double work() const {
+    require_idle();
+    return impl_->work();
+  }
   const Vector3<double>& momentum0() const { return momentum0_; }
   const Scenario& scenario() const { return sc_; }
-  SolveReport last_solve() const { return impl_->last_solve(); }
+  SolveReport last_solve() const {
+    require_idle();
+    return impl_->last_solve();
+  }
   bool python_potential() const { return python_; }
 
   /// The trajectory row simulate() would write at this step: one body's
   /// (SingleBodyRow); for a system its rows of the long format (one per body,
   /// through "work" when forced; not the thermodynamic columns).
   py::array_t<double> row() const {
+    require_idle();
     const double e = energy();
     const Vector3<double> L = angular_momentum(state_);
     const bool forced = !sc_.forcing.empty();
@@ -629,9 +700,8 @@ class PyStepper {
       return a;
     }
     const Vector3<double> P = linear_momentum(state_);
-    const double dp_abs = (P - linear_momentum0_).norm();
-    const SystemRowTotals totals{e, de, P, linear_momentum_scale_ > 0.0 ? dp_abs / linear_momentum_scale_ : dp_abs,
-                                 L, (L - momentum0_).norm()};
+    const SystemRowTotals totals{e, de, P, linear_momentum_error(P, linear_momentum0_, linear_momentum_scale_), L,
+                                 (L - momentum0_).norm()};
     const double tail[1] = {forced ? work() : 0.0};
     const int columns = bodies_trajectory_columns + (forced ? 1 : 0);
     py::array_t<double> a({static_cast<py::ssize_t>(state_.size()), static_cast<py::ssize_t>(columns)});
@@ -696,7 +766,13 @@ class PyStepper {
     }
   }
 
+  /// RuntimeError while step() runs without the GIL in another thread.
+  void require_idle() const {
+    if (busy_) throw std::runtime_error("Stepper: step() is running in another thread; wait for it to return");
+  }
+
   Scenario sc_;
+  std::atomic<bool> busy_{false};  // step() without the GIL (require_idle)
   bool python_forcing_ = false;  // a Python forcing: the GIL stays held
   std::unique_ptr<AnyStepper> impl_;
   py::object python_object_ = py::none();
@@ -945,7 +1021,8 @@ PYBIND11_MODULE(_core, m) {
       "toml_text", [](const py::dict& document) { return write_toml(toml_table(document, false)); },
       py::arg("document"),
       "A document (a dict of tables: dicts of bool, int, float, str, lists and dicts) as TOML text, by the "
-      "CLI's writer (toml_writer.hpp); TypeError for a value TOML cannot hold.");
+      "CLI's writer (toml_writer.hpp); TypeError for a value TOML cannot hold, ValueError for an int beyond "
+      "64 bits.");
   m.def("parse_scenario", &parse_scenario, py::arg("text"), py::arg("name"),
         "Parses and validates scenario TOML text exactly as the CLI does; ValueError with the CLI's message "
         "(\"NAME: key 'K': ...\") otherwise.");

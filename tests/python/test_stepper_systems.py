@@ -66,6 +66,7 @@ def test_a_system_steps_as_simulate_writes_it():
     # Omega_a = J_a^-1 w_a / 2 and R_a = pi(q_a), body by body (round-off of a 3x3 solve and of pi).
     inertias = bulk._core.inertias
     for a in range(2):
+        # J^-1 w / 2 with the body's stored inverse against a 3x3 solve: a few units of round-off (1e-16).
         assert np.allclose(bulk.omega[a], 0.5 * np.linalg.solve(inertias[a], bulk.w[a]), rtol=1e-15, atol=0)
         assert np.allclose(bulk.rotation_matrix[a], plot.rotation_matrix(bulk.quaternion[a]), rtol=0, atol=1e-15)
     # Mutual gravity: the forces are equal and opposite (one pair evaluation, applied with both signs).
@@ -124,3 +125,53 @@ def test_set_state_refuses_a_wrong_shape_or_value_in_one_line(change, message):
         st.set_state(**change)
     assert "\n" not in str(info.value)
     assert np.array_equal(st.row, before)  # nothing changed
+
+
+def test_python_is_called_from_one_thread_whatever_the_scenario_asks():
+    # 64 bodies on 2 threads: the per-body loops run in parallel from 32 bodies on; a Python field must
+    # still be called from the calling thread only (it holds the interpreter's lock), in simulate and in
+    # the Stepper alike, and give the same rows (the results do not depend on the thread count).
+    import threading
+    text = lj_box().toml + "\n[run]\nthreads = 2\n"
+    sc = lgvi.Scenario.from_string(text, name="lj-box-2-threads")
+    callers = set()
+
+    def trap(x, q):
+        callers.add(threading.get_ident())
+        kappa = 1e-3
+        return 0.5 * kappa * float(x @ x), -kappa * np.asarray(x, dtype=float), np.zeros(3)
+    r = lgvi.simulate(sc, trap)
+    rows = stepped_rows(lgvi.Stepper(sc, trap), sc.steps)
+    assert callers == {threading.get_ident()}
+    assert np.array_equal(rows, r.data[:, :, :26])
+
+
+def test_set_state_keeps_k_t_and_the_energy_reference():
+    sc = binary()
+    st = lgvi.Stepper(sc)
+    e0 = st._core.initial_energy
+    st.step(10)
+    before = st.energy_error
+    st.set_state(position=st.position)  # the same state, re-initialized there
+    assert st.k == 10 and st.t == 10 * st.h
+    assert st._core.initial_energy == e0 and st.energy_error == before
+
+
+def test_a_refused_set_state_leaves_the_stepper_as_it_was():
+    # The potential fails (NaN) beyond |x| = 100: set_state there is refused, and the next step is the
+    # one a stepper that was never asked takes, bit for bit.
+    def field(x, q):
+        if np.linalg.norm(x) > 100.0:
+            return float("nan"), np.zeros(3), np.zeros(3)
+        return 0.0, np.zeros(3), np.zeros(3)
+    sc = binary(duration=0.2)
+    asked, untouched = lgvi.Stepper(sc, field), lgvi.Stepper(sc, field)
+    asked.step(5)
+    untouched.step(5)
+    far = asked.position.copy()
+    far[1] = [1000.0, 0.0, 0.0]
+    with pytest.raises(ValueError, match="^state: "):
+        asked.set_state(position=far)
+    asked.step()
+    untouched.step()
+    assert np.array_equal(asked.row, untouched.row)

@@ -80,3 +80,22 @@ def test_replace_keeps_the_attitude_controller():
     # Under control the body slews; the controller dropped, it would spin freely: the end attitudes differ.
     free = lgvi.Scenario.from_string(half.toml.split("[[forcing]]")[0], name="free")
     assert not np.allclose(lgvi.simulate(half).q[-1], lgvi.simulate(free).q[-1], atol=1e-3)
+
+
+def test_names_beyond_ascii_are_escaped_for_the_reader():
+    # The scenario reader takes ASCII only outside comments; the writer escapes the rest (\uXXXX).
+    sc = lgvi.Scenario.from_arrays(bodies=lgvi.Body(mass=1.0, inertia=np.eye(3)),
+                                   positions=[[0.0, 0.0, 0.0], [10.0, 0.0, 0.0]],
+                                   quaternions=[[1.0, 0.0, 0.0, 0.0]] * 2, velocities=np.zeros((2, 3)),
+                                   omegas=np.zeros((2, 3)), names=["é", "Ω-b"], step=0.1, duration=0.2)
+    assert sc.toml.isascii()
+    assert [b["name"] for b in tomllib.loads(sc.toml)["bodies"]] == ["é", "Ω-b"]
+    summary = lgvi.simulate(sc).summary
+    assert [b["name"] for b in summary["setup"]["bodies"]] == ["é", "Ω-b"]
+
+
+def test_a_list_that_holds_itself_is_a_recursion_error():
+    a = []
+    a.append(a)
+    with pytest.raises(RecursionError):
+        _core.toml_text({"t": {"x": a}})
