@@ -101,7 +101,20 @@ class Box {
     return r;
   }
   /// One component of minimum_image.
-  double reduce(double d, int k) const { return d - length_(k) * std::nearbyint(d * inverse_length_(k)); }
+  double reduce(double d, int k) const { return d - length_(k) * nearest_integer(d * inverse_length_(k)); }
+
+  /// std::nearbyint(x) in the default rounding mode (to nearest, ties to
+  /// even), sign of zero included, without a call into libm on the pair
+  /// loop's path (x86-64 without SSE4.1 has no rounding instruction): for
+  /// |x| < 2^51, adding and subtracting 1.5 * 2^52 rounds x to an integer
+  /// exactly as nearbyint does (the sum's unit in the last place is 1), and
+  /// copysign restores -0 for x in (-0.5, -0]; beyond, and for NaN and
+  /// infinities, nearbyint itself.
+  static double nearest_integer(double x) {
+    constexpr double shift = 6755399441055744.0;  // 1.5 * 2^52
+    if (!(std::fabs(x) < 2251799813685248.0)) return std::nearbyint(x);  // 2^51
+    return std::copysign((x + shift) - shift, x);
+  }
 
   /// The volume L_x L_y L_z of a box periodic along every axis (0 if one is open).
   double volume() const { return length_.prod(); }
