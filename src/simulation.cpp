@@ -67,7 +67,9 @@ ScenarioSystemPotential scenario_system_potential(const Scenario& s, const Calla
   const Parallelism par = scenario_parallelism(s);
   ScenarioSystemPotential::External external = ExternalField<NoPotential>::uniform(NoPotential{}, s.bodies(), par);
   if (field) {
-    external = ExternalField<CallablePotential>::uniform(*field, s.bodies(), par);
+    // A user's function (Python's, which needs its interpreter lock) is called from the calling thread
+    // only; the results are the same on any number of threads.
+    external = ExternalField<CallablePotential>::uniform(*field, s.bodies(), Parallelism{1});
   } else {
     switch (s.potential.kind) {
       case PotentialKind::Central: external = field_of<CentralGravity>(s, par); break;
@@ -664,9 +666,10 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
   const auto start = std::chrono::steady_clock::now();
   // A resume loads the checkpoint before the sink is opened: a checkpoint
   // this lgvi cannot read (CheckpointError, thrown from here) leaves the run
-  // folder as it was. A step that fails at the loaded state is the run's
-  // failure at that step, reported with the sink open as for any other.
-  std::optional<StepFailure> load_failure;
+  // folder as it was. A step that fails at the loaded state (or, for a new
+  // run, at the initial state) is the run's failure at that step, reported
+  // with the sink open as for any other.
+  std::optional<StepFailure> start_failure;
   // The recorder's copy of the wheel controller (Recorder), and the side tables.
   std::optional<WheelAttitudeControl> recorder_control = sc.wheel_control;
   SideTables side_tables(sc, opt.open_side_table);
@@ -676,7 +679,7 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
     try {
       load_checkpoint(stepper, sc, *opt.resume, state);
     } catch (const StepFailure& f) {
-      load_failure = f;
+      start_failure = f;
     }
     try {
       const CheckpointFields& in = opt.resume->recorder;
@@ -700,14 +703,11 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
   // What the stepper or the recorder refuses at the initial state (InvalidInput:
   // an adaptive step with V = 0 and no monitor_scale, a pressure without a
   // potential) is refused before the sink is opened, so nothing is written.
-  // A step that fails there is the run's failure at step 0, reported with the
-  // sink open as any other.
-  std::optional<StepFailure> initial_failure;
   if (!opt.resume) {
     try {
       stepper.initialize(state, 0.0);
     } catch (const StepFailure& f) {
-      initial_failure = f;
+      start_failure = f;
     }
   }
   const ThermoColumns thermo = thermo_columns(sc);
@@ -755,10 +755,8 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
   };
   std::int64_t reached = k0;
   try {
-    if (load_failure) {
-      throw IntegrationFailure(k0, sc.integrator.adaptive() ? stats.last_t : static_cast<double>(k0) * h, *load_failure);
-    } else if (initial_failure) {
-      throw IntegrationFailure(0, 0.0, *initial_failure);
+    if (start_failure) {  // at step k0 (0 for a new run, whose statistics start at last_t = 0)
+      throw IntegrationFailure(k0, sc.integrator.adaptive() ? stats.last_t : static_cast<double>(k0) * h, *start_failure);
     } else if (!opt.resume) {
       recorder(SystemStepInfo{0, 0.0, state, stepper.evaluation(), SolveReport{}});
     }

@@ -85,14 +85,25 @@ py::array_t<double> matrix_array(const Matrix3<double>& m) {
   return a;
 }
 
+/// The arrays of(b) of shape `shape` of bodies b < n stacked on a leading body axis, (n, shape...); with
+/// `single_face`, one body's array as it is (the single-body face: (3,), not (1, 3)).
+template <class Of>
+py::array_t<double> stacked(std::size_t n, std::vector<py::ssize_t> shape, bool single_face, Of&& of) {
+  if (single_face && n == 1) return of(std::size_t{0});
+  py::ssize_t per_body = 1;
+  for (const py::ssize_t d : shape) per_body *= d;
+  shape.insert(shape.begin(), static_cast<py::ssize_t>(n));
+  py::array_t<double> a(shape);
+  for (std::size_t b = 0; b < n; ++b) {
+    const py::array_t<double> one = of(b);
+    std::copy_n(one.data(), per_body, a.mutable_data() + per_body * static_cast<py::ssize_t>(b));
+  }
+  return a;
+}
+
 /// One vector per body: (3,) for one body (the single-body face), (N, 3) for N.
 py::array_t<double> body_vectors(const std::vector<Vector3<double>>& v) {
-  if (v.size() == 1) return array3(v[0]);
-  py::array_t<double> a({static_cast<py::ssize_t>(v.size()), py::ssize_t{3}});
-  auto r = a.mutable_unchecked<2>();
-  for (std::size_t i = 0; i < v.size(); ++i)
-    for (py::ssize_t j = 0; j < 3; ++j) r(static_cast<py::ssize_t>(i), j) = v[i][j];
-  return a;
+  return stacked(v.size(), {3}, true, [&v](std::size_t b) { return array3(v[b]); });
 }
 
 void make_read_only(py::array& a) {
@@ -413,19 +424,11 @@ std::unique_ptr<AnyStepper> make_stepper(const Scenario& sc, const CallablePoten
                           "wheels ([[body.wheel]]), whose momenta it does not hold yet (use lgvi.simulate, which "
                           "runs it)");
   auto evaluations = std::make_shared<std::int64_t>(0);
-  // A Python potential is called with the GIL held, from this thread only (the results are the same on any
-  // number of threads).
-  const Parallelism parallelism = field ? Parallelism{1} : lgvi::app::scenario_parallelism(sc);
-  Scenario one_thread;
-  if (field) {
-    one_thread = sc;
-    one_thread.threads = 1;
-  }
   const lgvi::app::ScenarioSystemPotential pot =
-      lgvi::app::scenario_system_potential(field ? one_thread : sc, field, evaluations.get());
+      lgvi::app::scenario_system_potential(sc, field, evaluations.get());
   // The same method table as the CLI's run loop (method_registry.hpp).
   return lgvi::app::with_stepper(
-      sc, pot, parallelism, [&](auto& stepper) -> std::unique_ptr<AnyStepper> {
+      sc, pot, lgvi::app::scenario_parallelism(sc), [&](auto& stepper) -> std::unique_ptr<AnyStepper> {
         return std::make_unique<StepperModel<std::decay_t<decltype(stepper)>>>(std::move(stepper), evaluations);
       });
 }
@@ -481,9 +484,10 @@ py::tuple run_simulation(const Scenario& scenario_in, py::object potential, py::
                           "time_transform = \"none\" with a Python potential");
   Scenario sc = with_python_forcing(scenario, std::move(forcing));
   const bool python_forcing = sc.forcing.size() != scenario.forcing.size();
-  // Python is called with the GIL held, from this thread only: the run's per-body loops on one thread
-  // (the results are the same on any number).
-  if (!potential.is_none() || python_forcing || !control.is_none()) sc.threads = 1;
+  // A Python forcing or control law is called with the GIL held, from this thread only: the run's
+  // per-body loops on one thread (the results are the same on any number). A Python potential is
+  // called so by scenario_system_potential.
+  if (python_forcing || !control.is_none()) sc.threads = 1;
   const std::int64_t every = sc.output_every;
   const TrajectoryLayout layout = lgvi::app::scenario_layout(sc);
   // An adaptive run's steps are not known before it ends (steps is its max_steps): room for duration / epsilon.
@@ -1084,12 +1088,7 @@ PYBIND11_MODULE(_core, m) {
           "inertias",
           [](const PyStepper& s) {
             const System& sys = s.scenario().system;
-            py::array_t<double> a({static_cast<py::ssize_t>(sys.size()), py::ssize_t{3}, py::ssize_t{3}});
-            for (std::size_t b = 0; b < sys.size(); ++b) {
-              const py::array_t<double> m = matrix_array(sys.body(b).inertia());
-              std::copy_n(m.data(), 9, a.mutable_data() + 9 * static_cast<std::ptrdiff_t>(b));
-            }
-            return a;
+            return stacked(sys.size(), {3, 3}, false, [&sys](std::size_t b) { return matrix_array(sys.body(b).inertia()); });
           },
           "The bodies' inertia tensors J_a in body axes (N, 3, 3).")
       .def_property_readonly("position", [](const PyStepper& s) { return body_vectors(s.state().x); },
@@ -1098,13 +1097,7 @@ PYBIND11_MODULE(_core, m) {
           "quaternion",
           [](const PyStepper& s) {
             const SystemState& st = s.state();
-            if (st.size() == 1) return quaternion_array(st.q[0]);
-            py::array_t<double> a({static_cast<py::ssize_t>(st.size()), py::ssize_t{4}});
-            for (std::size_t b = 0; b < st.size(); ++b) {
-              const py::array_t<double> q = quaternion_array(st.q[b]);
-              std::copy_n(q.data(), 4, a.mutable_data() + 4 * static_cast<std::ptrdiff_t>(b));
-            }
-            return a;
+            return stacked(st.size(), {4}, true, [&st](std::size_t b) { return quaternion_array(st.q[b]); });
           },
           "q (4,), or (N, 4), scalar-first (w, x, y, z).")
       .def_property_readonly("momentum", [](const PyStepper& s) { return body_vectors(s.state().p); },
@@ -1121,13 +1114,7 @@ PYBIND11_MODULE(_core, m) {
           "rotation_matrix",
           [](const PyStepper& s) {
             const SystemState& st = s.state();
-            if (st.size() == 1) return matrix_array(st.q[0].matrix());
-            py::array_t<double> a({static_cast<py::ssize_t>(st.size()), py::ssize_t{3}, py::ssize_t{3}});
-            for (std::size_t b = 0; b < st.size(); ++b) {
-              const py::array_t<double> m = matrix_array(st.q[b].matrix());
-              std::copy_n(m.data(), 9, a.mutable_data() + 9 * static_cast<std::ptrdiff_t>(b));
-            }
-            return a;
+            return stacked(st.size(), {3, 3}, true, [&st](std::size_t b) { return matrix_array(st.q[b].matrix()); });
           },
           "R = pi(q) (3x3), or (N, 3, 3), body to inertial.")
       .def_property_readonly("energy", &PyStepper::energy, "Total energy (kinetic + potential).")
