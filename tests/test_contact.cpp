@@ -201,6 +201,17 @@ std::vector<Contact> all_pairs_of_balls(const System& sys, const SystemState& s)
   return expected;
 }
 
+/// The detector's contacts are those of `expected` (all_pairs_of_balls: the
+/// deepest overlap in `reach`), pair by pair, the depths to `tolerance`.
+void expect_same_contacts(const std::vector<Contact>& found, const std::vector<Contact>& expected, double tolerance) {
+  ASSERT_EQ(found.size(), expected.size());
+  for (std::size_t i = 0; i < found.size(); ++i) {
+    EXPECT_EQ(found[i].a, expected[i].a) << i;
+    EXPECT_EQ(found[i].b, expected[i].b) << i;
+    EXPECT_NEAR(found[i].depth(), expected[i].reach, tolerance) << i;
+  }
+}
+
 TEST(ContactDetector, FindsExactlyThePairsOfOverlappingBallsOfAllPairs) {
   // 300 bodies of two balls each, in a box where a good part of them
   // overlap another: the sweep finds the pairs a test of every ball of every
@@ -218,13 +229,8 @@ TEST(ContactDetector, FindsExactlyThePairsOfOverlappingBallsOfAllPairs) {
   const ContactDetector detector(sys);
   const std::vector<Contact>& found = detector.find(s);
   ASSERT_GT(expected.size(), 10u);  // the test would not test much otherwise
-  ASSERT_EQ(found.size(), expected.size());
-  for (std::size_t i = 0; i < found.size(); ++i) {
-    EXPECT_EQ(found[i].a, expected[i].a);
-    EXPECT_EQ(found[i].b, expected[i].b);
-    // Rotations by matrix (detector) and by quaternion (here): a few eps of the positions (~6).
-    EXPECT_NEAR(found[i].depth(), expected[i].reach, 1e-13) << i;
-  }
+  // Rotations by matrix (detector) and by quaternion (here): a few eps of the positions (~6).
+  expect_same_contacts(found, expected, 1e-13);
 }
 
 TEST(ContactDetector, CellsOfMixedSizesAndFarBodiesFindWhatAllPairsFind) {
@@ -252,13 +258,9 @@ TEST(ContactDetector, CellsOfMixedSizesAndFarBodiesFindWhatAllPairsFind) {
   const std::vector<Contact>& found = detector.find(s);
   ASSERT_GT(expected.size(), 10u);  // the test would not test much otherwise
   EXPECT_EQ(expected.back().a, 248u);  // the two on top of each other, far out
-  ASSERT_EQ(found.size(), expected.size());
-  for (std::size_t i = 0; i < found.size(); ++i) {
-    EXPECT_EQ(found[i].a, expected[i].a);
-    EXPECT_EQ(found[i].b, expected[i].b);
-    // Rotations by matrix (detector) and by quaternion (here): a few eps of the positions.
-    EXPECT_NEAR(found[i].depth(), expected[i].reach, 1e-13) << i;
-  }
+  // Rotations by matrix (detector) and by quaternion (here): a few eps of the positions.
+  expect_same_contacts(found, expected, 1e-13);
+  if (::testing::Test::HasFatalFailure()) return;
   const Contact front = found.front();  // found is overwritten by the next call
   const std::optional<Contact> first = detector.first(s);
   ASSERT_TRUE(first.has_value());
@@ -269,6 +271,98 @@ TEST(ContactDetector, CellsOfMixedSizesAndFarBodiesFindWhatAllPairsFind) {
   for (std::size_t a = 0; a < 250; ++a) apart.x[a] = V3(4.0 * static_cast<double>(a), 0.0, 0.0);
   EXPECT_TRUE(detector.find(apart).empty());
   EXPECT_FALSE(detector.first(apart).has_value());
+}
+
+TEST(ContactDetector, LongChainsAndAHugeBodyAmongSmallOnesFindWhatAllPairsFind) {
+  // Bodies the bounding spheres would bin badly: 200 dumbbells of two balls
+  // 40 apart (the broad phase holds them by their balls), 200 compact
+  // dumbbells, and one body of two balls 1e6 apart whose bounding sphere
+  // holds every other body. Positions in a box of side 12 where many
+  // overlap: the pairs and depths are those of every ball of every pair.
+  std::vector<RigidBody> bodies;
+  SystemState s(401);
+  for (std::size_t a = 0; a < 401; ++a) {
+    const double half = a == 400 ? 5e5 : a % 2 == 0 ? 20.0 : 0.3;
+    bodies.push_back(RigidBody::from_balls({{V3(-half, 0.0, 0.0), 1.0, t::uniform(0.1, 0.6)},
+                                            {V3(half, 0.0, 0.0), 1.0, t::uniform(0.1, 0.6)}}));
+    // The huge one unturned, its ball 0 in the box: both tests place its
+    // balls exactly (5e5 has an ulp of 6e-11).
+    s.x[a] = a == 400 ? V3(5e5, 0.0, 0.0) : t::random_vector(6.0);
+    s.q[a] = a == 400 ? S3d() : t::random_unit_quaternion();
+  }
+  const System sys(bodies);
+  const std::vector<Contact> expected = all_pairs_of_balls(sys, s);
+  const ContactDetector detector(sys);
+  const std::vector<Contact>& found = detector.find(s);
+  ASSERT_GT(expected.size(), 20u);  // the test would not test much otherwise
+  // Rotations by matrix (detector) and by quaternion (here): a few eps of
+  // the positions (up to 26, and 5e5 for the huge body's far ball).
+  expect_same_contacts(found, expected, 1e-12);
+  // The broad phase passes on the pairs whose proxies meet: by bounding
+  // spheres the huge body alone would give 400 pairs, and the long
+  // dumbbells' (radius over 20, all within 21 of each other) another 19 900.
+  // By balls, those of the compact dumbbells' bounding spheres (radius under
+  // 0.9) that meet: a few times the contacts (129 for 38 in one draw).
+  EXPECT_LT(detector.pairs_tested(), 1000u);
+}
+
+TEST(ContactDetector, TheBroadPhaseIsLinearForBodiesWithFarApartBalls) {
+  // A lattice of 4096 dumbbells of two balls of radius 0.5 4e9 apart (the
+  // fuzzer's case that took 3 s): no two balls meet, so no pair is tested,
+  // where the bounding spheres (radius 2e9) all meet, 8.4 million pairs.
+  std::vector<RigidBody> bodies(4096, RigidBody::from_balls({{V3(0.0, -2e9, 0.0), 1.0, 0.5},
+                                                             {V3(0.0, 2e9, 0.0), 1.0, 0.5}}));
+  SystemState s(4096);
+  for (std::size_t a = 0; a < 4096; ++a) {
+    const std::size_t i = a % 16, j = (a / 16) % 16, k = a / 256;  // the lattice's indices
+    s.x[a] = 2.2 * V3(static_cast<double>(i), static_cast<double>(j), static_cast<double>(k));
+  }
+  const System sys(bodies);
+  const ContactDetector detector(sys);
+  EXPECT_TRUE(detector.find(s).empty());
+  EXPECT_EQ(detector.pairs_tested(), 0u);
+  // Two of them moved onto each other are found, and only that pair tested.
+  s.x[7] = s.x[3] + V3(0.3, 0.0, 0.0);
+  const std::vector<Contact>& found = detector.find(s);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].a, 3u);
+  EXPECT_EQ(found[0].b, 7u);
+  EXPECT_NEAR(found[0].depth(), 0.7, 1e-6);  // 0.5 + 0.5 - 0.3, positions of 4e9 (ulp 5e-7)
+  EXPECT_EQ(detector.pairs_tested(), 1u);
+}
+
+TEST(ContactDetector, InAPeriodicBoxBallProxiesFindWhatAllPairsOfImagesFind) {
+  // Long dumbbells (held by their balls) and compact ones in a periodic
+  // cube of side 10, placed all over it: every pair is tested by brute
+  // force with b at the image of its centre of mass nearest a (as the
+  // detector's exact test does).
+  std::vector<RigidBody> bodies;
+  SystemState s(150);
+  for (std::size_t a = 0; a < 150; ++a) {
+    const double half = a % 3 == 0 ? 3.0 : 0.2;
+    bodies.push_back(RigidBody::from_balls({{V3(-half, 0.0, 0.0), 1.0, t::uniform(0.1, 0.5)},
+                                            {V3(half, 0.0, 0.0), 1.0, t::uniform(0.1, 0.5)}}));
+    s.x[a] = V3::Constant(5.0) + t::random_vector(5.0);
+    s.q[a] = t::random_unit_quaternion();
+  }
+  const lgvi::Box box(V3::Zero(), V3::Constant(10.0), {true, true, true});
+  const System sys(bodies, {}, box);
+  std::vector<Contact> expected;
+  for (std::size_t a = 0; a < 150; ++a)
+    for (std::size_t b = a + 1; b < 150; ++b) {
+      const V3 xb = s.x[a] + box.minimum_image(s.x[b] - s.x[a]);
+      double deepest = -1.0;
+      for (const lgvi::Ball& u : sys.body(a).balls())
+        for (const lgvi::Ball& v : sys.body(b).balls()) {
+          const double d = ((xb + s.q[b].matrix() * v.position) - (s.x[a] + s.q[a].matrix() * u.position)).norm();
+          if (d < u.radius + v.radius) deepest = std::max(deepest, u.radius + v.radius - d);
+        }
+      if (deepest >= 0.0) expected.push_back({a, b, 0, 0, 0.0, deepest});
+    }
+  const ContactDetector detector(sys);
+  const std::vector<Contact>& found = detector.find(s);
+  ASSERT_GT(expected.size(), 20u);  // the test would not test much otherwise
+  expect_same_contacts(found, expected, 1e-13);  // the same sums: a few eps of 10
 }
 
 TEST(ContactDetector, TwoRubblePilesThroughEachOtherGiveTheDeepestPairOfAllBalls) {

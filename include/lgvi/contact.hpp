@@ -8,15 +8,24 @@
 // Each body is known by its extent (rigid_body.hpp): its balls, a sphere, an
 // ellipsoid, or nothing, in which case it is its centre of mass (a point: it
 // overlaps a body only by lying inside it, another point only by coinciding
-// with it). Every body is first bounded by a sphere about its centre of mass
-// (RigidBody::bounding_radius); the centres are binned in cubic cells of side
-// 2 r_max (r_max the largest bounding radius), so that two bodies whose
-// bounding spheres meet lie in the same or adjacent cells: O(N log N + K) per
-// call, K the pairs in adjacent cells (linear in N at a bounded density;
-// bodies of very different sizes share the largest one's cells). Only pairs
-// whose bounding spheres meet are tested exactly, piece by piece (ball by
-// ball for bodies of balls, the balls of one swept along x against those of
-// the other):
+// with it).
+//
+// The broad phase holds every body in one or more spheres, its proxies: its
+// bounding sphere about the centre of mass (RigidBody::bounding_radius), or,
+// for a body of balls that fill less than an eighth of that sphere's volume
+// (a long chain, balls far apart), each of its balls. Two bodies can overlap
+// only where proxies of both meet. The proxies are binned in a hierarchy of
+// grids: cubic cells of side 2 r_max (r_max the largest proxy radius), and
+// finer levels of half the side, each proxy in the finest level whose side is
+// at least its diameter. Two proxies that meet then lie in the same or
+// adjacent cells of the coarser one's level, so each proxy looks in 27 cells
+// of its own and of each coarser level in use: a broad phase of O(P log P +
+// K) per call, P the proxies and K the pairs of meeting proxies, whatever
+// the spread of sizes (small bodies are not binned in a large one's cells)
+// and however far apart one body's balls lie. Only pairs of bodies with
+// meeting proxies are tested exactly, piece by piece (ball by ball for
+// bodies of balls, the balls of one swept along x against those of the
+// other; each such test places every ball of both bodies, O(S_a + S_b)):
 //
 //  * two spheres (balls, spheres, points as spheres of radius 0) overlap when
 //    the distance d of their centres is below r_a + r_b (or is 0);
@@ -110,7 +119,18 @@ class ContactDetector {
  public:
   ContactDetector() = default;
   explicit ContactDetector(const System& sys) : sys_(&sys) {
-    for (std::size_t a = 0; a < sys.size(); ++a) radius_.push_back(sys.body(a).bounding_radius());
+    proxy_begin_.push_back(0);
+    for (std::size_t a = 0; a < sys.size(); ++a) {
+      const RigidBody& body = sys.body(a);
+      radius_.push_back(body.bounding_radius());
+      if (proxies_are_balls(body)) {
+        for (std::size_t i = 0; i < body.balls().size(); ++i)
+          proxies_.push_back({a, static_cast<std::ptrdiff_t>(i), body.balls()[i].radius});
+      } else {
+        proxies_.push_back({a, -1, radius_[a]});
+      }
+      proxy_begin_.push_back(proxies_.size());
+    }
   }
   explicit ContactDetector(System&&) = delete;  // a temporary would not outlive the detector
 
@@ -129,75 +149,169 @@ class ContactDetector {
     return found_.empty() ? std::nullopt : std::optional<Contact>(found_.front());
   }
 
- private:
-  using Cell = std::array<std::int64_t, 3>;
+  /// The pairs of bodies the last call tested exactly (those whose proxies
+  /// meet): the broad phase's yield, for tests of its cost.
+  std::size_t pairs_tested() const { return pairs_tested_; }
 
-  /// Bins the centres (cells_, sorted by cell, then body), then tests body a
-  /// = 0, 1, ... against the bodies b > a of its cell and the 26 around it,
-  /// in the order of b: contacts come out in the order of (a, b). With
-  /// `first_only`, stops after the first body a that has one.
+ private:
+  /// A sphere of the broad phase that holds a body (ball -1) or one of its balls.
+  struct Proxy {
+    std::size_t body = 0;
+    std::ptrdiff_t ball = -1;
+    double radius = 0.0;
+  };
+
+  /// Whether a body is held by its balls rather than by its bounding sphere:
+  /// when they fill less than an eighth of its volume (R^3 > 8 sum r_i^3).
+  static bool proxies_are_balls(const RigidBody& body) {
+    if (body.extent() != Extent::Balls || body.balls().size() < 2) return false;
+    double filled = 0.0;
+    for (const Ball& b : body.balls()) filled += b.radius * b.radius * b.radius;
+    const double r = body.bounding_radius();
+    return r * r * r > 8.0 * filled;
+  }
+
+  /// A grid cell: the level (0 the coarsest), then the cell's indices.
+  using Cell = std::array<std::int64_t, 4>;
+
+  /// Places and bins the proxies (cells_, sorted by level, cell, then
+  /// proxy), then tests body a = 0, 1, ... against the bodies b > a whose
+  /// proxies meet one of its own, in the order of b: contacts come out in the
+  /// order of (a, b). A proxy looks for those of b > a in its own level and
+  /// the coarser ones; the pairs where b's proxy is the finer are gathered
+  /// first (cross_). With `first_only`, stops after the first body a that
+  /// has a contact.
   void scan(const SystemState& s, bool first_only) const {
     const std::size_t n = radius_.size();
     found_.clear();
+    pairs_tested_ = 0;
     if (n < 2) return;
-    // Cells of side 2 r_max: |x_a - x_b| <= r_a + r_b <= 2 r_max for bodies
-    // whose bounding spheres meet. Coarser where the bodies spread over more
-    // than 2^40 cells, so that every cell index is an exact integer.
-    double r_max = 0.0, spread = 0.0;
-    for (std::size_t a = 0; a < n; ++a) {
-      r_max = std::max(r_max, radius_[a]);
-      spread = std::max(spread, s.x[a].cwiseAbs().maxCoeff());
-    }
-    const double side = std::max({2.0 * r_max, 0x1p-40 * spread, std::numeric_limits<double>::min()});
-    // Along a periodic axis, a whole number of cells over the box (each at
-    // least `side` wide), numbered by the wrapped fractional coordinate; the
-    // neighbours of the last cell are the first (below).
     const Box& box = sys_->box();
-    std::array<std::int64_t, 3> periodic_cells{};
-    for (int i = 0; i < 3; ++i)
-      if (box.periodic(i))
-        periodic_cells[static_cast<std::size_t>(i)] =
-            std::max<std::int64_t>(1, static_cast<std::int64_t>(std::min(box.periodic_length()(i) / side, 0x1p40)));
-    auto cell_of = [&](const Vector3<double>& x) {
-      Cell c{};
+    const std::size_t m = proxies_.size();
+    centre_.resize(m);
+    for (std::size_t a = 0; a < n; ++a) {
+      const std::size_t begin = proxy_begin_[a], end = proxy_begin_[a + 1];
+      if (proxies_[begin].ball < 0) {
+        centre_[begin] = s.x[a];
+        continue;
+      }
+      // As pieces() places the balls (the same rotation and sums).
+      const Matrix3<double> r = s.q[a].matrix();
+      const std::vector<Ball>& balls = sys_->body(a).balls();
+      for (std::size_t p = begin; p < end; ++p)
+        centre_[p] = s.x[a] + r * balls[static_cast<std::size_t>(proxies_[p].ball)].position;
+    }
+    // In a periodic box the exact test places b at the image of its centre
+    // of mass nearest a's, the broad phase each proxy at its own nearest
+    // image: both radii are widened by what rounding may part them.
+    // (Both round at the positions' size: the state is not wrapped.)
+    double spread = 0.0;
+    for (std::size_t p = 0; p < m; ++p) spread = std::max(spread, centre_[p].cwiseAbs().maxCoeff());
+    const double slack =
+        box.any_periodic() ? 0x1p-40 * std::max(box.periodic_length().cwiseAbs().maxCoeff(), spread) : 0.0;
+    double r_max = 0.0;
+    for (std::size_t p = 0; p < m; ++p) r_max = std::max(r_max, proxies_[p].radius + slack);
+    // Level l has cells of side coarsest / 2^l: at least the diameter of its
+    // proxies, so that |c_u - c_v| <= r_u + r_v <= side for proxies that meet
+    // (v of this level, u of this level or a finer one). Coarser where the
+    // proxies spread over more than 2^40 cells, so that every cell index is
+    // an exact integer; at most 61 levels.
+    const double floor_side = std::max(0x1p-40 * spread, std::numeric_limits<double>::min());
+    const double coarsest = std::max(2.0 * r_max, floor_side);
+    int finest = 0;
+    while (finest < 60 && std::ldexp(coarsest, -(finest + 1)) >= floor_side) ++finest;
+    level_.resize(m);
+    std::vector<bool> in_use(static_cast<std::size_t>(finest) + 1, false);
+    for (std::size_t p = 0; p < m; ++p) {
+      const double diameter = 2.0 * (proxies_[p].radius + slack);
+      int l = 0;
+      while (l < finest && std::ldexp(coarsest, -(l + 1)) >= diameter) ++l;
+      level_[p] = l;
+      in_use[static_cast<std::size_t>(l)] = true;
+    }
+    levels_.clear();
+    for (int l = 0; l <= finest; ++l)
+      if (in_use[static_cast<std::size_t>(l)]) levels_.push_back(l);
+    // Along a periodic axis, a whole number of cells over the box (each at
+    // least the level's side wide), numbered by the wrapped fractional
+    // coordinate; the neighbours of the last cell are the first (below).
+    periodic_cells_.assign(static_cast<std::size_t>(finest) + 1, {});
+    for (const int l : levels_)
+      for (int i = 0; i < 3; ++i)
+        if (box.periodic(i))
+          periodic_cells_[static_cast<std::size_t>(l)][static_cast<std::size_t>(i)] = std::max<std::int64_t>(
+              1, static_cast<std::int64_t>(std::min(box.periodic_length()(i) / std::ldexp(coarsest, -l), 0x1p40)));
+    auto cell_of = [&](const Vector3<double>& x, int l) {
+      Cell c{l, 0, 0, 0};
+      const double side = std::ldexp(coarsest, -l);
       for (int i = 0; i < 3; ++i) {
-        const std::int64_t dims = periodic_cells[static_cast<std::size_t>(i)];
+        const std::int64_t dims = periodic_cells_[static_cast<std::size_t>(l)][static_cast<std::size_t>(i)];
+        std::int64_t& k = c[static_cast<std::size_t>(i) + 1];
         if (dims > 0) {
-          const double k = std::floor(box.fraction(x[i], i) * static_cast<double>(dims));
-          c[static_cast<std::size_t>(i)] = std::isfinite(k) ? std::clamp<std::int64_t>(static_cast<std::int64_t>(k), 0, dims - 1) : 0;
+          const double f = std::floor(box.fraction(x[i], i) * static_cast<double>(dims));
+          k = std::isfinite(f) ? std::clamp<std::int64_t>(static_cast<std::int64_t>(f), 0, dims - 1) : 0;
           continue;
         }
-        const double k = std::floor(x[i] / side);
-        c[static_cast<std::size_t>(i)] = std::isfinite(k) ? static_cast<std::int64_t>(k) : 0;  // not finite: one cell
+        const double f = std::floor(x[i] / side);
+        k = std::isfinite(f) ? static_cast<std::int64_t>(f) : 0;  // not finite: one cell
       }
       return c;
     };
-    auto neighbour = [&](std::int64_t c, std::int64_t d, int i) {
-      const std::int64_t dims = periodic_cells[static_cast<std::size_t>(i)];
+    auto neighbour = [&](const Cell& home, std::int64_t d, int i) {
+      const std::int64_t dims =
+          periodic_cells_[static_cast<std::size_t>(home[0])][static_cast<std::size_t>(i)];
+      const std::int64_t c = home[static_cast<std::size_t>(i) + 1];
       return dims > 0 ? ((c + d) % dims + dims) % dims : c + d;
     };
-    cells_.resize(n);
-    for (std::size_t a = 0; a < n; ++a) cells_[a] = {cell_of(s.x[a]), a};
+    cells_.resize(m);
+    for (std::size_t p = 0; p < m; ++p) cells_[p] = {cell_of(centre_[p], level_[p]), p};
     std::sort(cells_.begin(), cells_.end());
     auto by_cell = [](const std::pair<Cell, std::size_t>& e, const Cell& c) { return e.first < c; };
-    for (std::size_t a = 0; a < n; ++a) {
-      const Cell home = cell_of(s.x[a]);
-      candidates_.clear();
+    // Calls visit(v) for every proxy v of level l that may meet proxy u (in
+    // the 27 cells about u's own cell of that level).
+    auto near = [&](std::size_t u, int l, auto&& visit) {
+      const Cell home = cell_of(centre_[u], l);
       for (std::int64_t dx = -1; dx <= 1; ++dx)
         for (std::int64_t dy = -1; dy <= 1; ++dy)
           for (std::int64_t dz = -1; dz <= 1; ++dz) {
-            const Cell c{neighbour(home[0], dx, 0), neighbour(home[1], dy, 1), neighbour(home[2], dz, 2)};
+            const Cell c{l, neighbour(home, dx, 0), neighbour(home, dy, 1), neighbour(home, dz, 2)};
             for (auto e = std::lower_bound(cells_.begin(), cells_.end(), c, by_cell);
-                 e != cells_.end() && e->first == c; ++e) {
-              const std::size_t b = e->second;
-              if (b > a && box.minimum_image(s.x[b] - s.x[a]).norm() <= radius_[a] + radius_[b])
-                candidates_.push_back(b);
-            }
+                 e != cells_.end() && e->first == c; ++e)
+              visit(e->second);
           }
-      // (With fewer than 3 cells along a periodic axis, a cell is its own
-      // neighbour twice.)
+    };
+    auto meet = [&](std::size_t u, std::size_t v) {
+      return box.minimum_image(centre_[v] - centre_[u]).norm() <= proxies_[u].radius + proxies_[v].radius + 2.0 * slack;
+    };
+    // The pairs (b, a), b < a, where a proxy of b meets a finer one of a.
+    cross_.clear();
+    for (std::size_t u = 0; u < m; ++u) {
+      const std::size_t a = proxies_[u].body;
+      for (const int l : levels_) {
+        if (l >= level_[u]) break;
+        near(u, l, [&](std::size_t v) {
+          if (proxies_[v].body < a && meet(u, v)) cross_.emplace_back(proxies_[v].body, a);
+        });
+      }
+    }
+    std::sort(cross_.begin(), cross_.end());
+    std::size_t next_cross = 0;
+    for (std::size_t a = 0; a < n; ++a) {
+      candidates_.clear();
+      for (std::size_t u = proxy_begin_[a]; u < proxy_begin_[a + 1]; ++u)
+        for (const int l : levels_) {
+          if (l > level_[u]) break;
+          near(u, l, [&](std::size_t v) {
+            if (proxies_[v].body > a && meet(u, v)) candidates_.push_back(proxies_[v].body);
+          });
+        }
+      for (; next_cross < cross_.size() && cross_[next_cross].first == a; ++next_cross)
+        candidates_.push_back(cross_[next_cross].second);
+      // (Several proxies of a pair may meet; with fewer than 3 cells along a
+      // periodic axis, a cell is its own neighbour twice.)
       std::sort(candidates_.begin(), candidates_.end());
       candidates_.erase(std::unique(candidates_.begin(), candidates_.end()), candidates_.end());
+      pairs_tested_ += candidates_.size();
       for (const std::size_t b : candidates_) {
         Contact c;
         if (pair(s, a, b, c)) found_.push_back(c);
@@ -293,9 +407,17 @@ class ContactDetector {
   }
 
   const System* sys_ = nullptr;
-  std::vector<double> radius_;
+  std::vector<double> radius_;                ///< each body's bounding radius
+  std::vector<Proxy> proxies_;                ///< in the order of the bodies
+  std::vector<std::size_t> proxy_begin_;      ///< body a's proxies: [proxy_begin_[a], proxy_begin_[a + 1])
+  mutable std::vector<Vector3<double>> centre_;  ///< of each proxy at the state scanned
+  mutable std::vector<int> level_;               ///< of each proxy
+  mutable std::vector<int> levels_;              ///< the levels in use, coarsest first
+  mutable std::vector<std::array<std::int64_t, 3>> periodic_cells_;  ///< per level: cells along each periodic axis (0: open)
   mutable std::vector<std::pair<Cell, std::size_t>> cells_;
+  mutable std::vector<std::pair<std::size_t, std::size_t>> cross_;
   mutable std::vector<std::size_t> candidates_;
+  mutable std::size_t pairs_tested_ = 0;
   mutable std::vector<Contact> found_;
   mutable std::vector<Piece> pieces_a_, pieces_b_;
 };
