@@ -166,7 +166,7 @@ DESCRIPTIONS = {
     "sensor.seed": "integer >= 0, default 0: the noise's seed (an ensemble draws one per member unless "
                    "sensor_noise = \"shared\")",
     # [[forcing]]
-    "forcing.kind": "\"torque\" | \"force\" | \"damping\" | \"attitude-control\" | \"wheel-torque\" (a motor torque on a [[body.wheel]])",
+    "forcing.kind": "\"torque\" | \"force\" | \"damping\" | \"attitude-control\" | \"wheel-torque\" (a motor torque on a [[body.wheel]]) | \"pair-damping\" (between the sites of different bodies)",
     "forcing.wheel": "wheel-torque: the wheel, by its name or its index from 0",
     "forcing.body": "string: the body it acts on (default every body); wheel-torque: the body whose wheel it turns (required with several bodies)",
     "forcing.frame": "torque: \"body\" (default) | \"inertial\"; force: \"inertial\" (default) | \"body\"",
@@ -174,6 +174,8 @@ DESCRIPTIONS = {
     "forcing.table": "a CSV file (t, a, b, c; relative to the scenario) or rows [[t, a, b, c], ...]: interpolated linearly; must cover the run. wheel-torque: rows [[t, u], ...] from t = 0, each held until the next (zero-order hold)",
     "forcing.c": "damping: body torque -c Omega",
     "forcing.c_linear": "damping: force -c_linear v",
+    "forcing.gamma": "pair-damping: > 0, the force per relative speed of two sites at zero distance, F = -gamma (1 - r/r_c)^2 (e.v) e",
+    "forcing.cutoff": "pair-damping: > 0, r_c; in a periodic box below half its shortest periodic length",
     "forcing.target": "attitude-control: target quaternion (scalar first)",
     "forcing.k_p": "attitude-control: proportional gain, M = -k_p sgn(e_s) e_v - k_d Omega",
     "forcing.k_d": "attitude-control: derivative gain",

@@ -901,7 +901,7 @@ void read_profile_csv(const Reader& r, const std::string& key, const std::filesy
   }
 }
 
-/// [[forcing]] tables (forcing.hpp): kind = "torque" | "force" | "damping" |
+/// [[forcing]] tables (forcing.hpp): kind = "torque" | "force" | "damping" | "pair-damping" |
 /// "attitude-control", on `body = "name"` or every body. A torque or force is
 /// `value = [a, b, c]` or `table` = a CSV file (t, a, b, c; relative to the
 /// scenario file) or inline rows [[t, a, b, c], ...]; file tables are inlined
@@ -991,7 +991,8 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
   for (std::size_t i = 0; i < arr->size(); ++i) {
     toml::table& t = *arr->get(i)->as_table();
     const std::string prefix = "forcing[" + std::to_string(i) + "]";
-    const std::string kind = r.string(t, prefix, "kind", {"torque", "force", "damping", "attitude-control", "wheel-torque"});
+    const std::string kind =
+        r.string(t, prefix, "kind", {"torque", "force", "damping", "attitude-control", "wheel-torque", "pair-damping"});
     if (kind == "wheel-torque") {
       // One command per wheel: the motor's limits apply to what it is commanded, as one torque.
       WheelTorque u = read_wheel_torque(r, t, prefix, system, duration);
@@ -1000,6 +1001,24 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
           r.fail(prefix + ".wheel", "wheel \"" + system.body(u.body).wheels()[u.wheel].name + "\" has a wheel-torque "
                                     "already; give one command per wheel (a table can hold every change)");
       wheel_torques.push_back(std::move(u));
+      continue;
+    }
+    if (kind == "pair-damping") {
+      // Between the sites of different bodies (pair_damping.hpp): every body, no `body`.
+      r.only_keys(t, prefix, {"kind", "gamma", "cutoff"});
+      if (system.size() < 2)
+        r.fail(prefix + ".kind", "pair damping acts between bodies; this scenario has one ([[bodies]] gives several)");
+      if (system.has_wheels())
+        r.fail(prefix + ".kind", "pair damping reads the bodies' rates as rigid bodies', which bodies with reaction "
+                                 "wheels do not have; give it to a system without [[bodies.wheel]]");
+      const double gamma = r.number(t, prefix, "gamma"), cutoff = r.number(t, prefix, "cutoff");
+      if (!(gamma > 0.0)) r.fail(prefix + ".gamma", "must be > 0 (the force per relative speed at zero distance)");
+      if (!(cutoff > 0.0)) r.fail(prefix + ".cutoff", "must be > 0 (the distance beyond which sites do not act)");
+      if (system.box().any_periodic() && !(2.0 * cutoff < system.box().shortest_periodic_length()))
+        r.fail(prefix + ".cutoff", fmt::format("must be less than half the box's shortest periodic length ({}); give a "
+                                               "smaller cutoff or a larger box",
+                                               system.box().shortest_periodic_length()));
+      set.add(PairDamping(gamma, cutoff, system.box()));
       continue;
     }
     const std::size_t body = forcing_body(r, t, prefix, system);
@@ -1593,6 +1612,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   const std::string stem = std::filesystem::path(name).stem().string();
   Scenario sc;
   sc.name = stem;
+  sc.source = name;
   try {
     sc.system = System(std::move(bodies.kinds), std::move(bodies.kind), std::move(names), box);
   } catch (const InvalidInput& e) {
@@ -1671,9 +1691,9 @@ Scenario read_scenario(const std::string& path) {
 
 ConservationLaws conservation_laws(const Scenario& sc) {
   ConservationLaws laws;
-  // Motor torques on reaction wheels do work but are internal: they keep both momenta.
-  const bool external = !sc.forcing.empty();
-  laws.forced = external || !sc.wheel_torques.empty() || sc.wheel_control.has_value();
+  // Motor torques on reaction wheels, and pair damping, do work but are internal: they keep both momenta.
+  const bool external = !sc.forcing.empty() && !sc.forcing.internal_only();
+  laws.forced = !sc.forcing.empty() || !sc.wheel_torques.empty() || sc.wheel_control.has_value();
   const PotentialKind k = sc.potential.kind;
   // A periodic box is not invariant under rotations: no angular momentum.
   if (sc.system.box().any_periodic())

@@ -114,12 +114,13 @@ struct IntegratorSpec {
 
 struct Scenario {
   std::string name;  ///< the file's stem
+  std::string source;  ///< the file it was read from (what parse_scenario was given): refusals start with it
   System system;     ///< the bodies, in scenario order (one for a [body] scenario)
   PotentialSpec potential;  ///< the external field, acting on every body
   InteractionSpec interaction;
   ForcingSet forcing;  ///< [[forcing]]: wrenches besides the potential (empty: none)
   /// [[forcing]] kind = "wheel-torque": motor torques on the body's reaction wheels ([[body.wheel]],
-  /// gyrostat.hpp), internal torques (not in `forcing`, which holds external wrenches).
+  /// gyrostat.hpp), internal torques (not in `forcing`).
   std::vector<WheelTorque> wheel_torques;
   /// [[forcing]] kind = "attitude-control" with actuator = "wheels": the controller turning the body with its
   /// reaction wheels (gyrostat.hpp); none otherwise.
@@ -151,7 +152,8 @@ struct Scenario {
 /// total angular momentum about the origin with no field or a point source
 /// (mutual forces between bodies keep it too), only its component along the
 /// pole with an oblate (J2) source, neither in a uniform field, on a pivot or
-/// under a forcing; the linear momentum with no field and no forcing; the
+/// under a forcing other than pair damping (internal); the linear momentum
+/// with no field and no forcing but pair damping; the
 /// energy always (E - E0 - W, W the forcing's work, under a forcing). Where a
 /// momentum is not conserved, its "error" columns measure a change, not an
 /// error of the method.

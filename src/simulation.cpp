@@ -708,6 +708,10 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
       stepper.initialize(state, 0.0);
     } catch (const StepFailure& f) {
       start_failure = f;
+    } catch (const InvalidInput& e) {
+      // As the reader's refusals: the scenario's file first.
+      if (sc.source.empty()) throw;
+      throw InvalidInput(sc.source + ": " + e.what());
     }
   }
   const ThermoColumns thermo = thermo_columns(sc);

@@ -248,14 +248,15 @@ auto with_summary(const Scenario& sc, const SimulationResult& r, Use&& use) {
     s["contacts"] = std::move(contacts);
   }
   s["setup"] = setup_json(sc);
-  if (!sc.forcing.empty()) {
+  if (!sc.forcing.empty() && !sc.forcing.internal_only()) {
     // energy errors above are E - E0 - W; angular and linear momentum
     // "errors" are their changes under the forcing, not errors.
     s["work"] = st.work;
     s["energy_error_is"] = "E - E0 - work";
     s["momentum_error_is"] = "the change of L and P, which the forcing does not conserve";
-  } else if (!sc.wheel_torques.empty() || sc.wheel_control) {
-    // Motor torques do work, but are internal: both momenta are still conserved (errors, not changes).
+  } else if (!sc.forcing.empty() || !sc.wheel_torques.empty() || sc.wheel_control) {
+    // Motor torques and pair damping do work, but are internal: the momenta are still conserved (errors, not
+    // changes; conservation_laws says which).
     s["work"] = st.work;
     s["energy_error_is"] = "E - E0 - work";
   }

@@ -26,6 +26,7 @@
 
 #include <lgvi/checkpoint_fields.hpp>
 #include <lgvi/error.hpp>
+#include <lgvi/pair_damping.hpp>
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/s3.hpp>
 #include <lgvi/state.hpp>
@@ -196,18 +197,24 @@ concept BodyForcing = requires(const F& f, double t, std::size_t a, const RigidB
   { f(t, a, s) } -> std::convertible_to<Wrench>;
 };
 
-/// The forcing terms acting on a system, each on one body or on all. Value
-/// type: a stepper owns its copy. Holds the sampled values of zero-order-hold
-/// controllers, which a checkpoint keeps (internal_state).
+/// The forcing terms acting on a system. A body term gives one body's
+/// wrench from that body's state, and acts on one body or on each; a system
+/// term (PairDamping) gives every body's wrench at once from the whole state,
+/// as a pair force must. Value type: a stepper owns its copy. Holds the
+/// sampled values of zero-order-hold controllers, which a checkpoint keeps
+/// (internal_state).
 class ForcingSet {
  public:
-  using Term = std::variant<AppliedTorque, AppliedForce, Damping, AttitudeControl, CallableForcing>;
+  using Term = std::variant<AppliedTorque, AppliedForce, Damping, AttitudeControl, CallableForcing, PairDamping>;
   static constexpr std::size_t all_bodies = static_cast<std::size_t>(-1);
 
-  /// Adds a term acting on body `body` (default: every body).
+  /// Adds a term acting on body `body` (default: every body; a system term
+  /// acts on every body).
   void add(Term term, std::size_t body = all_bodies) {
     if (const auto* c = std::get_if<AttitudeControl>(&term); c && !(c->period >= 0.0 && std::isfinite(c->period)))
       throw InvalidInput("forcing: attitude-control period must be >= 0");
+    if (is_system_term(term) && body != all_bodies)
+      throw InvalidInput("forcing: pair damping acts between the bodies and on each; it takes no body");
     terms_.push_back({std::move(term), body, {}, 0});
   }
   /// Adds a user's C++ forcing (see BodyForcing).
@@ -224,6 +231,17 @@ class ForcingSet {
     for (const Entry& e : terms_)
       if (std::holds_alternative<CallableForcing>(e.term)) return true;
     return false;
+  }
+
+  /// Whether there are terms and every one is internal to the system: equal
+  /// and opposite forces along the line of the points they act on (pair
+  /// damping), so that the total force and torque vanish and both momenta
+  /// are kept.
+  bool internal_only() const {
+    if (terms_.empty()) return false;
+    for (const Entry& e : terms_)
+      if (!is_system_term(e.term)) return false;
+    return true;
   }
 
   /// Whether any term reads the momenta (then the end of a step iterates).
@@ -265,13 +283,19 @@ class ForcingSet {
     return changed;
   }
 
-  /// The forcing's wrench on every body at time t and state s (F inertial, M body).
+  /// The forcing's wrench on every body at time t and state s (F inertial, M
+  /// body). Const, but a system term keeps its pairs between calls: not to be
+  /// called on one set from two threads at once (a stepper calls it on one).
   void evaluate(double t, const SystemState& s, const System& sys, std::vector<Vector3<double>>& force,
                 std::vector<Vector3<double>>& torque) const {
     const std::size_t n = sys.size();
     force.assign(n, Vector3<double>::Zero());
     torque.assign(n, Vector3<double>::Zero());
     for (const Entry& e : terms_) {
+      if (const auto* pairs = std::get_if<PairDamping>(&e.term)) {
+        pairs->add(s, sys, force, torque);
+        continue;
+      }
       for (std::size_t a = 0; a < n; ++a) {
         if (!applies(e, a)) continue;
         const Wrench w = wrench(e, t, a, s.body(a), sys.body(a));
@@ -376,6 +400,7 @@ class ForcingSet {
   };
 
   static bool applies(const Entry& e, std::size_t a) { return e.body == all_bodies || e.body == a; }
+  static bool is_system_term(const Term& term) { return std::holds_alternative<PairDamping>(term); }
   static bool is_sampled(const Entry& e) {
     const auto* c = std::get_if<AttitudeControl>(&e.term);
     return c && c->period > 0.0;
@@ -386,7 +411,8 @@ class ForcingSet {
     if (const auto* c = std::get_if<CallableForcing>(&e.term)) return c->f(t, a, s);
     return std::visit(
         [&](const auto& term) -> Wrench {
-          if constexpr (std::is_same_v<std::decay_t<decltype(term)>, CallableForcing>) return {};
+          using T = std::decay_t<decltype(term)>;
+          if constexpr (std::is_same_v<T, CallableForcing> || std::is_same_v<T, PairDamping>) return {};
           else return term(t, s, body);
         },
         e.term);
