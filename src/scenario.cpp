@@ -1009,8 +1009,9 @@ ForcingSet read_forcing(const Reader& r, toml::table& root, const System& system
       if (system.size() < 2)
         r.fail(prefix + ".kind", "pair damping acts between bodies; this scenario has one ([[bodies]] gives several)");
       if (system.has_wheels())
-        r.fail(prefix + ".kind", "pair damping reads the bodies' rates as rigid bodies', which bodies with reaction "
-                                 "wheels do not have; give it to a system without [[bodies.wheel]]");
+        r.fail(prefix + ".kind", "pair damping is not taken beside reaction wheels (the gyrostat step completes the "
+                                 "wheels' momenta after the momentum iteration a velocity-dependent forcing needs); "
+                                 "give it to a system without [[bodies.wheel]]");
       const double gamma = r.number(t, prefix, "gamma"), cutoff = r.number(t, prefix, "cutoff");
       if (!(gamma > 0.0)) r.fail(prefix + ".gamma", "must be > 0 (the force per relative speed at zero distance)");
       if (!(cutoff > 0.0)) r.fail(prefix + ".cutoff", "must be > 0 (the distance beyond which sites do not act)");

@@ -64,10 +64,7 @@ class PairDamping {
   PairDamping(double gamma, double cutoff, const Box& box) : gamma_(gamma), cutoff_(cutoff) {
     if (!(gamma > 0.0 && std::isfinite(gamma))) throw InvalidInput("pair damping: gamma must be finite and > 0");
     if (!(cutoff > 0.0 && std::isfinite(cutoff))) throw InvalidInput("pair damping: cutoff must be finite and > 0");
-    if (box.any_periodic() && !(2.0 * cutoff < box.shortest_periodic_length()))
-      throw InvalidInput("pair damping: cutoff " + std::to_string(cutoff) +
-                         " must be less than half the shortest periodic length of the box (" +
-                         std::to_string(box.shortest_periodic_length()) + ")");
+    require_cutoff_fits(box);
   }
 
   double gamma() const { return gamma_; }
@@ -85,10 +82,7 @@ class PairDamping {
     if (&sys != system_) {
       // Another system (a copy of the forcing given to another stepper): its
       // box must allow the cutoff too, and nothing found for the last holds.
-      if (sys.box().any_periodic() && !(2.0 * cutoff_ < sys.box().shortest_periodic_length()))
-        throw InvalidInput("pair damping: cutoff " + std::to_string(cutoff_) +
-                           " must be less than half the shortest periodic length of the box (" +
-                           std::to_string(sys.box().shortest_periodic_length()) + ")");
+      require_cutoff_fits(sys.box());
       system_ = &sys;
       x_.clear();
       made_at_.clear();
@@ -130,6 +124,13 @@ class PairDamping {
     Vector3<double> unit;
     double coefficient = 0.0;
   };
+
+  void require_cutoff_fits(const Box& box) const {
+    if (box.any_periodic() && !(2.0 * cutoff_ < box.shortest_periodic_length()))
+      throw InvalidInput("pair damping: cutoff " + std::to_string(cutoff_) +
+                         " must be less than half the shortest periodic length of the box (" +
+                         std::to_string(box.shortest_periodic_length()) + ")");
+  }
 
   /// The skin of the candidate list, a fraction of r_c: candidates are the
   /// pairs closer than r_c + skin when the list was made, which hold every
