@@ -23,7 +23,7 @@
 //
 // A triclinic box would add the tilt factors (xy, xz, yz) here, with the
 // minimum image taken in the box's fractional coordinates; the neighbour
-// lists (forces/pair_interaction.hpp) bin sites in fractional coordinates
+// lists (forces/neighbour_lists.hpp) bin sites in fractional coordinates
 // already along periodic axes, so only this class and the exports would change.
 #pragma once
 

@@ -28,28 +28,28 @@
 // writes every body's force and body torque at once. It depends on the
 // velocities, so the end of each step iterates on the new momenta
 // (StepperBase::end_step); it converges when h gamma / m is small. The
-// pairs are taken once per configuration from a list of candidates within
-// r_c plus a skin, made in cells (O(S log S) for S sites) when a site has
-// moved more than half the skin; the forces are summed on one thread in the
-// order of the pairs (i, j): the same bits on any thread count and after a
-// resume.
+// pairs are taken once per configuration from its own Verlet lists, kept by
+// the pair interactions' code (forces/neighbour_lists.hpp; a skin of r_c / 5,
+// less in a periodic box too small for it); the forces are summed on one
+// thread in the order of the pairs (i, j), which depends on the
+// configuration only: the same bits on any thread count and after a resume.
 #pragma once
 
 #include <lgvi/box.hpp>
 #include <lgvi/error.hpp>
+#include <lgvi/forces/neighbour_lists.hpp>
+#include <lgvi/parallel.hpp>
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/s3.hpp>
 #include <lgvi/state.hpp>
 #include <lgvi/system.hpp>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <limits>
+#include <optional>
 #include <string>
-#include <utility>
 #include <vector>
 
 namespace lgvi {
@@ -69,8 +69,8 @@ class PairDamping {
 
   double gamma() const { return gamma_; }
   double cutoff() const { return cutoff_; }
-  /// How many times the candidate list has been made (for tests of its reuse).
-  std::size_t candidate_lists_made() const { return lists_made_; }
+  /// How many times the neighbour lists have been built (for tests of their reuse).
+  std::int64_t list_builds() const { return earlier_builds_ + (lists_ ? lists_->builds() : 0); }
 
   /// Adds the damping's force (inertial) and body torque on every body at
   /// state s to `force` and `torque` (sized to the system). The pairs within
@@ -79,45 +79,44 @@ class PairDamping {
   /// alone.
   void add(const SystemState& s, const System& sys, std::vector<Vector3<double>>& force,
            std::vector<Vector3<double>>& torque) const {
-    if (&sys != system_) {
+    if (&sys != system_ || lists_->sites().bodies() != sys.size()) {
       // Another system (a copy of the forcing given to another stepper): its
       // box must allow the cutoff too, and nothing found for the last holds.
-      require_cutoff_fits(sys.box());
-      system_ = &sys;
+      // (The system is recorded last: an exception leaves none.)
+      system_ = nullptr;
       x_.clear();
-      made_at_.clear();
+      require_cutoff_fits(sys.box());
+      if (lists_) earlier_builds_ += lists_->builds();
+      lists_.reset();
+      lists_.emplace(sys, cutoff_, skin(sys.box()), Parallelism{}, "forcing");
+      system_ = &sys;
     }
     if (!same_configuration(s)) find_pairs(s, sys);
     // The sites' velocities u_i = v_a + omega_a x arm_i.
-    velocity_.resize(sites_.size());
-    for (std::size_t a = 0, i = 0; a < sys.size(); ++a) {
+    const NeighbourLists& lists = *lists_;
+    const InteractionSites& sites = lists.sites();
+    velocity_.resize(sites.size());
+    for (std::size_t a = 0; a < sys.size(); ++a) {
       const Vector3<double> v = s.p[a] / sys.body(a).mass();
       const Vector3<double> omega = sys.body(a).extent() == Extent::Balls
                                         ? Vector3<double>(rotation_[a] * body_angular_velocity(s, sys, a))
                                         : Vector3<double>::Zero();
-      for (; i < sites_.size() && sites_[i].body == a; ++i) velocity_[i] = v + omega.cross(sites_[i].arm);
+      for (std::size_t i = sites.begin(a); i < sites.end(a); ++i) velocity_[i] = v + omega.cross(lists.arm(i));
     }
     arm_torque_.assign(sys.size(), Vector3<double>::Zero());
     for (const Pair& p : pairs_) {
-      const Site& u = sites_[p.i];
-      const Site& v = sites_[p.j];
+      const std::size_t a = sites.body_of(p.i), b = sites.body_of(p.j);
       const Vector3<double> f = (-p.coefficient * p.unit.dot(velocity_[p.i] - velocity_[p.j])) * p.unit;
-      force[u.body] += f;
-      force[v.body] -= f;
-      arm_torque_[u.body] += u.arm.cross(f);
-      arm_torque_[v.body] -= v.arm.cross(f);
+      force[a] += f;
+      force[b] -= f;
+      arm_torque_[a] += lists.arm(p.i).cross(f);
+      arm_torque_[b] -= lists.arm(p.j).cross(f);
     }
     for (std::size_t a = 0; a < sys.size(); ++a)
       if (!arm_torque_[a].isZero(0.0)) torque[a] += rotation_[a].transpose() * arm_torque_[a];
   }
 
  private:
-  using Cell = std::array<std::int64_t, 3>;
-  struct Site {
-    Vector3<double> centre;  ///< c_i, inertial
-    Vector3<double> arm;     ///< c_i - x_a, inertial
-    std::size_t body = 0;
-  };
   /// Sites i < j of different bodies closer than r_c: e = r_ij / r and gamma w(r)^2.
   struct Pair {
     std::size_t i = 0, j = 0;
@@ -132,10 +131,16 @@ class PairDamping {
                          std::to_string(box.shortest_periodic_length()) + ")");
   }
 
-  /// The skin of the candidate list, a fraction of r_c: candidates are the
-  /// pairs closer than r_c + skin when the list was made, which hold every
-  /// pair closer than r_c until a site has moved skin / 2.
-  static constexpr double skin_fraction = 0.2;
+  /// The neighbour lists' skin: r_c / 5, or less in a periodic box where
+  /// r_c + skin must stay below half the shortest periodic length (r_c is,
+  /// require_cutoff_fits); 0 where r_c is so close to it that rounding
+  /// leaves no room (then the lists are built for every new configuration).
+  double skin(const Box& box) const {
+    if (!box.any_periodic()) return 0.2 * cutoff_;
+    const double length = box.shortest_periodic_length();
+    const double skin = std::min(0.2 * cutoff_, 0.5 * (0.5 * length - cutoff_));
+    return 2.0 * (cutoff_ + skin) < length ? skin : 0.0;
+  }
 
   bool same_configuration(const SystemState& s) const {
     if (x_.size() != s.size()) return false;
@@ -144,155 +149,50 @@ class PairDamping {
     return true;
   }
 
-  /// The sites at state s (in the order of the bodies and their balls) and
-  /// the pairs closer than r_c, in the order of (i, j): taken from the
-  /// candidates, which are made again when a site has moved more than half
-  /// the skin since they were made. The pairs are the same, in the same
-  /// order, whenever the candidates were made: a run's forces do not depend
-  /// on its history (a resumed run continues bit for bit).
+  /// The sites at state s and the pairs closer than r_c, in the order of
+  /// (i, j), from the neighbour lists (whose entries of site i are the sites
+  /// of higher bodies by increasing index): the same pairs in the same order
+  /// whenever the lists were built, so a run's forces do not depend on its
+  /// history (a resumed run continues bit for bit).
+  /// StepFailure if a site's position is not finite.
   void find_pairs(const SystemState& s, const System& sys) const {
-    x_ = s.x;
-    q_ = s.q;
-    sites_.clear();
+    x_.clear();  // (until the pairs are found: an exception leaves no configuration)
     rotation_.resize(sys.size());
-    for (std::size_t a = 0; a < sys.size(); ++a) {
-      const RigidBody& body = sys.body(a);
-      rotation_[a] = s.q[a].matrix();
-      if (body.extent() != Extent::Balls) {
-        sites_.push_back({s.x[a], Vector3<double>::Zero(), a});
-        continue;
-      }
-      for (const Ball& ball : body.balls()) {
-        const Vector3<double> arm = rotation_[a] * ball.position;
-        sites_.push_back({s.x[a] + arm, arm, a});
-      }
-    }
-    const Box& box = sys.box();
+    for (std::size_t a = 0; a < sys.size(); ++a) rotation_[a] = s.q[a].matrix();
+    const NeighbourLists& lists = *lists_;
+    lists.update(s);
+    const Box& box = lists.box();
     const bool periodic = box.any_periodic();
-    auto separation = [&](const Vector3<double>& a, const Vector3<double>& b) {
-      return periodic ? box.minimum_image(a - b) : Vector3<double>(a - b);
-    };
-    const double skin = skin_fraction * cutoff_;
-    bool fresh = made_at_.size() == sites_.size();
-    for (std::size_t i = 0; fresh && i < sites_.size(); ++i)
-      fresh = separation(sites_[i].centre, made_at_[i]).squaredNorm() <= 0.25 * skin * skin;
-    if (!fresh) {
-      make_candidates(sys, cutoff_ + skin);
-      ++lists_made_;
-    }
     const double inverse_cutoff = 1.0 / cutoff_, cutoff2 = cutoff_ * cutoff_;
     pairs_.clear();
-    for (const auto& [i, j] : candidates_) {
-      const Vector3<double> r = separation(sites_[i].centre, sites_[j].centre);
-      const double d2 = r.squaredNorm();
-      if (!(d2 < cutoff2) || d2 == 0.0) continue;
-      const double d = std::sqrt(d2);
-      if (!(d < cutoff_)) continue;  // (d2 rounded below r_c^2)
-      const double w = 1.0 - d * inverse_cutoff;
-      pairs_.push_back({i, j, r / d, gamma_ * w * w});
-    }
-  }
-
-  /// The pairs of sites i < j of different bodies closer than `reach`, in
-  /// the order of (i, j), found in cells of side at least `reach`.
-  void make_candidates(const System& sys, double reach) const {
-    const std::size_t m = sites_.size();
-    const Box& box = sys.box();
-    const bool periodic = box.any_periodic();
-    made_at_.resize(m);
-    for (std::size_t i = 0; i < m; ++i) made_at_[i] = sites_[i].centre;
-    candidates_.clear();
-    // Sites closer than `reach` lie in the same or adjacent cells. Coarser
-    // where the sites spread over more than 2^40 cells, so that every index
-    // is an exact integer; along a periodic axis a whole number of cells over
-    // the box, by the wrapped fraction.
-    double spread = 0.0;
-    for (const Site& site : sites_) spread = std::max(spread, site.centre.cwiseAbs().maxCoeff());
-    const double side = std::max({reach, 0x1p-40 * spread, std::numeric_limits<double>::min()});
-    std::array<std::int64_t, 3> dims{};
-    for (int i = 0; i < 3; ++i)
-      if (box.periodic(i))
-        dims[static_cast<std::size_t>(i)] =
-            std::max<std::int64_t>(1, static_cast<std::int64_t>(std::min(box.periodic_length()(i) / side, 0x1p40)));
-    auto cell_of = [&](const Vector3<double>& x) {
-      Cell c{};
-      for (int i = 0; i < 3; ++i) {
-        const std::int64_t d = dims[static_cast<std::size_t>(i)];
-        const double f = d > 0 ? std::floor(box.fraction(x[i], i) * static_cast<double>(d)) : std::floor(x[i] / side);
-        const std::int64_t k = std::isfinite(f) ? static_cast<std::int64_t>(f) : 0;  // not finite: one cell
-        c[static_cast<std::size_t>(i)] = d > 0 ? std::clamp<std::int64_t>(k, 0, d - 1) : k;
+    for (std::size_t i = 0; i < lists.sites().size(); ++i)
+      for (std::size_t k = lists.list_begin(i); k < lists.list_end(i); ++k) {
+        const std::size_t j = lists.partner(k);
+        const Vector3<double> d = lists.position(i) - lists.position(j);
+        const Vector3<double> r = periodic ? box.minimum_image(d) : d;
+        const double d2 = r.squaredNorm();
+        if (!(d2 < cutoff2) || d2 == 0.0) continue;
+        const double distance = std::sqrt(d2);
+        if (!(distance < cutoff_)) continue;  // (d2 rounded below r_c^2)
+        const double w = 1.0 - distance * inverse_cutoff;
+        pairs_.push_back({i, j, r / distance, gamma_ * w * w});
       }
-      return c;
-    };
-    cells_.resize(m);
-    for (std::size_t i = 0; i < m; ++i) cells_[i] = {cell_of(sites_[i].centre), i};
-    std::sort(cells_.begin(), cells_.end());
-    auto by_cell = [](const std::pair<Cell, std::size_t>& e, const Cell& c) { return e.first < c; };
-    const double reach2 = reach * reach;
-    // Cell by cell (runs of cells_), each pair once: from the earlier of the
-    // two in cells_ order.
-    for (std::size_t begin = 0; begin < m;) {
-      const Cell home = cells_[begin].first;
-      std::size_t end = begin + 1;
-      while (end < m && cells_[end].first == home) ++end;
-      // The distinct cells about this one (with fewer than 3 cells along a
-      // periodic axis, a cell is its own neighbour more than once), and the
-      // run of sites in each.
-      near_.clear();
-      for (std::int64_t dx = -1; dx <= 1; ++dx)
-        for (std::int64_t dy = -1; dy <= 1; ++dy)
-          for (std::int64_t dz = -1; dz <= 1; ++dz) {
-            Cell c{};
-            const std::array<std::int64_t, 3> d{dx, dy, dz};
-            for (std::size_t k = 0; k < 3; ++k)
-              c[k] = dims[k] > 0 ? ((home[k] + d[k]) % dims[k] + dims[k]) % dims[k] : home[k] + d[k];
-            near_.push_back(c);
-          }
-      std::sort(near_.begin(), near_.end());
-      near_.erase(std::unique(near_.begin(), near_.end()), near_.end());
-      runs_.clear();
-      for (const Cell& c : near_) {
-        auto first = std::lower_bound(cells_.begin(), cells_.end(), c, by_cell);
-        auto last = first;
-        while (last != cells_.end() && last->first == c) ++last;
-        if (first != last)
-          runs_.emplace_back(static_cast<std::size_t>(first - cells_.begin()),
-                             static_cast<std::size_t>(last - cells_.begin()));
-      }
-      for (std::size_t e = begin; e < end; ++e)
-        for (const auto& [from, to] : runs_)
-          for (std::size_t f = std::max(from, e + 1); f < to; ++f) {
-            std::size_t i = cells_[e].second, j = cells_[f].second;
-            if (sites_[i].body == sites_[j].body) continue;
-            const Vector3<double> r = periodic ? box.minimum_image(sites_[i].centre - sites_[j].centre)
-                                               : Vector3<double>(sites_[i].centre - sites_[j].centre);
-            if (!(r.squaredNorm() < reach2)) continue;
-            if (j < i) std::swap(i, j);
-            candidates_.emplace_back(i, j);
-          }
-      begin = end;
-    }
-    std::sort(candidates_.begin(), candidates_.end());
+    x_ = s.x;
+    q_ = s.q;
   }
 
   double gamma_ = 0.0;
   double cutoff_ = 0.0;
-  // The system and configuration the pairs were found at, and what was found.
+  // The system and configuration the pairs were found at, its lists, and the pairs.
   mutable const System* system_ = nullptr;
-  mutable std::size_t lists_made_ = 0;
+  mutable std::optional<NeighbourLists> lists_;
+  mutable std::int64_t earlier_builds_ = 0;  ///< the lists' builds for systems before this one
   mutable std::vector<Vector3<double>> x_;
   mutable std::vector<S3d> q_;
   mutable std::vector<Matrix3<double>> rotation_;
-  mutable std::vector<Site> sites_;
   mutable std::vector<Pair> pairs_;
-  // The candidates and the sites' centres when they were made.
-  mutable std::vector<std::pair<std::size_t, std::size_t>> candidates_;
-  mutable std::vector<Vector3<double>> made_at_;
   // Scratch.
   mutable std::vector<Vector3<double>> velocity_;
-  mutable std::vector<std::pair<Cell, std::size_t>> cells_;
-  mutable std::vector<Cell> near_;
-  mutable std::vector<std::pair<std::size_t, std::size_t>> runs_;
   mutable std::vector<Vector3<double>> arm_torque_;
 };
 

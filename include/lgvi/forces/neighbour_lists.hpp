@@ -1,0 +1,484 @@
+// Verlet lists of the interaction sites of different bodies, the one
+// neighbour structure of the pair forces (PairInteraction's kernels,
+// PairDamping): each site keeps the sites of higher bodies within a reach
+// r_c + skin (half lists, as LAMMPS with newton on), found with a cell list
+// (cubic cells of side >= (r_c + skin) / 2 over the sites' bounding box, at
+// most ~2 per site, so a dilute system gets larger cells instead of a huge
+// empty grid; counting sort, O(S) for S sites). The lists are rebuilt when
+// some site has moved more than skin/2 since the last build (then no pair can
+// have crossed into r_c unseen), so the cost grows like the number of sites,
+// not its square.
+//
+// Pruned lists (GROMACS's dynamic pruning): the lists a user reads hold only
+// the pairs within r_c + delta (delta = skin/3), pruned from the built ones
+// again when some site has moved more than delta/2 since the last pruning. A
+// pair within r_c now is in the lists (the skin's argument) and was within
+// r_c + delta at the pruning (each site has moved at most delta/2 since), so
+// no pair within r_c is missed; a user tests r < r_c itself. The measured
+// fractions of pairs and costs are in docs/benchmarks.md ("Against LAMMPS":
+// how lgvi computes the pairs) and in docs/tuning.md.
+//
+// Determinism: each site's list is sorted by site index. Which pairs beyond
+// r_c it holds depends on when the lists were built; the pairs within r_c,
+// in list order, depend on the current positions only, not on the lists'
+// history or the number of threads. A sum that skips the pairs beyond r_c,
+// or adds them as exact zeros, therefore gives the same bits on any thread
+// count and after a checkpoint and resume (which rebuilds the lists).
+//
+// In a periodic box the separations are minimum images (box.hpp), and the
+// reach must be below half the shortest periodic length (checked), so that a
+// pair has one image within reach.
+#pragma once
+
+#include <lgvi/box.hpp>
+#include <lgvi/error.hpp>
+#include <lgvi/interaction.hpp>
+#include <lgvi/parallel.hpp>
+#include <lgvi/system.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace lgvi {
+
+/// The Verlet lists of a system's interaction sites (the comment at the top
+/// of this file). Built for one system (its sites, kinds and box); update(s)
+/// places the sites at a state and brings the lists up to date for it, then
+/// site i's partners (sites of higher bodies, by increasing index) are
+/// partner(k) for k in [list_begin(i), list_end(i)), and its position and arm
+/// are position(i) and arm(i).
+class NeighbourLists {
+ public:
+  /// A site's index in the lists (4 bytes: the lists are most of a pair
+  /// interaction's memory); at most max_sites sites.
+  using SiteIndex = std::uint32_t;
+  static constexpr std::size_t max_sites = 0x7fffffff;
+
+  /// What update() did to the lists.
+  enum class Change { none, pruned, built };
+
+  /// Lists within `cutoff` + `skin` (skin >= 0) of the sites of `sys`. `owner`
+  /// begins the messages of bad input ("interaction" for a scenario's
+  /// [interaction] table): more than max_sites sites, or in a periodic box a
+  /// reach not below half its shortest periodic length (InvalidInput).
+  NeighbourLists(const System& sys, double cutoff, double skin, Parallelism par, const std::string& owner)
+      : sites_(sys), cutoff_(cutoff), skin_(skin), prune_margin_(prune_fraction * skin_), par_(par),
+        box_(sys.box()) {
+    if (sites_.size() > max_sites)
+      throw InvalidInput(owner + ": " + std::to_string(sites_.size()) +
+                         " interaction sites; the neighbour lists index at most " + std::to_string(max_sites) +
+                         " (2^31 - 1); split the system");
+    if (box_.any_periodic() && !(2.0 * (cutoff_ + skin_) < box_.shortest_periodic_length()))
+      throw InvalidInput(owner + ".cutoff: the cutoff + skin = " + std::to_string(cutoff_ + skin_) +
+                         " must be less than half the shortest periodic length of the box (" +
+                         std::to_string(box_.shortest_periodic_length()) +
+                         "), so that a pair has one image within reach; enlarge the box or shorten the cutoff or skin");
+  }
+
+  /// Places the sites at `s` (per body, on the threads) and brings the lists
+  /// up to date for it: rebuilt if a site moved more than skin/2 since the
+  /// last build, else pruned again if one moved more than delta/2 since the
+  /// last pruning (a move by a whole period along a periodic axis is no
+  /// move). StepFailure if a site's position is not finite.
+  Change update(const SystemState& s) const {
+    const std::size_t n = s.size();
+    // The sites, and how far each body's moved, per body on the thread that
+    // placed it. (The plain distance first: a run's state is not wrapped, so
+    // the minimum image is looked at only for a site that seems to have moved.)
+    const bool have_lists = lists_ready_ && built_at_.size() == sites_.size();
+    const double limit = 0.25 * skin_ * skin_, prune_limit = 0.25 * prune_margin_ * prune_margin_;
+    const bool periodic = box_.any_periodic();
+    auto within_limit = [&](const Vector3<double>& d, double bound) {
+      // (False for NaN.)
+      return d.squaredNorm() <= bound || (periodic && box_.minimum_image(d).squaredNorm() <= bound);
+    };
+    moved_.resize(n);
+    sites_.place(s, par_, position_, arm_, [&](std::size_t a) {
+      char moved = have_lists ? no_move : beyond_skin;
+      for (std::size_t i = sites_.begin(a); i < sites_.end(a) && moved != beyond_skin; ++i) {
+        if (!within_limit(position_[i] - built_at_[i], limit)) moved = beyond_skin;
+        else if (!within_limit(position_[i] - pruned_at_[i], prune_limit)) moved = beyond_margin;
+      }
+      moved_[a] = moved;
+    });
+    const char most = *std::max_element(moved_.begin(), moved_.end());
+    if (most == beyond_skin) {
+      build_lists();
+      return Change::built;
+    }
+    if (most == beyond_margin) {
+      prune_lists();
+      return Change::pruned;
+    }
+    return Change::none;
+  }
+
+  const InteractionSites& sites() const { return sites_; }
+  const Box& box() const { return box_; }
+  double cutoff() const { return cutoff_; }
+  double skin() const { return skin_; }
+  /// Site i's inertial position X_i = x_a + R_a rho_i and arm R_a rho_i at the last update.
+  const Vector3<double>& position(std::size_t i) const { return position_[i]; }
+  const Vector3<double>& arm(std::size_t i) const { return arm_[i]; }
+  /// Site i's list entries are [list_begin(i), list_end(i)); the entries of
+  /// consecutive sites are consecutive (list_begin(i + 1) = list_end(i);
+  /// list_begin(S) is the number of entries).
+  std::size_t list_begin(std::size_t i) const { return list_start_[i]; }
+  std::size_t list_end(std::size_t i) const { return list_start_[i + 1]; }
+  /// Entry k's partner site.
+  SiteIndex partner(std::size_t k) const { return neighbours_[k]; }
+
+  /// A separation's component along axis k: its minimum image in a periodic
+  /// box (the identity along an open axis), as it is.
+  template <bool Periodic>
+  double separation(double d, int k) const {
+    if constexpr (Periodic) return box_.reduce(d, k);
+    else return d;
+  }
+
+  /// How many times the lists were built, and pruned (every build prunes
+  /// too), for tests and benchmarks.
+  std::int64_t builds() const { return builds_; }
+  std::int64_t prunes() const { return prunes_; }
+
+ private:
+  /// The candidates[0, n) within r^2 < reach2 of position x, in their order,
+  /// into list (which has room for n); returns how many. Branch-free: each
+  /// candidate is written, and kept by advancing the count (the lists'
+  /// build and pruning both filter so).
+  template <bool Periodic>
+  std::size_t within(const Vector3<double>* position, const Vector3<double>& x, const SiteIndex* candidates,
+                     std::size_t n, double reach2, SiteIndex* list) const {
+    const double xi = x(0), yi = x(1), zi = x(2);
+    std::size_t count = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const SiteIndex j = candidates[k];
+      const double dx = separation<Periodic>(position[j](0) - xi, 0),
+                   dy = separation<Periodic>(position[j](1) - yi, 1),
+                   dz = separation<Periodic>(position[j](2) - zi, 2);
+      list[count] = j;
+      count += static_cast<std::size_t>(dx * dx + dy * dy + dz * dz < reach2);
+    }
+    return count;
+  }
+
+  /// The cell of a site at x: along an open axis from the sites' bounding
+  /// box (clamped to it); along a periodic one from x's fractional
+  /// coordinate in the box, wrapped into [0, 1).
+  std::array<std::int64_t, 3> cell_of(const Vector3<double>& x) const {
+    std::array<std::int64_t, 3> c{};
+    for (int k = 0; k < 3; ++k) {
+      const std::int64_t dims = dims_[static_cast<std::size_t>(k)];
+      std::int64_t v = 0;
+      if (box_.periodic(k)) {  // (origin_(k) is the box's lower face there)
+        v = static_cast<std::int64_t>(box_.fraction(x(k), k) * static_cast<double>(dims));
+      } else {
+        v = static_cast<std::int64_t>((x(k) - origin_(k)) * inv_cell_(k));
+      }
+      c[static_cast<std::size_t>(k)] = std::clamp<std::int64_t>(v, 0, dims - 1);
+    }
+    return c;
+  }
+
+  /// The cells along axis k that meet [from, to]: one run of consecutive
+  /// cells, or two where a periodic axis wraps around (every cell once if the
+  /// interval is as long as the box).
+  struct CellRuns {
+    int count = 1;
+    std::array<std::array<std::int64_t, 2>, 2> run{};
+  };
+  CellRuns cells_between(int k, double from, double to) const {
+    CellRuns r;
+    const std::int64_t dims = dims_[static_cast<std::size_t>(k)];
+    if (!box_.periodic(k)) {
+      Vector3<double> a = Vector3<double>::Constant(origin_(k)), b = a;
+      a(k) = from;
+      b(k) = to;
+      r.run[0] = {cell_of(a)[static_cast<std::size_t>(k)], cell_of(b)[static_cast<std::size_t>(k)]};
+      return r;
+    }
+    // Unwrapped cell numbers, widened by the rounding of the fractional
+    // coordinates (cell_of wraps them before scaling, this does not).
+    const double scale = box_.inverse_periodic_length()(k) * static_cast<double>(dims);
+    const double slack = 1e-12 * (std::abs(from - origin_(k)) + std::abs(to - origin_(k)) + box_.periodic_length()(k));
+    const double u0 = std::floor((from - slack - origin_(k)) * scale), u1 = std::floor((to + slack - origin_(k)) * scale);
+    const auto d = static_cast<double>(dims);
+    if (!(u1 - u0 + 1.0 < d)) {  // (also where far sites have lost their place in the box to rounding)
+      r.run[0] = {0, dims - 1};
+      return r;
+    }
+    // The cells modulo dims, in double (u0 may be beyond any integer type).
+    auto wrapped = [&](double u) {
+      return std::clamp<std::int64_t>(static_cast<std::int64_t>(std::clamp(u - d * std::floor(u / d), 0.0, d - 1.0)), 0,
+                                      dims - 1);
+    };
+    const std::int64_t a = wrapped(u0), b = wrapped(u1);
+    if (a <= b) {
+      r.run[0] = {a, b};
+    } else {
+      r.count = 2;
+      r.run[0] = {a, dims - 1};
+      r.run[1] = {0, b};
+    }
+    return r;
+  }
+
+  /// Sorts the sites into cells of side >= (r_c + skin) / 2, then lists for
+  /// every site the sites of higher bodies within r_c + skin, by increasing
+  /// index (the outer lists); then prunes them (prune_lists).
+  void build_lists() const { box_.any_periodic() ? build_lists<true>() : build_lists<false>(); }
+  template <bool Periodic>
+  void build_lists() const {
+    ++builds_;
+    const std::size_t m = position_.size();
+    Vector3<double> lo = position_[0], hi = position_[0];
+    for (const Vector3<double>& x : position_) {
+      lo = lo.cwiseMin(x);
+      hi = hi.cwiseMax(x);
+    }
+    if (!(lo.allFinite() && hi.allFinite())) throw StepFailure("the state became non-finite", "try a smaller step");
+    const double reach = cutoff_ + skin_;
+    origin_ = lo;
+    const double budget = std::max(1.0, std::floor(std::cbrt(2.0 * static_cast<double>(m) + 1.0)));
+    std::size_t cells = 1;
+    for (int k = 0; k < 3; ++k) {
+      // A periodic axis: cells over the box, a whole number of them (each
+      // at least reach / cells_per_reach wide), whatever the sites' spread.
+      const bool periodic = box_.periodic(k);
+      if (periodic) origin_(k) = box_.lower()(k);
+      const double extent = periodic ? box_.periodic_length()(k) : hi(k) - lo(k);
+      const double count = std::clamp(std::floor(extent * cells_per_reach / reach), 1.0, budget);
+      dims_[static_cast<std::size_t>(k)] = static_cast<std::int64_t>(count);
+      inv_cell_(k) = count / std::max(extent, reach / cells_per_reach);
+      cells *= static_cast<std::size_t>(count);
+    }
+    cell_index_.resize(m);
+    cell_start_.assign(cells + 1, 0);
+    for (std::size_t i = 0; i < m; ++i) {
+      const std::array<std::int64_t, 3> c = cell_of(position_[i]);
+      cell_index_[i] = static_cast<SiteIndex>((c[2] * dims_[1] + c[1]) * dims_[0] + c[0]);
+      ++cell_start_[cell_index_[i] + 1];
+    }
+    for (std::size_t c = 0; c < cells; ++c) cell_start_[c + 1] += cell_start_[c];
+    cell_fill_.assign(cell_start_.begin(), cell_start_.end() - 1);
+    sorted_.resize(m);
+    for (std::size_t i = 0; i < m; ++i) sorted_[cell_fill_[cell_index_[i]]++] = static_cast<SiteIndex>(i);
+    // The sites' positions and bodies in cell order: a row of neighbouring
+    // cells along x is one contiguous run of these arrays.
+    cell_x_.resize(m);
+    cell_y_.resize(m);
+    cell_z_.resize(m);
+    cell_body_.resize(m);
+    for (std::size_t k = 0; k < m; ++k) {
+      const Vector3<double>& x = position_[sorted_[k]];
+      cell_x_[k] = x(0);
+      cell_y_[k] = x(1);
+      cell_z_[k] = x(2);
+      cell_body_[k] = static_cast<SiteIndex>(sites_.body_of(sorted_[k]));
+    }
+    // The lists, one body after the other. Each site's list is its own: the
+    // sites of higher bodies within r_c + skin, by index. Per body (per site
+    // for a body of more than group_sites sites), first the sites of higher
+    // bodies near it: those in the cells around its sites' bounding box
+    // (extended by r_c + skin) within r_c + skin + R of the box's centre (R:
+    // the farthest of its sites from it), sorted by index; then each site's
+    // list is the sites of those within r_c + skin of it, in that order.
+    // (Per body rather than per site: the body's sites share their
+    // surroundings, so each cell is visited and each candidate is sorted
+    // once for all of them.) So the lists do not depend on who
+    // builds them: the bodies are cut into fixed chunks, each chunk's lists
+    // built on some thread into the chunk's buffer (where they stay: the
+    // outer lists, outer_lists_).
+    lists_ready_ = false;  // (until the pruning below completes: a build cut short by an exception is redone)
+    const std::size_t n = sites_.bodies();
+    const double reach2 = reach * reach;
+    const std::size_t chunks = std::min<std::size_t>(n, list_chunks);
+    outer_lists_.resize(chunks);
+    chunk_used_.resize(chunks);
+    outer_start_.assign(m + 1, 0);
+    built_at_.resize(m);
+    parallel_for(chunks, par_, [&](std::size_t chunk) {
+      std::vector<SiteIndex>& out = outer_lists_[chunk];
+      std::size_t& used = chunk_used_[chunk];  // out's entries in use (out only grows: no zero fill per site)
+      used = 0;
+      // Where the chunk's sites are now (the skin's reference).
+      std::copy(position_.begin() + static_cast<std::ptrdiff_t>(sites_.begin(chunk * n / chunks)),
+                position_.begin() + static_cast<std::ptrdiff_t>(sites_.begin((chunk + 1) * n / chunks)),
+                built_at_.begin() + static_cast<std::ptrdiff_t>(sites_.begin(chunk * n / chunks)));
+      thread_local std::vector<SiteIndex> near;
+      for (std::size_t a = chunk * n / chunks; a < (chunk + 1) * n / chunks; ++a) {
+        // A body of many sites (a wall, a long chain) goes site by site: its
+        // box would hold candidates for all of them, each site scanning all.
+        const std::size_t group = sites_.end(a) - sites_.begin(a) <= group_sites ? group_sites : 1;
+        for (std::size_t g0 = sites_.begin(a); g0 < sites_.end(a); g0 += group) {
+          const std::size_t g1 = std::min(g0 + group, sites_.end(a));
+          Vector3<double> lo = position_[g0], hi = lo;
+          for (std::size_t i = g0 + 1; i < g1; ++i) {
+            lo = lo.cwiseMin(position_[i]);
+            hi = hi.cwiseMax(position_[i]);
+          }
+          const Vector3<double> centre = 0.5 * (lo + hi);
+          double radius2 = 0.0;
+          for (std::size_t i = g0; i < g1; ++i) radius2 = std::max(radius2, (position_[i] - centre).squaredNorm());
+          // Generous by a relative 1e-9: only a filter, the test below is exact.
+          const double around = (reach + std::sqrt(radius2)) * (1.0 + 1e-9), around2 = around * around;
+          const CellRuns xs = cells_between(0, lo(0) - reach, hi(0) + reach),
+                         ys = cells_between(1, lo(1) - reach, hi(1) + reach),
+                         zs = cells_between(2, lo(2) - reach, hi(2) + reach);
+          const double cx = centre(0), cy = centre(1), cz = centre(2);
+          std::size_t kept = 0;
+          for (int zr = 0; zr < zs.count; ++zr)
+            for (std::int64_t z = zs.run[zr][0]; z <= zs.run[zr][1]; ++z)
+              for (int yr = 0; yr < ys.count; ++yr)
+                for (std::int64_t y = ys.run[yr][0]; y <= ys.run[yr][1]; ++y)
+                  for (int xr = 0; xr < xs.count; ++xr) {
+                    const auto row = static_cast<std::size_t>((z * dims_[1] + y) * dims_[0]);
+                    const std::size_t run_first = cell_start_[row + static_cast<std::size_t>(xs.run[xr][0])],
+                                      run_end = cell_start_[row + static_cast<std::size_t>(xs.run[xr][1]) + 1];
+                    if (near.size() < kept + (run_end - run_first)) near.resize(2 * (kept + (run_end - run_first)));
+                    SiteIndex* const list = near.data();
+                    // Every candidate written, the count advanced only for those kept:
+                    // no branch to mispredict on the distance test.
+                    for (std::size_t k = run_first; k < run_end; ++k) {
+                      const double dx = separation<Periodic>(cell_x_[k] - cx, 0),
+                                   dy = separation<Periodic>(cell_y_[k] - cy, 1),
+                                   dz = separation<Periodic>(cell_z_[k] - cz, 2);
+                      list[kept] = sorted_[k];
+                      kept += static_cast<std::size_t>((dx * dx + dy * dy + dz * dz < around2) & (cell_body_[k] > a));
+                    }
+                  }
+          // By index; insertion sort for tens of sites, where it is fastest
+          // (and the candidates, in cell order, come nearly sorted in a gas
+          // numbered along its lattice).
+          if (kept > 64) {
+            std::sort(near.begin(), near.begin() + static_cast<std::ptrdiff_t>(kept));
+          } else {
+            for (std::size_t k = 1; k < kept; ++k) {
+              const SiteIndex j = near[k];
+              std::size_t slot = k;
+              for (; slot > 0 && near[slot - 1] > j; --slot) near[slot] = near[slot - 1];
+              near[slot] = j;
+            }
+          }
+          for (std::size_t i = g0; i < g1; ++i) {
+            const std::size_t first = used;
+            if (out.size() < first + kept) {
+              // Grown by a quarter (a vector's resize would double it): the
+              // chunks' buffers are the outer lists, kept between builds.
+              out.reserve(first + kept + (first + kept) / 4);
+              out.resize(out.capacity());
+            }
+            const std::size_t count =
+                within<Periodic>(position_.data(), position_[i], near.data(), kept, reach2, out.data() + first);
+            used = first + count;
+            outer_start_[i + 1] = count;  // summed below
+          }
+        }
+      }
+    });
+    for (std::size_t i = 0; i < m; ++i) outer_start_[i + 1] += outer_start_[i];
+    // Room for the pruned lists in place of the outer ones (prune_lists).
+    neighbours_.resize(outer_start_[m]);
+    prune_lists<Periodic>();
+  }
+
+  /// The outer lists' entries within r_c + prune_margin_ now, per site in
+  /// the same order: the lists the users read (neighbours_, list_start_).
+  void prune_lists() const { box_.any_periodic() ? prune_lists<true>() : prune_lists<false>(); }
+  template <bool Periodic>
+  void prune_lists() const {
+    ++prunes_;
+    lists_ready_ = false;
+    const std::size_t n = sites_.bodies(), m = position_.size();
+    // Generous by a relative 1e-9, as the build's filter: no pair within the
+    // margin is lost to the rounding of r^2.
+    const double reach = (cutoff_ + prune_margin_) * (1.0 + 1e-9), reach2 = reach * reach;
+    const std::size_t chunks = std::min<std::size_t>(n, list_chunks);
+    chunk_used_.resize(chunks);
+    list_start_.assign(m + 1, 0);
+    pruned_at_.resize(m);
+    // Each chunk's pruned lists first where its outer lists' entries would
+    // be in one array (neighbours_[outer_start_[i0] ...), then moved down in
+    // chunk order to follow the previous chunk's.
+    parallel_for(chunks, par_, [&](std::size_t chunk) {
+      const std::size_t i0 = sites_.begin(chunk * n / chunks), i1 = sites_.begin((chunk + 1) * n / chunks);
+      std::copy(position_.begin() + static_cast<std::ptrdiff_t>(i0), position_.begin() + static_cast<std::ptrdiff_t>(i1),
+                pruned_at_.begin() + static_cast<std::ptrdiff_t>(i0));  // the margin's reference
+      const Vector3<double>* const position = position_.data();
+      const SiteIndex* const outer = outer_lists_[chunk].data();  // site i's: outer[outer_start_[i] - base ...]
+      const std::size_t base = outer_start_[i0];
+      SiteIndex* const list = neighbours_.data() + base;
+      std::size_t count = 0;
+      for (std::size_t i = i0; i < i1; ++i) {
+        const std::size_t k0 = outer_start_[i] - base, k1 = outer_start_[i + 1] - base;
+        const std::size_t kept = within<Periodic>(position, position[i], outer + k0, k1 - k0, reach2, list + count);
+        count += kept;
+        list_start_[i + 1] = kept;  // summed below
+      }
+      chunk_used_[chunk] = count;
+    });
+    for (std::size_t i = 0; i < m; ++i) list_start_[i + 1] += list_start_[i];
+    for (std::size_t chunk = 0; chunk < chunks; ++chunk) {  // (to lower or equal offsets: in order, nothing unread is overwritten)
+      const std::size_t i0 = sites_.begin(chunk * n / chunks);
+      if (list_start_[i0] == outer_start_[i0]) continue;  // (in place already)
+      const auto from = neighbours_.begin() + static_cast<std::ptrdiff_t>(outer_start_[i0]);
+      std::copy(from, from + static_cast<std::ptrdiff_t>(chunk_used_[chunk]),
+                neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[i0]));
+    }
+    lists_ready_ = true;
+  }
+
+  InteractionSites sites_;
+  double cutoff_, skin_, prune_margin_;
+  Parallelism par_;
+  Box box_;  ///< the system's: separations are minimum images along its periodic axes
+  mutable std::vector<Vector3<double>> position_, arm_;
+  mutable std::vector<char> moved_;  ///< per body: how far its sites moved (no_move ...)
+  mutable Vector3<double> origin_ = Vector3<double>::Zero(), inv_cell_ = Vector3<double>::Ones();
+  mutable std::array<std::int64_t, 3> dims_{1, 1, 1};
+  /// The pruned lists hold the pairs within r_c + delta, delta =
+  /// prune_fraction * skin (any fraction in (0, 1] gives the same results;
+  /// this one was the fastest measured, docs/tuning.md).
+  static constexpr double prune_fraction = 1.0 / 3.0;
+  /// The lists are built in this many chunks of bodies (fixed, so that the
+  /// work split does not depend on the threads; enough for load balance).
+  static constexpr std::size_t list_chunks = 64;
+  /// Cells are at least reach / cells_per_reach wide (reach = r_c + skin): a
+  /// body's candidates are in the cells that meet its sites' bounding box
+  /// extended by reach, a volume closer to that box's than with cells of
+  /// side reach (docs/tuning.md).
+  static constexpr double cells_per_reach = 2.0;
+  /// Lists are built per body for bodies of up to this many sites (molecules,
+  /// rubble), site by site for larger ones (build_lists).
+  static constexpr std::size_t group_sites = 16;
+  mutable std::vector<std::size_t> cell_start_, cell_fill_, list_start_;
+  mutable std::vector<SiteIndex> cell_index_, sorted_;
+  mutable std::vector<double> cell_x_, cell_y_, cell_z_;  ///< the sites' positions in cell order
+  mutable std::vector<SiteIndex> cell_body_;              ///< and their bodies
+  /// The pruned lists: site i's partners neighbours_[list_start_[i] ...
+  /// list_start_[i + 1]) (the array as long as the outer lists, which it
+  /// holds while they are pruned).
+  mutable std::vector<SiteIndex> neighbours_;
+  mutable std::vector<std::size_t> chunk_used_;  ///< per chunk: its list's entries in use
+  /// Per site: where it was at the last build and at the last pruning.
+  mutable std::vector<Vector3<double>> built_at_, pruned_at_;
+  /// The outer lists: per site i, the sites of higher bodies within r_c +
+  /// skin at the last build, by index, in its chunk c's buffer:
+  /// outer_lists_[c][outer_start_[i] - outer_start_[i0] ... outer_start_[i +
+  /// 1] - outer_start_[i0]), i0 the chunk's first site (not joined into one
+  /// array: only the pruning reads them, chunk by chunk); neighbours_ and
+  /// list_start_ are their pruned form.
+  mutable std::vector<std::size_t> outer_start_;
+  mutable std::vector<std::vector<SiteIndex>> outer_lists_;
+  mutable std::int64_t builds_ = 0, prunes_ = 0;
+  mutable bool lists_ready_ = false;  ///< the lists are whole (a build and its pruning completed)
+  /// moved_: how far a body's sites moved.
+  static constexpr char no_move = 0, beyond_margin = 1, beyond_skin = 2;
+};
+
+}  // namespace lgvi
