@@ -4,9 +4,9 @@
 // the same stepper classes `lgvi run` uses, built by the same method table.
 // Run: build/benchmarks/bench_methods --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 // (scripts/bench.sh prints the tables with ratios against the quaternion LGVI).
-#include "method_registry.hpp"
-#include "scenario.hpp"
-#include "simulation.hpp"
+#include "app/method_registry.hpp"
+#include "app/scenario.hpp"
+#include "app/simulation.hpp"
 
 #include <benchmark/benchmark.h>
 

@@ -7,8 +7,8 @@
 // 20000 site-steps for many bodies, to bound the time per input) to completion or to a reported IntegrationFailure
 // whose rows are all finite. Any other exception, crash, sanitizer report or
 // hang is a finding; each becomes a file in fuzz/regressions/.
-#include "scenario.hpp"
-#include "simulation.hpp"
+#include "app/scenario.hpp"
+#include "app/simulation.hpp"
 
 #include <lgvi/error.hpp>
 

@@ -2,10 +2,10 @@
 """Generates the reference tables of the documentation (run by scripts/docs.sh before Sphinx):
 
   OUT/scenario-keys.md  every key of a scenario file and of a sweep file, from the reader itself: the
-                        key lists of its `only_keys(...)` checks in src/scenario.cpp and src/ensemble.cpp
+                        key lists of its `only_keys(...)` checks in src/app/scenario.cpp and src/app/ensemble.cpp
                         (the lists behind "unknown key; allowed here: ..."), the interaction kinds and
                         their keys from the compiled module (lgvi._core.INTERACTION_KEYS, read from
-                        src/interactions/registry.cpp), the names of methods, solvers and formats from
+                        src/app/interactions/registry.cpp), the names of methods, solvers and formats from
                         lgvi._core (METHODS, SOLVERS, FORMATS, FORMAT_FILES);
   OUT/commands.md       `lgvi --help` and `lgvi COMMAND --help` of the built binary;
   OUT/cpp.md            the C++ API page: what each public header declares (doxygen's XML, which docs.sh
@@ -310,15 +310,15 @@ def scenario_keys(core):
     # Any other source file that checks keys would be a reader this page does not cover.
     readers = {p.relative_to(ROOT).as_posix() for p in (ROOT / "src").rglob("*.cpp")
                if "only_keys(" in p.read_text(encoding="utf-8")}
-    if readers != {"src/scenario.cpp", "src/ensemble.cpp"}:
+    if readers != {"src/app/scenario.cpp", "src/app/ensemble.cpp"}:
         raise SystemExit(f"docs_reference.py: key checks in {sorted(readers)}; this script reads "
-                         f"src/scenario.cpp and src/ensemble.cpp only: teach it the others")
-    scen = reader_keys(ROOT / "src" / "scenario.cpp")
-    sweep = reader_keys(ROOT / "src" / "ensemble.cpp", tag="sweep:")
+                         f"src/app/scenario.cpp and src/app/ensemble.cpp only: teach it the others")
+    scen = reader_keys(ROOT / "src" / "app" / "scenario.cpp")
+    sweep = reader_keys(ROOT / "src" / "app" / "ensemble.cpp", tag="sweep:")
     found = set()
     lines = ["# Scenario keys", "",
              "Every key the scenario reader accepts, generated at documentation build time from the reader's own "
-             "key lists (`src/scenario.cpp`, `src/ensemble.cpp`: the lists behind its message \"unknown key; "
+             "key lists (`src/app/scenario.cpp`, `src/app/ensemble.cpp`: the lists behind its message \"unknown key; "
              "allowed here: ...\") and from the registries as the compiled module `lgvi._core` exposes them "
              "(`METHODS`, `SOLVERS`, `FORMATS`, `FORMAT_FILES`, `INTERACTION_KEYS`). What the keys mean, with "
              "examples: [Scenario files](../guide/scenario-files.md).", ""]

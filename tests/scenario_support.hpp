@@ -1,7 +1,7 @@
 // The scenario reader's refusals, for tests of its messages.
 #pragma once
 
-#include "scenario.hpp"
+#include "app/scenario.hpp"
 
 #include <lgvi/error.hpp>
 

@@ -5,10 +5,10 @@
 // tight reference; what composition keeps exactly (|q| = 1, momentum,
 // time symmetry, bounded energy); the predictor's iterations per sub-step;
 // the scenario keys and their errors.
-#include "method_registry.hpp"
-#include "scenario.hpp"
-#include "simulation.hpp"
-#include "memory_sink.hpp"
+#include "app/method_registry.hpp"
+#include "app/scenario.hpp"
+#include "app/simulation.hpp"
+#include "io/memory_sink.hpp"
 
 #include <lgvi/composition.hpp>
 #include <lgvi/continuous.hpp>

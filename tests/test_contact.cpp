@@ -3,10 +3,10 @@
 // ellipsoids placed to touch by construction, the sweep against all pairs),
 // and runs that meet a contact: "stop" at the step computed from the free
 // motion, "warn" recording the episode, "ignore" running through.
-#include "scenario.hpp"
-#include "simulation.hpp"
-#include "memory_sink.hpp"
-#include "summary.hpp"
+#include "app/scenario.hpp"
+#include "app/simulation.hpp"
+#include "io/memory_sink.hpp"
+#include "app/summary.hpp"
 #include "scenario_support.hpp"
 #include "test_support.hpp"
 

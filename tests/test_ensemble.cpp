@@ -1,7 +1,7 @@
 // The ensemble plan (ensemble.hpp): members' values from (seed, index)
 // alone, grids in product order, the member scenarios written back exactly,
 // and the refusal of a build without MPI started as several ranks.
-#include "ensemble.hpp"
+#include "app/ensemble.hpp"
 
 #include <lgvi/error.hpp>
 

@@ -1,10 +1,10 @@
-// The particle exports (src/formats/xyz.cpp, vtk.cpp, lammps_dump.cpp) at the sink level:
+// The particle exports (src/io/formats/xyz.cpp, vtk.cpp, lammps_dump.cpp) at the sink level:
 // resume after a crash or after close is byte-identical to an uninterrupted
 // write, the shapes must match the layout, errors name the file. Their
 // contents against a real run are checked by tests/python/test_exports.py
 // (with VTK's own reader).
-#include "formats/particles.hpp"
-#include "formats/registry.hpp"
+#include "io/formats/particles.hpp"
+#include "io/formats/registry.hpp"
 
 #include <gtest/gtest.h>
 

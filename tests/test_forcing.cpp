@@ -4,9 +4,9 @@
 // of a spherical body), a zero-order-hold controller against a hand
 // computation, the work bookkeeping E - E0 - W (second order), composition
 // to order 4, resume, and failure of a too stiff velocity-dependent forcing.
-#include "memory_sink.hpp"
-#include "scenario.hpp"
-#include "simulation.hpp"
+#include "io/memory_sink.hpp"
+#include "app/scenario.hpp"
+#include "app/simulation.hpp"
 #include "test_support.hpp"
 
 #include <lgvi/composition.hpp>

@@ -1,11 +1,11 @@
-// Trajectory file formats (src/formats/, the sink interface src/trajectory_sink.hpp): written by
+// Trajectory file formats (src/io/formats/, the sink interface src/io/trajectory_sink.hpp): written by
 // the formats' writers, read back independently: the CSV parsed with
 // from_chars, the npz by a small ZIP and .npy reader below (with its own
 // CRC-32), the HDF5 file with the HDF5 C API.
 //
 // FormatSamples.Write writes sample files for tests/python/test_formats.py
 // (numpy and h5py read them) when LGVI_FORMAT_SAMPLES_DIR is set.
-#include "formats/registry.hpp"
+#include "io/formats/registry.hpp"
 
 #include <gtest/gtest.h>
 

@@ -7,7 +7,7 @@
 // aligned with LVLH on a circular orbit stays aligned, and a small pitch
 // offset librates at the classical gravity-gradient frequency; the scenario
 // key `[potential] model` and the summary's statement of the model.
-#include "scenario.hpp"
+#include "app/scenario.hpp"
 #include "scenario_support.hpp"
 #include "test_support.hpp"
 

@@ -4,10 +4,10 @@
 // torques), the total angular momentum to round-off under motor torques that
 // switch inside steps, every commanded impulse delivered exactly, the limits,
 // the energy, and the model's checks.
-#include "checkpoint.hpp"
-#include "memory_sink.hpp"
-#include "scenario.hpp"
-#include "simulation.hpp"
+#include "app/checkpoint.hpp"
+#include "io/memory_sink.hpp"
+#include "app/scenario.hpp"
+#include "app/simulation.hpp"
 
 #include <lgvi/gyrostat.hpp>
 #include <lgvi/interaction.hpp>

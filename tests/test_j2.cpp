@@ -3,7 +3,7 @@
 // energy, the angular momentum about the pole conserved to round-off by the
 // LGVI while the other components change, and the secular regression of
 // the node of an inclined orbit against first-order perturbation theory.
-#include "scenario.hpp"
+#include "app/scenario.hpp"
 #include "scenario_support.hpp"
 #include "test_support.hpp"
 

@@ -1,14 +1,14 @@
-// lgvi's JSON files through nlohmann::ordered_json (src/json_io.hpp): the
+// lgvi's JSON files through nlohmann::ordered_json (src/io/json_io.hpp): the
 // summary's text byte for byte as the hand-written writer it replaced wrote
 // it (tests/reference/summary_*.json were written by that writer), \u
 // escapes read as UTF-8, and one error naming the file for a file that is
 // not JSON.
-#include "json_io.hpp"
-#include "output.hpp"
-#include "scenario.hpp"
-#include "show.hpp"
-#include "simulation.hpp"
-#include "summary.hpp"
+#include "io/json_io.hpp"
+#include "io/output.hpp"
+#include "app/scenario.hpp"
+#include "app/show.hpp"
+#include "app/simulation.hpp"
+#include "app/summary.hpp"
 
 #include <lgvi/error.hpp>
 

@@ -1,9 +1,9 @@
 // Every method against the free body's exact flow (exact_free_body.hpp) as
 // the oracle: observed order by halving h, and time symmetry where the method
 // is symmetric. The same stepper classes `lgvi run` uses, built through the
-// same method table (src/method_registry.hpp).
-#include "method_registry.hpp"
-#include "scenario.hpp"
+// same method table (src/app/method_registry.hpp).
+#include "app/method_registry.hpp"
+#include "app/scenario.hpp"
 
 #include <lgvi/exact_free_body.hpp>
 #include <lgvi/integrate.hpp>

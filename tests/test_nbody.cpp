@@ -1,8 +1,8 @@
 // Many rigid bodies: the mutual interactions (derivatives, Newton's third law,
 // invariance), the N-body LGVI (Kepler's orbit, conservation laws, second
 // order), and results independent of the number of threads.
-#include "scenario.hpp"
-#include "simulation.hpp"
+#include "app/scenario.hpp"
+#include "app/simulation.hpp"
 #include "test_support.hpp"
 
 #include <lgvi/integrate.hpp>

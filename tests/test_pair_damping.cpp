@@ -4,7 +4,7 @@
 // keeps to round-off; the energy it takes equal to minus its work to the
 // integrator's second order; two points meeting head-on against an exact
 // invariant of the flow; the scenario's keys and their one-line errors.
-#include "scenario.hpp"
+#include "app/scenario.hpp"
 #include "scenario_support.hpp"
 #include "test_support.hpp"
 

@@ -3,10 +3,10 @@
 // InvalidInput that starts with the file name and names the offending key.
 #include <gtest/gtest.h>
 
-#include "memory_sink.hpp"
-#include "scenario.hpp"
+#include "io/memory_sink.hpp"
+#include "app/scenario.hpp"
 #include "scenario_support.hpp"
-#include "simulation.hpp"
+#include "app/simulation.hpp"
 
 #include <lgvi/error.hpp>
 
@@ -723,7 +723,7 @@ TEST(ScenarioRead, ErrorsInAFileNameThePath) {
 }
 
 // ---------------------------------------------------------------------------
-// Regression tests of bugs found in src/scenario.cpp (now fixed).
+// Regression tests of bugs found in src/app/scenario.cpp (now fixed).
 
 // Strings from the file are echoed unescaped: a TOML "\n" in a value or a key
 // makes the message two lines.

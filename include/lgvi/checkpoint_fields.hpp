@@ -1,7 +1,7 @@
 // The content of a checkpoint: named, typed, sized fields. Each object that
 // takes part in a resume (the run, its statistics, the trajectory sink, the
 // stepper and what it owns) writes its own fields under names it owns and
-// reads them back; the file format (src/checkpoint.cpp) only stores them.
+// reads them back; the file format (src/app/checkpoint.cpp) only stores them.
 //
 // Contract: a name is dot-separated, owner first ("stepper.predictors"); a
 // field is written at most once; reading a field marks it read, so that what

@@ -42,7 +42,7 @@ def _floats(a):
 # ---------------------------------------------------------------------------
 # Bodies
 
-# The most site types a scenario may use (max_site_types, src/scenario.hpp).
+# The most site types a scenario may use (max_site_types, src/app/scenario.hpp).
 MAX_SITE_TYPES = 256
 
 
@@ -743,7 +743,7 @@ class Scenario:
 # ---------------------------------------------------------------------------
 # Many bodies from arrays
 
-# [interaction] kind -> the keys it takes besides kind: the reader's registry (src/interactions/registry.cpp).
+# [interaction] kind -> the keys it takes besides kind: the reader's registry (src/app/interactions/registry.cpp).
 _INTERACTION_KEYS = {kind: set(keys) for kind, keys in _core.INTERACTION_KEYS.items()}
 
 

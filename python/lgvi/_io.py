@@ -1,7 +1,7 @@
 """Reading trajectories: a run folder of the CLI, or a trajectory file
 (.csv, .npz, .h5). Pure numpy (h5py only for .h5), no compiled code.
 
-Layouts (src/formats/csv.cpp, npz.cpp, hdf5.cpp; the columns: src/trajectory_sink.hpp):
+Layouts (src/io/formats/csv.cpp, npz.cpp, hdf5.cpp; the columns: src/io/trajectory_sink.hpp):
 
 * trajectory.csv: the header line, then rows of 21 numbers with 17
   significant digits; the summary and the scenario are the side files

@@ -13,15 +13,15 @@
 // into the interpreter). Either way Ctrl-C (SIGINT) is noticed every 4096
 // steps and stops the run at a step boundary with KeyboardInterrupt.
 
-#include "memory_sink.hpp"
-#include "ensemble.hpp"
-#include "formats/registry.hpp"
-#include "interactions/registry.hpp"
-#include "method_registry.hpp"
-#include "scenario.hpp"
-#include "simulation.hpp"
-#include "summary.hpp"
-#include "toml_writer.hpp"
+#include "io/memory_sink.hpp"
+#include "app/ensemble.hpp"
+#include "io/formats/registry.hpp"
+#include "app/interactions/registry.hpp"
+#include "app/method_registry.hpp"
+#include "app/scenario.hpp"
+#include "app/simulation.hpp"
+#include "app/summary.hpp"
+#include "app/toml_writer.hpp"
 
 #include <lgvi/error.hpp>
 #include <lgvi/forcing.hpp>

@@ -195,7 +195,7 @@ def test_a_member_failing_at_its_first_step_is_recorded(tmp_path, mpi):
     (SWEEP.format(members=4).replace("seed = 7\n", ""), ["ensemble.seed", "missing"]),
     (SWEEP.format(members=4).replace("seed = 7", "seed = 7\ncolour = 1"),
      ["ensemble.colour", "unknown key; allowed here: scenario, members, seed, trajectories, metrics, settle_band_deg"]),
-    # The sweep file is read by the scenario's reader (src/toml_reader.hpp): it says what was given.
+    # The sweep file is read by the scenario's reader (src/io/toml_reader.hpp): it says what was given.
     (SWEEP.format(members=4).replace("std = [0.05, 0.05, 0.05]", 'std = [0.05, "a", 0.05]'),
      ["vary[0].normal.std[1]", "must be a number, got a string"]),
     (SWEEP.format(members=4).replace("std = [0.05, 0.05, 0.05]", "std = []"),

@@ -23,7 +23,7 @@ BINARY = os.environ.get("LGVI_BINARY")
 SOURCE = pathlib.Path(os.environ.get("LGVI_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
 pytestmark = pytest.mark.skipif(BINARY is None, reason="LGVI_BINARY not set (run through ctest)")
 
-# The columns of an XYZ line as the writer promises them (src/formats/xyz.cpp).
+# The columns of an XYZ line as the writer promises them (src/io/formats/xyz.cpp).
 PROPERTIES = "species:S:1:pos:R:3:orientation:R:4:radius:R:1:body:I:1:id:I:1:velo:R:3:omega:R:3"
 
 # A [[bodies]] scenario with both kinds of body: a rubble pile of three balls

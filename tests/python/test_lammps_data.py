@@ -1,5 +1,5 @@
 """[import] lammps_data: a LAMMPS data file's molecules as rigid bodies
-(src/lammps_data.hpp). The references are independent of lgvi's reader: the
+(src/app/lammps_data.hpp). The references are independent of lgvi's reader: the
 centre of mass, inertia and rigid projection of the velocities computed here
 with numpy from the atoms, lgvi's own [[bodies]] run of the same state, and
 LAMMPS (fix rigid/nve/small) reading the same file. Run by ctest with

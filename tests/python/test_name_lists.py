@@ -1,8 +1,8 @@
 """The lists of methods, interactions and output formats agree everywhere a user reads them
 (issue 27): the command line's messages, the Python API and its stubs, and the documentation (the
 scenario-file reference and the methods table, docs/guide/*.md, once README.md) all name
-exactly the entries of the C++ registries (src/method_registry.hpp registered_method_traits,
-src/formats/registry.cpp registered_formats, src/interactions/registry.cpp interaction_kinds), in their
+exactly the entries of the C++ registries (src/app/method_registry.hpp registered_method_traits,
+src/io/formats/registry.cpp registered_formats, src/app/interactions/registry.cpp interaction_kinds), in their
 order.
 
 The truth is lgvi._core.METHODS, FORMATS and INTERACTIONS, which the compiled module reads from
@@ -220,7 +220,7 @@ def test_cli_help_has_no_partial_list(command):
 @needs_cli
 @pytest.mark.parametrize("command", ["run", "compare"])
 def test_cli_help_lists_every_method_in_registry_order(command):
-    # lgvi run / compare --help print the method registry's table (src/method_registry.cpp,
+    # lgvi run / compare --help print the method registry's table (src/app/method_registry.cpp,
     # method_table): one line per method, its name first, in the registry's order.
     text = subprocess.run([BINARY, command, "--help"], capture_output=True, text=True, timeout=60).stdout
     table = text[text.index("Methods ([integrator] method"):].split("\n\n", 1)[0]

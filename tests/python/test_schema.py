@@ -1,4 +1,4 @@
-"""The trajectory's column schema is the C++ one (src/trajectory_sink.hpp), in Python too.
+"""The trajectory's column schema is the C++ one (src/io/trajectory_sink.hpp), in Python too.
 
 lgvi._columns keeps its own copy of the column names on purpose: lgvi.load, lgvi.plot and
 python3 -m lgvi.plot work from the source tree, which has no compiled module (the CLI draws its

@@ -1,7 +1,7 @@
 // What a method declares about itself. Every N-body stepper class carries
 //   static constexpr MethodTraits traits{...};
 // in the file that implements it; the application's method registry
-// (src/method_registry.hpp) lists the classes, and the scenario reader's
+// (src/app/method_registry.hpp) lists the classes, and the scenario reader's
 // checks, `lgvi compare`, the command line's lists and the Python module's
 // METHODS read these declarations instead of naming methods one by one.
 #pragma once
