@@ -30,7 +30,7 @@ using lgvi::app::TrajectoryLayout;
 using lgvi::app::TrajectorySink;
 namespace fs = std::filesystem;
 
-// The one export that writes a file per step (formats/vtk.cpp).
+// The one export that writes a file per step (io/formats/vtk.cpp).
 const TrajectoryFormat Vtk = TrajectoryFormat::named("vtk");
 
 /// Every registered format that is an export for viewers (holds no columns):

@@ -41,7 +41,7 @@ using lgvi::app::TrajectoryFormat;
 using lgvi::app::TrajectorySink;
 namespace fs = std::filesystem;
 
-// The formats by their registered names (formats/registry.cpp).
+// The formats by their registered names (io/formats/registry.cpp).
 const TrajectoryFormat Csv = TrajectoryFormat::named("csv"), Npz = TrajectoryFormat::named("npz"),
                        Hdf5 = TrajectoryFormat::named("hdf5");
 

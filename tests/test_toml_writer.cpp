@@ -1,4 +1,4 @@
-// Tests of the TOML writer (src/app/toml_writer.cpp): toml++'s own toml_formatter
+// Tests of the TOML writer (src/io/toml_writer.cpp): toml++'s own toml_formatter
 // is the independent reference for the layout (with strings and floats masked,
 // which the writer spells otherwise) wherever its line-wrapping estimate is
 // defined (floats of magnitude >= 0.1); Python's repr is the reference for the
@@ -7,7 +7,7 @@
 // parses back to equal values.
 #include <gtest/gtest.h>
 
-#include "app/toml_writer.hpp"
+#include "io/toml_writer.hpp"
 
 #include <toml++/toml.h>
 

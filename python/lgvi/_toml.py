@@ -1,5 +1,5 @@
 """TOML text for the compiled scenario reader, written by the compiled writer (lgvi._core.toml_text:
-src/app/toml_writer.hpp, the CLI's), so that scenarios and sweeps built in code are spelled as the CLI
+src/io/toml_writer.hpp, the CLI's), so that scenarios and sweeps built in code are spelled as the CLI
 spells its own (floats as repr spells them) and get exactly the file reader's validation and
 messages. The layer above _columns, _check and _attitude; _api and _ensemble write their TOML with
 it. The compiled module is imported on the first call, so that importing this module needs none."""

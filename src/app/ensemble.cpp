@@ -10,7 +10,7 @@
 #include "app/simulation.hpp"
 #include "app/summary.hpp"
 #include "io/toml_reader.hpp"
-#include "app/toml_writer.hpp"
+#include "io/toml_writer.hpp"
 #include "io/trajectory_sink.hpp"
 
 #include <lgvi/counter_random.hpp>

@@ -222,7 +222,7 @@ bool launched_as_mpi_rank();
 int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& options);
 
 /// run_ensemble() hands a run started as several MPI ranks to this runner;
-/// main() sets it in a build with MPI. Without one, such a run is refused
+/// the `lgvi ensemble` command (cli/ensemble_command.cpp) sets it in a build with MPI. Without one, such a run is refused
 /// (one line, status 2) instead of running the ensemble once per rank.
 using MpiRunner = int (*)(const std::string& sweep_path, const EnsembleOptions& options);
 void set_mpi_runner(MpiRunner runner);

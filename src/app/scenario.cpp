@@ -4,7 +4,7 @@
 #include "app/interactions/registry.hpp"
 #include "app/lammps_data.hpp"
 #include "io/toml_reader.hpp"
-#include "app/toml_writer.hpp"
+#include "io/toml_writer.hpp"
 
 #include <lgvi/error.hpp>
 

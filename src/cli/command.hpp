@@ -21,10 +21,10 @@ struct Command {
   CommandAction action;
 };
 
-Command add_run_command(CLI::App& app);       ///< lgvi run SCENARIO | --resume DIR
-Command add_compare_command(CLI::App& app);   ///< lgvi compare SCENARIO --methods ...
-Command add_ensemble_command(CLI::App& app);  ///< lgvi ensemble SWEEP | --resume DIR
-Command add_view_command(CLI::App& app);      ///< lgvi view RUN_DIR
-Command add_show_command(CLI::App& app);      ///< lgvi show DIR
+Command add_run_command(CLI::App& parser);       ///< lgvi run SCENARIO | --resume DIR
+Command add_compare_command(CLI::App& parser);   ///< lgvi compare SCENARIO --methods ...
+Command add_ensemble_command(CLI::App& parser);  ///< lgvi ensemble SWEEP | --resume DIR
+Command add_view_command(CLI::App& parser);      ///< lgvi view RUN_DIR
+Command add_show_command(CLI::App& parser);      ///< lgvi show DIR
 
 }  // namespace lgvi::cli

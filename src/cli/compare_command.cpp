@@ -10,14 +10,14 @@
 
 namespace lgvi::cli {
 
-Command add_compare_command(CLI::App& app) {
+Command add_compare_command(CLI::App& parser) {
   struct Options {
     std::string scenario, methods = "lgvi,lgvi-lagrangian";
     app::CompareOptions compare;
     bool no_figures = false;
   };
   auto o = std::make_shared<Options>();
-  auto* compare = app.add_subcommand(
+  auto* compare = parser.add_subcommand(
       "compare", "Compare integration methods on a scenario: work-precision, long-time behaviour, tables, figures");
   compare->add_option("SCENARIO", o->scenario, "Scenario file (TOML)")->required();
   auto* methods_opt = compare->add_option(

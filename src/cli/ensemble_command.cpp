@@ -7,14 +7,14 @@
 
 namespace lgvi::cli {
 
-Command add_ensemble_command(CLI::App& app) {
+Command add_ensemble_command(CLI::App& parser) {
   struct Options {
     std::string sweep, resume;
     app::EnsembleOptions ensemble;
     bool no_figures = false;
   };
   auto o = std::make_shared<Options>();
-  auto* ensemble = app.add_subcommand(
+  auto* ensemble = parser.add_subcommand(
       "ensemble", "Run many members of a scenario with varied numbers (sweeps, Monte Carlo) on threads or MPI ranks");
   auto* sweep_opt = ensemble->add_option("SWEEP", o->sweep, "Sweep file (TOML), see docs/guide/ensembles.md");
   auto* resume_opt =

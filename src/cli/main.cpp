@@ -37,7 +37,7 @@ int run_cli(int argc, char** argv) {
   try {
     for (const lgvi::cli::Command& command : commands)
       if (command.subcommand->parsed()) return command.action();
-    return lgvi::app::kBadInput;  // (require_subcommand(1): not reached)
+    throw CLI::RequiredError("a command");  // (require_subcommand(1): not reached)
   } catch (const CLI::Error& e) {
     std::cerr << "lgvi: error: " << e.what() << " (see lgvi run --help)\n";
     return lgvi::app::kBadInput;

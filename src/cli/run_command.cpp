@@ -9,7 +9,7 @@
 
 namespace lgvi::cli {
 
-Command add_run_command(CLI::App& app) {
+Command add_run_command(CLI::App& parser) {
   struct Options {
     std::string scenario_path, resume_dir;
     app::RunOptions run;
@@ -17,7 +17,7 @@ Command add_run_command(CLI::App& app) {
     int threads = 0;
   };
   auto o = std::make_shared<Options>();
-  auto* run = app.add_subcommand("run", "Integrate a scenario file; write trajectory.csv, summary.json and figures");
+  auto* run = parser.add_subcommand("run", "Integrate a scenario file; write trajectory.csv, summary.json and figures");
   auto* scenario_opt =
       run->add_option("SCENARIO", o->scenario_path, "Scenario file (TOML), see docs/guide/scenario-files.md");
   auto* resume_opt =

@@ -11,9 +11,9 @@
 
 namespace lgvi::cli {
 
-Command add_show_command(CLI::App& app) {
+Command add_show_command(CLI::App& parser) {
   auto dir = std::make_shared<std::string>();
-  auto* show = app.add_subcommand("show", "Print the summary of a run folder (or an ensemble folder) as a table");
+  auto* show = parser.add_subcommand("show", "Print the summary of a run folder (or an ensemble folder) as a table");
   show->add_option("DIR", *dir, "Run folder (written by lgvi run)")->required();
   show->footer("Example:\n  lgvi show results/paper-orbit");
   return {show, [dir] {

@@ -7,13 +7,13 @@
 
 namespace lgvi::cli {
 
-Command add_view_command(CLI::App& app) {
+Command add_view_command(CLI::App& parser) {
   struct Options {
     std::string dir;
     app::ViewOptions view;
   };
   auto o = std::make_shared<Options>();
-  auto* view = app.add_subcommand(
+  auto* view = parser.add_subcommand(
       "view", "Write RUN_DIR/view.html: an interactive 3-D view of a run, one file that opens offline");
   view->add_option("RUN_DIR", o->dir, "Run folder (written by lgvi run)")->required();
   view->add_flag("--open", o->view.open, "Open it in the default browser (where there is a display)");

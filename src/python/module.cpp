@@ -21,7 +21,7 @@
 #include "app/scenario.hpp"
 #include "app/simulation.hpp"
 #include "app/summary.hpp"
-#include "app/toml_writer.hpp"
+#include "io/toml_writer.hpp"
 
 #include <lgvi/error.hpp>
 #include <lgvi/forcing.hpp>
@@ -291,7 +291,7 @@ Scenario with_python_forcing(const Scenario& sc, py::object forcing) {
 
 // ---------------------------------------------------------------------------
 // TOML text of the package's documents (scenarios and sweeps built in Python),
-// by the CLI's writer (toml_writer.hpp): one writer, whatever wrote the file.
+// by the CLI's writer (io/toml_writer.hpp): one writer, whatever wrote the file.
 
 toml::table toml_table(const py::dict& d, bool inline_subtables);
 
@@ -426,7 +426,7 @@ std::unique_ptr<AnyStepper> make_stepper(const Scenario& sc, const CallablePoten
   auto evaluations = std::make_shared<std::int64_t>(0);
   const lgvi::app::ScenarioSystemPotential pot =
       lgvi::app::scenario_system_potential(sc, field, evaluations.get());
-  // The same method table as the CLI's run loop (method_registry.hpp).
+  // The same method table as the CLI's run loop (app/method_registry.hpp).
   return lgvi::app::with_stepper(
       sc, pot, lgvi::app::scenario_parallelism(sc), [&](auto& stepper) -> std::unique_ptr<AnyStepper> {
         return std::make_unique<StepperModel<std::decay_t<decltype(stepper)>>>(std::move(stepper), evaluations);
@@ -856,14 +856,14 @@ PYBIND11_MODULE(_core, m) {
   py::list methods, solvers, formats, interactions;
   for (const lgvi::MethodTraits& t : Method::all()) methods.append(t.name);
   for (SolverKind k : {SolverKind::Newton, SolverKind::NewtonExp, SolverKind::Broyden}) solvers.append(to_string(k));
-  // [output] format: every registered format (formats/registry.cpp), with its file in a run folder and
+  // [output] format: every registered format (io/formats/registry.cpp), with its file in a run folder and
   // whether that file holds the trajectory's columns (lgvi.load reads it) or is an export for viewers.
   py::dict format_files;
   for (const lgvi::app::FormatDescriptor* d : lgvi::app::trajectory_formats()) {
     formats.append(std::string(d->name));
     format_files[py::str(std::string(d->name))] = py::make_tuple(std::string(d->file_name), d->holds_columns);
   }
-  // [interaction] kind: "none" and every registered kind (interactions/registry.cpp), with the keys each takes.
+  // [interaction] kind: "none" and every registered kind (app/interactions/registry.cpp), with the keys each takes.
   py::dict interaction_keys;
   interactions.append("none");
   interaction_keys["none"] = py::tuple();
@@ -1025,7 +1025,7 @@ PYBIND11_MODULE(_core, m) {
       "toml_text", [](const py::dict& document) { return write_toml(toml_table(document, false)); },
       py::arg("document"),
       "A document (a dict of tables: dicts of bool, int, float, str, lists and dicts) as TOML text, by the "
-      "CLI's writer (toml_writer.hpp); TypeError for a value TOML cannot hold, ValueError for an int beyond "
+      "CLI's writer (src/io/toml_writer.hpp); TypeError for a value TOML cannot hold, ValueError for an int beyond "
       "64 bits.");
   m.def("parse_scenario", &parse_scenario, py::arg("text"), py::arg("name"),
         "Parses and validates scenario TOML text exactly as the CLI does; ValueError with the CLI's message "

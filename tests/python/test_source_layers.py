@@ -9,6 +9,7 @@ so that an include in the wrong direction fails here, not in a later refactor.
 
 import os
 import pathlib
+import posixpath
 import re
 
 SOURCE = pathlib.Path(os.environ.get("LGVI_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2])) / "src"
@@ -22,7 +23,7 @@ MAY_INCLUDE = {
     "python": {"io", "app", "python"},
 }
 
-INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.MULTILINE)
+INCLUDE = re.compile(r'^\s*#\s*include\s*([<"])([^>"]+)[>"]', re.MULTILINE)
 
 
 def sources():
@@ -38,13 +39,19 @@ def test_includes_go_down_the_layers_only():
     wrong = []
     for path in sources():
         layer = path.relative_to(SOURCE).parts[0]
-        for included in INCLUDE.findall(path.read_text()):
+        for bracket, written in INCLUDE.findall(path.read_text()):
+            included = posixpath.normpath(written)
             folder = included.split("/")[0] if "/" in included else None
+            if bracket == "<":
+                # A system or library header; one of src/'s folders by <> is still an include of it.
+                if folder in MAY_INCLUDE and folder not in MAY_INCLUDE[layer]:
+                    wrong.append(f"{path.relative_to(SOURCE)}: <{written}>")
+                continue
             if folder is None:
                 # A header named without a folder must be beside the file (a front end's own).
                 if not (path.parent / included).exists():
                     wrong.append(f"{path.relative_to(SOURCE)}: {included} (no folder, not beside it)")
                 continue
             if folder not in MAY_INCLUDE.get(layer, set()):
-                wrong.append(f"{path.relative_to(SOURCE)}: {included}")
+                wrong.append(f"{path.relative_to(SOURCE)}: {written}")
     assert not wrong, "\n".join(wrong)

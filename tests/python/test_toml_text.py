@@ -1,4 +1,4 @@
-"""The package writes its TOML with the CLI's writer (lgvi._core.toml_text, src/app/toml_writer.hpp):
+"""The package writes its TOML with the CLI's writer (lgvi._core.toml_text, src/io/toml_writer.hpp):
 floats as Python's repr spells them, every table of a document, and what it writes reads back to
 the same document (tomllib, an independent reader, is the reference)."""
 import math

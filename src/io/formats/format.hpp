@@ -34,7 +34,7 @@ class TrajectoryFormat {
 };
 
 /// The IDs a data file gave the bodies and their sites (an [import]'s:
-/// lammps_data.hpp), which the LAMMPS dump writes in place of its own
+/// app/lammps_data.hpp), which the LAMMPS dump writes in place of its own
 /// numbering.
 struct FileIds {
   std::vector<std::int64_t> molecule;  ///< per body

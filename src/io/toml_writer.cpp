@@ -1,6 +1,6 @@
 // TOML text in toml::toml_formatter's layout, without its undefined
 // line-wrapping estimate; see toml_writer.hpp for why.
-#include "app/toml_writer.hpp"
+#include "io/toml_writer.hpp"
 
 #include <charconv>
 #include <cmath>
