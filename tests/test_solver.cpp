@@ -69,7 +69,13 @@ TEST_P(Solvers, SolveThePapersEquationToRoundOff) {
   for (int trial = 0; trial < 20; ++trial) {
     const M3 J = random_inertia();
     const double h = 0.05;
-    const V3 w0 = lgvi::test::random_vector(10.0), M0 = lgvi::test::random_vector(1.0);
+    const V3 M0 = lgvi::test::random_vector(1.0);
+    // A step the equation has a root for: a rotation per step |Omega| h ~
+    // 2 |J^-1 b| (b = h (w0 + h M0) / 4) below 0.8 rad, under the 0.9 where
+    // the solver reports that no root exists (for an isotropic J none does
+    // beyond 1 rad). Drawn as before, and again while it is beyond.
+    V3 w0 = lgvi::test::random_vector(10.0);
+    while (2.0 * (J.inverse() * (0.25 * h * (w0 + h * M0))).norm() > 0.8) w0 = lgvi::test::random_vector(10.0);
     const S3d q0 = lgvi::test::random_unit_quaternion();
     lgvi::SolverOptions opt;
     opt.kind = GetParam();
