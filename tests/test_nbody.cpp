@@ -23,6 +23,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -651,6 +652,34 @@ TEST(LennardJonesPairs, TwoSitesOnTopOfEachOtherStopTheRunNamingBoth) {
   } catch (const lgvi::StepFailure& f) {
     EXPECT_NE(std::string(f.what()).find("between body 0 (\"body0\") and body 2 (\"body2\")"), std::string::npos)
         << f.what();
+  }
+}
+
+TEST(LennardJonesPairs, AListBuildCutShortByANonFiniteStateIsRedone) {
+  // A build releases the old pruned lists before it looks at the sites; a
+  // state with a NaN position stops it there (StepFailure). The next
+  // evaluation, back at the first state (which the old lists were built
+  // for), must build the lists again rather than read the released ones:
+  // the same energy, forces and torques bit for bit, one build more.
+  const RigidBody sphere(1.0, 0.1 * lgvi::Matrix3<double>::Identity());
+  const System sys(std::vector<RigidBody>(27, sphere));
+  const SystemState s = lattice_state(27, 1.5, 0.0);
+  for (const int threads : {1, 2}) {
+    const LennardJones lj(sys, 1.0, 1.0, 2.5, Parallelism{threads, 1});
+    SystemEvaluation first(27), again(27);
+    lj.add(s, first);
+    SystemState bad = s;
+    bad.x[13].x() = std::numeric_limits<double>::quiet_NaN();
+    SystemEvaluation e(27);
+    EXPECT_THROW(lj.add(bad, e), lgvi::StepFailure) << threads;
+    const std::int64_t builds = lj.list_builds();
+    lj.add(s, again);
+    EXPECT_EQ(lj.list_builds(), builds + 1) << threads;
+    EXPECT_EQ(again.energy, first.energy) << threads;
+    for (std::size_t a = 0; a < 27; ++a) {
+      EXPECT_EQ(again.force[a], first.force[a]) << threads << " body " << a;
+      EXPECT_EQ(again.torque[a], first.torque[a]) << threads << " body " << a;
+    }
   }
 }
 

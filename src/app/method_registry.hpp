@@ -66,19 +66,19 @@ decltype(auto) dispatch(StepperList<S...> /*list*/, std::size_t index, Make& mak
 inline constexpr auto registered_method_traits = detail::traits_of(RegisteredMethods{});
 
 /// Builds the N-body stepper of `sc.integrator.method` for the system
-/// potential `pot` (on `par` threads), composed if [integrator] asks for it,
+/// potential `pot` (moved into it; on `par` threads), composed if [integrator] asks for it,
 /// or the adaptive LGVI if it asks for a time transformation, and returns
 /// f(stepper). The reader refuses what a method's traits exclude (forcing,
 /// composition, a free-body-only method on another system) and what the
 /// time transformation does not take; this says so again for other callers.
 template <class F>
-decltype(auto) with_stepper(const Scenario& sc, const ScenarioSystemPotential& pot, const Parallelism& par, F&& f) {
+decltype(auto) with_stepper(const Scenario& sc, ScenarioSystemPotential pot, const Parallelism& par, F&& f) {
   const IntegratorSpec& i = sc.integrator;
   if (i.adaptive()) {
     if (!sc.forcing.empty() || i.method.index() != 0)
       throw InvalidInput("integrator.time_transform: the adaptive LGVI takes no forcing and is method \"lgvi\"");
     TimeTransformedLieGroupVariationalIntegrator<ScenarioSystemPotential> stepper(
-        sc.system, pot,
+        sc.system, std::move(pot),
         TimeTransformOptions{i.monitor_scale, i.exact_finish ? i.duration : std::numeric_limits<double>::infinity()},
         i.solver, par, i.composition);
     return f(stepper);
@@ -91,7 +91,7 @@ decltype(auto) with_stepper(const Scenario& sc, const ScenarioSystemPotential& p
     if (traits.free_body_only && !pot.is_free())
       throw InvalidInput("integrator.method: \"" + std::string(traits.name) +
                          "\" is the free body's exact flow; it needs [potential] kind = \"none\" and no [interaction]");
-    Stepper stepper(sc.system, pot, i.solver, par);
+    Stepper stepper(sc.system, std::move(pot), i.solver, par);  // (one method is made: pot moves once)
     if (!sc.forcing.empty()) {
       if constexpr (traits.accepts_forcing)
         stepper.set_forcing(sc.forcing);

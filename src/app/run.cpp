@@ -81,7 +81,11 @@ class Progress {
 };
 
 /// The shared part of a fresh and a resumed run.
-int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, const Checkpoint* resume) {
+/// `start`: the state a new run starts from (taken), the scenario's initial
+/// state, which `sc` no longer holds (not read after the set-up: summaries
+/// and figures come from the run's own records).
+int execute(const Scenario& sc, SystemState start, const std::string& dir, const RunOptions& opt,
+            const Checkpoint* resume) {
   const fs::path trajectory_path = fs::path(dir) / trajectory_file_name(sc.output_format);
   const fs::path summary_path = fs::path(dir) / "summary.json";
   const fs::path checkpoint_path = fs::path(dir) / "checkpoint.bin";
@@ -115,6 +119,7 @@ int execute(const Scenario& sc, const std::string& dir, const RunOptions& opt, c
   so.checkpoint_every = opt.checkpoint_every;
   so.checkpoint_path = checkpoint_path.string();
   so.resume = resume;
+  so.start = &start;
   so.stop_flag = stop_flag();
   so.open_side_table = side_tables_in(dir);
   if (progress.enabled()) {
@@ -273,10 +278,11 @@ void require_new_output_folder(const std::string& dir, bool force) {
                      "folder with --out");
 }
 
-int run_scenario(const Scenario& sc, const RunOptions& opt) {
+int run_scenario(Scenario sc, const RunOptions& opt) {
   const std::string dir = opt.out_dir.empty() ? sc.name : opt.out_dir;
   require_new_output_folder(dir, opt.force);
-  return execute(sc, dir, opt, nullptr);
+  SystemState start = std::move(sc.initial_state);
+  return execute(sc, std::move(start), dir, opt, nullptr);
 }
 
 int resume_run(const std::string& dir, RunOptions opt) {
@@ -299,7 +305,8 @@ int resume_run(const std::string& dir, RunOptions opt) {
                        "mass in the central field; this one gives it the gravity-gradient torque, and continuing would "
                        "change the physics mid-run. Add model = \"point\" to [potential] in " + dir +
                        "/scenario.toml to continue as it began, or run the scenario again from the start");
-  return execute(sc, dir, opt, &c);
+  SystemState start = std::move(sc.initial_state);  // (overwritten by the checkpoint's)
+  return execute(sc, std::move(start), dir, opt, &c);
 }
 
 }  // namespace lgvi::app

@@ -41,8 +41,10 @@ enum ExitStatus : int {
 /// `lgvi run` and `lgvi compare` do not overwrite an earlier run's files by accident.
 void require_new_output_folder(const std::string& dir, bool force);
 
-/// Runs the scenario; prints errors on stderr; returns the exit status.
-int run_scenario(const Scenario& scenario, const RunOptions& options);
+/// Runs the scenario; prints errors on stderr; returns the exit status. The
+/// run starts from the scenario's initial state itself (moved, not copied:
+/// one state of N bodies less to hold).
+int run_scenario(Scenario scenario, const RunOptions& options);
 
 /// Continues the run in `dir` from its checkpoint (DIR/checkpoint.bin, with
 /// the scenario copy DIR/scenario.toml), appending to its trajectory.

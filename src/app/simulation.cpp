@@ -661,7 +661,9 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
                           const SimulationOptions& opt, const std::int64_t& evaluations) {
   SimulationResult result;
   RunStatistics& stats = result.stats;
-  SystemState state = sc.initial_state;
+  SystemState state;
+  if (opt.start) state = std::move(*opt.start);
+  else state = sc.initial_state;
   std::int64_t k0 = 0;
   const auto start = std::chrono::steady_clock::now();
   // A resume loads the checkpoint before the sink is opened: a checkpoint
@@ -812,7 +814,7 @@ SimulationResult run_with(Stepper& stepper, const Scenario& sc, const SinkOpener
     result.error = e.what();
   }
   result.wall_seconds = stats.wall_seconds_before + elapsed();
-  result.final_state = state;
+  result.final_state = std::move(state);
   try {
     side_tables.close(result);
   } catch (const std::exception& e) {
@@ -835,8 +837,7 @@ SimulationResult simulate_with(const Scenario& sc, const CallablePotential* fiel
     throw InvalidInput("checkpoint_every: a run with a control law of one's own cannot be checkpointed or resumed "
                        "(the law's state is its own)");
   std::int64_t count = 0;
-  const ScenarioSystemPotential potential = scenario_system_potential(sc, field, &count);
-  SimulationResult r = with_stepper(sc, potential, scenario_parallelism(sc),
+  SimulationResult r = with_stepper(sc, scenario_system_potential(sc, field, &count), scenario_parallelism(sc),
                                     [&](auto& stepper) { return run_with(stepper, sc, open_sink, opt, count); });
   r.stats.potential_evaluations += count;
   return r;

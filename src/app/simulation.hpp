@@ -108,6 +108,10 @@ struct SimulationOptions {
   std::string checkpoint_path;
   /// Continue from this checkpoint instead of the scenario's initial state.
   const Checkpoint* resume = nullptr;
+  /// If given, the state the run starts from, taken (moved from) instead of
+  /// a copy of the scenario's initial state: a caller done with that state
+  /// saves holding N bodies' state once more.
+  SystemState* start = nullptr;
   /// Stop at the next step boundary when *stop_flag != 0 (a signal handler's flag).
   const volatile std::sig_atomic_t* stop_flag = nullptr;
   /// Called every `progress_every` steps with (k, t).

@@ -54,7 +54,7 @@ Command add_run_command(CLI::App& parser) {
             if (o->scenario_path.empty()) throw CLI::RequiredError("SCENARIO (or --resume DIR)");
             app::Scenario scenario = app::read_scenario(o->scenario_path);
             if (o->threads > 0) scenario.threads = o->threads;
-            return app::run_scenario(scenario, o->run);
+            return app::run_scenario(std::move(scenario), o->run);
           }};
 }
 

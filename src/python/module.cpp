@@ -424,11 +424,10 @@ std::unique_ptr<AnyStepper> make_stepper(const Scenario& sc, const CallablePoten
                           "wheels ([[body.wheel]]), whose momenta it does not hold yet (use lgvi.simulate, which "
                           "runs it)");
   auto evaluations = std::make_shared<std::int64_t>(0);
-  const lgvi::app::ScenarioSystemPotential pot =
-      lgvi::app::scenario_system_potential(sc, field, evaluations.get());
   // The same method table as the CLI's run loop (app/method_registry.hpp).
   return lgvi::app::with_stepper(
-      sc, pot, lgvi::app::scenario_parallelism(sc), [&](auto& stepper) -> std::unique_ptr<AnyStepper> {
+      sc, lgvi::app::scenario_system_potential(sc, field, evaluations.get()), lgvi::app::scenario_parallelism(sc),
+      [&](auto& stepper) -> std::unique_ptr<AnyStepper> {
         return std::make_unique<StepperModel<std::decay_t<decltype(stepper)>>>(std::move(stepper), evaluations);
       });
 }

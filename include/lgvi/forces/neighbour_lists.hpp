@@ -147,6 +147,12 @@ class NeighbourLists {
   std::int64_t prunes() const { return prunes_; }
 
  private:
+  /// Frees the vectors' storage (clear() would keep it).
+  template <class... V>
+  static void release(V&... v) {
+    ((v = V()), ...);
+  }
+
   /// The candidates[0, n) within r^2 < reach2 of position x, in their order,
   /// into list (which has room for n); returns how many. Branch-free: each
   /// candidate is written, and kept by advancing the count (the lists'
@@ -236,12 +242,24 @@ class NeighbourLists {
   void build_lists() const {
     ++builds_;
     const std::size_t m = position_.size();
+    // Memory: the pruned lists are stale from here on, and the cell arrays
+    // are needed only until the outer lists are made. Each is released when
+    // done with, so that the two are never held at once (they are the
+    // largest arrays after the outer lists). A build pays for taking them
+    // anew, where builds are steps apart: with a skin. Without one every
+    // evaluation builds, and they are kept. (Until the pruning below
+    // completes there are no lists: a build cut short by an exception is
+    // redone.)
+    lists_ready_ = false;
+    if (skin_ > 0.0) release(neighbours_);
     Vector3<double> lo = position_[0], hi = position_[0];
+    bool finite = true;  // (each site's: the bounds pass over a NaN)
     for (const Vector3<double>& x : position_) {
       lo = lo.cwiseMin(x);
       hi = hi.cwiseMax(x);
+      finite = finite && x.allFinite();
     }
-    if (!(lo.allFinite() && hi.allFinite())) throw StepFailure("the state became non-finite", "try a smaller step");
+    if (!finite) throw StepFailure("the state became non-finite", "try a smaller step");
     const double reach = cutoff_ + skin_;
     origin_ = lo;
     const double budget = std::max(1.0, std::floor(std::cbrt(2.0 * static_cast<double>(m) + 1.0)));
@@ -294,7 +312,6 @@ class NeighbourLists {
     // builds them: the bodies are cut into fixed chunks, each chunk's lists
     // built on some thread into the chunk's buffer (where they stay: the
     // outer lists, outer_lists_).
-    lists_ready_ = false;  // (until the pruning below completes: a build cut short by an exception is redone)
     const std::size_t n = sites_.bodies();
     const double reach2 = reach * reach;
     const std::size_t chunks = std::min<std::size_t>(n, list_chunks);
@@ -382,6 +399,11 @@ class NeighbourLists {
       }
     });
     for (std::size_t i = 0; i < m; ++i) outer_start_[i + 1] += outer_start_[i];
+    if (skin_ > 0.0) {
+      release(cell_start_, cell_fill_);
+      release(cell_index_, sorted_, cell_body_);
+      release(cell_x_, cell_y_, cell_z_);
+    }
     // Room for the pruned lists in place of the outer ones (prune_lists).
     neighbours_.resize(outer_start_[m]);
     prune_lists<Periodic>();
@@ -456,7 +478,11 @@ class NeighbourLists {
   /// Lists are built per body for bodies of up to this many sites (molecules,
   /// rubble), site by site for larger ones (build_lists).
   static constexpr std::size_t group_sites = 16;
-  mutable std::vector<std::size_t> cell_start_, cell_fill_, list_start_;
+  mutable std::vector<std::size_t> list_start_;
+  /// The cells (empty outside a build, with a skin): cell c's sites are sorted_[cell_start_[c]
+  /// ... cell_start_[c + 1]) (site counts: at most max_sites, as the cells'
+  /// numbers, fewer than 2 max_sites + 2).
+  mutable std::vector<SiteIndex> cell_start_, cell_fill_;
   mutable std::vector<SiteIndex> cell_index_, sorted_;
   mutable std::vector<double> cell_x_, cell_y_, cell_z_;  ///< the sites' positions in cell order
   mutable std::vector<SiteIndex> cell_body_;              ///< and their bodies
