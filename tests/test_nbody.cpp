@@ -683,6 +683,38 @@ TEST(LennardJonesPairs, AListBuildCutShortByANonFiniteStateIsRedone) {
   }
 }
 
+TEST(LennardJonesPairs, AMoveJustBeyondHalfTheSkinIsSeenWhereThePlacesAreKeptAsFloats) {
+  // The lists keep where each site was at the last build and pruning as
+  // floats, relative to the centre of the sites' bounding box. Two spheres
+  // about 2e4 apart: each is about 1e4 from the centre, where a float
+  // rounds a component by up to 4.9e-4 (half its unit there), so a stored
+  // place is off by up to that much, and a move 1e-6 of its length beyond
+  // a limit could measure shorter than the limit. The limits are lowered by
+  // a bound on that rounding, so each move is seen: one of delta/2 (1 +
+  // 1e-6) = 0.05 (1 + 1e-6) prunes the lists again, and one of skin/2 (1 +
+  // 1e-6) = 0.15 (1 + 1e-6) from the built place rebuilds them. (Without
+  // the lowering, most trials fail: checked.)
+  const RigidBody sphere(1.0, 0.1 * lgvi::Matrix3<double>::Identity());
+  const System sys(std::vector<RigidBody>(2, sphere));
+  for (int trial = 0; trial < 100; ++trial) {
+    SystemState s = lattice_state(2, 1.5, 0.0);
+    s.x[0] = t::random_vector(1.0);
+    s.x[1] = s.x[0] + V3(2e4 + t::uniform(0.0, 1.0), t::uniform(-1.0, 1.0), t::uniform(-1.0, 1.0));
+    const LennardJones lj(sys, 1.0, 1.0, 2.5);  // skin 0.3, delta = skin/3
+    SystemEvaluation e(2);
+    lj.add(s, e);
+    const std::int64_t builds = lj.list_builds(), prunes = lj.list_prunes();
+    const V3 direction = t::random_vector(1.0).normalized();
+    for (const double move : {0.05, 0.15}) {
+      SystemState moved = s;
+      moved.x[0] += move * (1.0 + 1e-6) * direction;
+      lj.add(moved, e);
+    }
+    EXPECT_EQ(lj.list_prunes(), prunes + 2) << "trial " << trial;  // the move of 0.05, and the build's
+    EXPECT_EQ(lj.list_builds(), builds + 1) << "trial " << trial;
+  }
+}
+
 TEST(LennardJonesPairs, TwoCollisionsOnTwoThreadsNameThePairOfTheLowerBody) {
   // 64 spheres on a lattice (2 threads: about bodies 0-31 and 32-63; 3: three
   // ranges), bodies placed on others in each thread's range, and body 60 on

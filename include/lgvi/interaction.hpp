@@ -193,8 +193,26 @@ class InteractionSites {
   template <class AfterBody = void (*)(std::size_t)>
   void place(const SystemState& s, const Parallelism& par, std::vector<Vector3<double>>& position,
              std::vector<Vector3<double>>& arm, AfterBody&& after = [](std::size_t) {}) const {
-    position.resize(size());
     arm.resize(size());
+    place(s, par, position, arm.data(), after);
+  }
+  /// The same without the arms (which arm() gives again, bit for bit).
+  template <class AfterBody = void (*)(std::size_t)>
+  void place_positions(const SystemState& s, const Parallelism& par, std::vector<Vector3<double>>& position,
+                       AfterBody&& after = [](std::size_t) {}) const {
+    place(s, par, position, nullptr, after);
+  }
+  /// Site i's arm R_a rho_i for its body's attitude matrix R_a =
+  /// s.q[a].matrix(), the same bits as place()'s.
+  Vector3<double> arm(const Matrix3<double>& r, std::size_t i) const { return r * rho(i); }
+  /// Body a's sites' rho, site begin(a) + l at [l] (as rho(), without its lookups per site).
+  const Vector3<double>* body_rho(std::size_t a) const { return kind_rho_.data() + kind_first_[kind_[a]]; }
+
+ private:
+  template <class AfterBody>
+  void place(const SystemState& s, const Parallelism& par, std::vector<Vector3<double>>& position,
+             Vector3<double>* const arms, AfterBody&& after) const {
+    position.resize(size());
     // (Through local pointers: `after` may store chars, which could alias
     // anything, and the vectors' data would be reloaded for every site.)
     const Vector3<double>* const rho = kind_rho_.data();
@@ -202,21 +220,19 @@ class InteractionSites {
     const std::uint32_t* const kind = kind_.data();
     const std::size_t* const offset = offset_.data();
     Vector3<double>* const positions = position.data();
-    Vector3<double>* const arms = arm.data();
     parallel_for(bodies(), par, [&](std::size_t a) {
       const Matrix3<double> r = s.q[a].matrix();
       const Vector3<double> x = s.x[a];
       const Vector3<double>* const rho_a = rho + kind_first[kind[a]];  // the kind's sites
       for (std::size_t i = offset[a]; i < offset[a + 1]; ++i) {
         const Vector3<double> arm_i = r * rho_a[i - offset[a]];
-        arms[i] = arm_i;
+        if (arms != nullptr) arms[i] = arm_i;
         positions[i] = x + arm_i;
       }
       after(a);
     });
   }
 
- private:
   void add(std::size_t body, double mass, int type) {
     mass_.push_back(mass);
     type_.push_back(static_cast<std::uint32_t>(type - 1));

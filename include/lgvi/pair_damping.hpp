@@ -101,7 +101,8 @@ class PairDamping {
       const Vector3<double> omega = sys.body(a).extent() == Extent::Balls
                                         ? Vector3<double>(rotation_[a] * body_angular_velocity(s, sys, a))
                                         : Vector3<double>::Zero();
-      for (std::size_t i = sites.begin(a); i < sites.end(a); ++i) velocity_[i] = v + omega.cross(lists.arm(i));
+      for (std::size_t i = sites.begin(a); i < sites.end(a); ++i)
+        velocity_[i] = v + omega.cross(sites.arm(rotation_[a], i));
     }
     arm_torque_.assign(sys.size(), Vector3<double>::Zero());
     for (const Pair& p : pairs_) {
@@ -109,8 +110,8 @@ class PairDamping {
       const Vector3<double> f = (-p.coefficient * p.unit.dot(velocity_[p.i] - velocity_[p.j])) * p.unit;
       force[a] += f;
       force[b] -= f;
-      arm_torque_[a] += lists.arm(p.i).cross(f);
-      arm_torque_[b] -= lists.arm(p.j).cross(f);
+      arm_torque_[a] += sites.arm(rotation_[a], p.i).cross(f);
+      arm_torque_[b] -= sites.arm(rotation_[b], p.j).cross(f);
     }
     for (std::size_t a = 0; a < sys.size(); ++a)
       if (!arm_torque_[a].isZero(0.0)) torque[a] += rotation_[a].transpose() * arm_torque_[a];

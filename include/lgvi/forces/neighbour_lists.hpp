@@ -41,23 +41,50 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace lgvi {
+
+/// std::allocator, except that a vector's resize() leaves its new elements
+/// uninitialized (default-initialized) instead of zeroing them, where the
+/// caller writes them all next.
+template <class T>
+struct UninitializedAllocator : std::allocator<T> {
+  template <class U>
+  struct rebind {
+    using other = UninitializedAllocator<U>;
+  };
+  UninitializedAllocator() = default;
+  template <class U>
+  explicit UninitializedAllocator(const UninitializedAllocator<U>& /*other*/) noexcept {}
+  template <class U>
+  void construct(U* p) noexcept {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
 
 /// The Verlet lists of a system's interaction sites (the comment at the top
 /// of this file). Built for one system (its sites, kinds and box); update(s)
 /// places the sites at a state and brings the lists up to date for it, then
 /// site i's partners (sites of higher bodies, by increasing index) are
-/// partner(k) for k in [list_begin(i), list_end(i)), and its position and arm
-/// are position(i) and arm(i).
+/// partner(k) for k in [list_begin(i), list_end(i)), and its position is
+/// position(i).
 class NeighbourLists {
  public:
   /// A site's index in the lists (4 bytes: the lists are most of a pair
   /// interaction's memory); at most max_sites sites.
   using SiteIndex = std::uint32_t;
   static constexpr std::size_t max_sites = 0x7fffffff;
+  /// Lists' storage: each entry is written before it is read, so a resize
+  /// does not zero the new ones.
+  using SiteList = std::vector<SiteIndex, UninitializedAllocator<SiteIndex>>;
 
   /// What update() did to the lists.
   enum class Change { none, pruned, built };
@@ -90,19 +117,24 @@ class NeighbourLists {
     // The sites, and how far each body's moved, per body on the thread that
     // placed it. (The plain distance first: a run's state is not wrapped, so
     // the minimum image is looked at only for a site that seems to have moved.)
-    const bool have_lists = lists_ready_ && built_at_.size() == sites_.size();
-    const double limit = 0.25 * skin_ * skin_, prune_limit = 0.25 * prune_margin_ * prune_margin_;
+    const bool have_lists = lists_ready_ && places_.size() == sites_.size();
+    // Squared: skin/2 and delta/2, less the rounding of the stored places.
+    auto squared_less_slack = [&](double half) {
+      const double l = std::max(0.0, half - places_.slack());
+      return l * l;
+    };
+    const double limit = squared_less_slack(0.5 * skin_), prune_limit = squared_less_slack(0.5 * prune_margin_);
     const bool periodic = box_.any_periodic();
     auto within_limit = [&](const Vector3<double>& d, double bound) {
       // (False for NaN.)
       return d.squaredNorm() <= bound || (periodic && box_.minimum_image(d).squaredNorm() <= bound);
     };
     moved_.resize(n);
-    sites_.place(s, par_, position_, arm_, [&](std::size_t a) {
+    sites_.place_positions(s, par_, position_, [&](std::size_t a) {
       char moved = have_lists ? no_move : beyond_skin;
       for (std::size_t i = sites_.begin(a); i < sites_.end(a) && moved != beyond_skin; ++i) {
-        if (!within_limit(position_[i] - built_at_[i], limit)) moved = beyond_skin;
-        else if (!within_limit(position_[i] - pruned_at_[i], prune_limit)) moved = beyond_margin;
+        if (!within_limit(places_.from_built(i, position_[i]), limit)) moved = beyond_skin;
+        else if (!within_limit(places_.from_pruned(i, position_[i]), prune_limit)) moved = beyond_margin;
       }
       moved_[a] = moved;
     });
@@ -122,9 +154,9 @@ class NeighbourLists {
   const Box& box() const { return box_; }
   double cutoff() const { return cutoff_; }
   double skin() const { return skin_; }
-  /// Site i's inertial position X_i = x_a + R_a rho_i and arm R_a rho_i at the last update.
+  /// Site i's inertial position X_i = x_a + R_a rho_i at the last update
+  /// (its arm R_a rho_i: sites().arm()).
   const Vector3<double>& position(std::size_t i) const { return position_[i]; }
-  const Vector3<double>& arm(std::size_t i) const { return arm_[i]; }
   /// Site i's list entries are [list_begin(i), list_end(i)); the entries of
   /// consecutive sites are consecutive (list_begin(i + 1) = list_end(i);
   /// list_begin(S) is the number of entries).
@@ -152,6 +184,73 @@ class NeighbourLists {
   static void release(V&... v) {
     ((v = V()), ...);
   }
+
+  /// Where each site was at the last build and at the last pruning (the
+  /// references of "moved more than skin/2, delta/2 since"). Kept as floats
+  /// relative to the sites' bounding-box centre at the build, half the
+  /// memory of doubles; slack() bounds the distance between a stored place
+  /// and the true one, and the limits are lowered by it, so no move beyond
+  /// skin/2 or delta/2 goes unseen. The lists are then rebuilt a little
+  /// sooner, which changes no result (the pairs within r_c, in list order,
+  /// do not depend on when the lists were built). Where the slack would be
+  /// more than an eighth of delta/2 (sites farther than about 3e5 delta
+  /// from their bounding box's centre, or no skin) the places are kept as
+  /// doubles, exactly (slack 0).
+  class SitePlaces {
+   public:
+    /// Room for m sites, each to stay within `extent` of `origin` along
+    /// every axis (as a minimum image in `box`), compared at limits of at
+    /// least `limit`.
+    void prepare(std::size_t m, const Vector3<double>& origin, double extent, double limit, const Box& box) {
+      origin_ = origin;
+      box_ = box;
+      // float's rounding of a component v = x - origin, |v| <= extent, is
+      // at most 2^-24 extent; doubled for the rounding of x - origin and of
+      // the separations in double; sqrt(3) for three components.
+      const double slack = 2.0 * std::sqrt(3.0) * std::ldexp(extent, -24);
+      narrow_ = slack <= limit / 8.0;
+      slack_ = narrow_ ? slack : 0.0;
+      if (narrow_) {
+        release(built_wide_, pruned_wide_);
+        built_.resize(m);
+        pruned_.resize(m);
+      } else {
+        release(built_, pruned_);
+        built_wide_.resize(m);
+        pruned_wide_.resize(m);
+      }
+    }
+    std::size_t size() const { return narrow_ ? built_.size() : built_wide_.size(); }
+    double slack() const { return slack_; }
+    void store_built(std::size_t i, const Vector3<double>& x) { store(built_, built_wide_, i, x); }
+    void store_pruned(std::size_t i, const Vector3<double>& x) { store(pruned_, pruned_wide_, i, x); }
+    /// x - site i's stored place at the last build, pruning.
+    Vector3<double> from_built(std::size_t i, const Vector3<double>& x) const { return from(built_, built_wide_, i, x); }
+    Vector3<double> from_pruned(std::size_t i, const Vector3<double>& x) const {
+      return from(pruned_, pruned_wide_, i, x);
+    }
+
+   private:
+    void store(std::vector<Vector3<float>>& narrow, std::vector<Vector3<double>>& wide, std::size_t i,
+               const Vector3<double>& x) const {
+      // (A minimum image, within half a period of the origin: the float's
+      // rounding is then bounded by the extent.)
+      if (narrow_) narrow[i] = box_.minimum_image(x - origin_).cast<float>();
+      else wide[i] = x;
+    }
+    Vector3<double> from(const std::vector<Vector3<float>>& narrow, const std::vector<Vector3<double>>& wide,
+                         std::size_t i, const Vector3<double>& x) const {
+      // (A whole number of periods off where the stored place is an image:
+      // the caller's minimum image takes them off, as for a wide place.)
+      return narrow_ ? Vector3<double>(x - origin_ - narrow[i].cast<double>()) : Vector3<double>(x - wide[i]);
+    }
+    Vector3<double> origin_ = Vector3<double>::Zero();
+    Box box_;  ///< the lists' (separations along its periodic axes are minimum images)
+    double slack_ = 0.0;
+    bool narrow_ = false;
+    std::vector<Vector3<float>> built_, pruned_;
+    std::vector<Vector3<double>> built_wide_, pruned_wide_;
+  };
 
   /// The candidates[0, n) within r^2 < reach2 of position x, in their order,
   /// into list (which has room for n); returns how many. Branch-free: each
@@ -260,6 +359,13 @@ class NeighbourLists {
       finite = finite && x.allFinite();
     }
     if (!finite) throw StepFailure("the state became non-finite", "try a smaller step");
+    // The places' origin and extent: until the next build each site stays
+    // within skin/2 of its place now, or of an image of it along a periodic
+    // axis (there the places are minimum images, within half a period).
+    Vector3<double> extent = 0.5 * (hi - lo) + Vector3<double>::Constant(skin_);
+    for (int k = 0; k < 3; ++k)
+      if (box_.periodic(k)) extent(k) = 0.5 * box_.periodic_length()(k);
+    places_.prepare(m, 0.5 * (lo + hi), extent.maxCoeff(), 0.5 * prune_margin_, box_);
     const double reach = cutoff_ + skin_;
     origin_ = lo;
     const double budget = std::max(1.0, std::floor(std::cbrt(2.0 * static_cast<double>(m) + 1.0)));
@@ -318,15 +424,13 @@ class NeighbourLists {
     outer_lists_.resize(chunks);
     chunk_used_.resize(chunks);
     outer_start_.assign(m + 1, 0);
-    built_at_.resize(m);
     parallel_for(chunks, par_, [&](std::size_t chunk) {
-      std::vector<SiteIndex>& out = outer_lists_[chunk];
+      SiteList& out = outer_lists_[chunk];
       std::size_t& used = chunk_used_[chunk];  // out's entries in use (out only grows: no zero fill per site)
       used = 0;
       // Where the chunk's sites are now (the skin's reference).
-      std::copy(position_.begin() + static_cast<std::ptrdiff_t>(sites_.begin(chunk * n / chunks)),
-                position_.begin() + static_cast<std::ptrdiff_t>(sites_.begin((chunk + 1) * n / chunks)),
-                built_at_.begin() + static_cast<std::ptrdiff_t>(sites_.begin(chunk * n / chunks)));
+      for (std::size_t i = sites_.begin(chunk * n / chunks); i < sites_.begin((chunk + 1) * n / chunks); ++i)
+        places_.store_built(i, position_[i]);
       thread_local std::vector<SiteIndex> near;
       for (std::size_t a = chunk * n / chunks; a < (chunk + 1) * n / chunks; ++a) {
         // A body of many sites (a wall, a long chain) goes site by site: its
@@ -404,7 +508,9 @@ class NeighbourLists {
       release(cell_index_, sorted_, cell_body_);
       release(cell_x_, cell_y_, cell_z_);
     }
-    // Room for the pruned lists in place of the outer ones (prune_lists).
+    // Room for the pruned lists in place of the outer ones (prune_lists),
+    // not filled here: the pruning's threads write it, chunk by chunk, and
+    // so share the first touch of its pages.
     neighbours_.resize(outer_start_[m]);
     prune_lists<Periodic>();
   }
@@ -423,14 +529,12 @@ class NeighbourLists {
     const std::size_t chunks = std::min<std::size_t>(n, list_chunks);
     chunk_used_.resize(chunks);
     list_start_.assign(m + 1, 0);
-    pruned_at_.resize(m);
     // Each chunk's pruned lists first where its outer lists' entries would
     // be in one array (neighbours_[outer_start_[i0] ...), then moved down in
     // chunk order to follow the previous chunk's.
     parallel_for(chunks, par_, [&](std::size_t chunk) {
       const std::size_t i0 = sites_.begin(chunk * n / chunks), i1 = sites_.begin((chunk + 1) * n / chunks);
-      std::copy(position_.begin() + static_cast<std::ptrdiff_t>(i0), position_.begin() + static_cast<std::ptrdiff_t>(i1),
-                pruned_at_.begin() + static_cast<std::ptrdiff_t>(i0));  // the margin's reference
+      for (std::size_t i = i0; i < i1; ++i) places_.store_pruned(i, position_[i]);  // the margin's reference
       const Vector3<double>* const position = position_.data();
       const SiteIndex* const outer = outer_lists_[chunk].data();  // site i's: outer[outer_start_[i] - base ...]
       const std::size_t base = outer_start_[i0];
@@ -448,9 +552,8 @@ class NeighbourLists {
     for (std::size_t chunk = 0; chunk < chunks; ++chunk) {  // (to lower or equal offsets: in order, nothing unread is overwritten)
       const std::size_t i0 = sites_.begin(chunk * n / chunks);
       if (list_start_[i0] == outer_start_[i0]) continue;  // (in place already)
-      const auto from = neighbours_.begin() + static_cast<std::ptrdiff_t>(outer_start_[i0]);
-      std::copy(from, from + static_cast<std::ptrdiff_t>(chunk_used_[chunk]),
-                neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[i0]));
+      const SiteIndex* const from = neighbours_.data() + outer_start_[i0];
+      std::copy(from, from + chunk_used_[chunk], neighbours_.data() + list_start_[i0]);
     }
     lists_ready_ = true;
   }
@@ -459,7 +562,7 @@ class NeighbourLists {
   double cutoff_, skin_, prune_margin_;
   Parallelism par_;
   Box box_;  ///< the system's: separations are minimum images along its periodic axes
-  mutable std::vector<Vector3<double>> position_, arm_;
+  mutable std::vector<Vector3<double>> position_;
   mutable std::vector<char> moved_;  ///< per body: how far its sites moved (no_move ...)
   mutable Vector3<double> origin_ = Vector3<double>::Zero(), inv_cell_ = Vector3<double>::Ones();
   mutable std::array<std::int64_t, 3> dims_{1, 1, 1};
@@ -489,10 +592,10 @@ class NeighbourLists {
   /// The pruned lists: site i's partners neighbours_[list_start_[i] ...
   /// list_start_[i + 1]) (the array as long as the outer lists, which it
   /// holds while they are pruned).
-  mutable std::vector<SiteIndex> neighbours_;
+  mutable SiteList neighbours_;
   mutable std::vector<std::size_t> chunk_used_;  ///< per chunk: its list's entries in use
   /// Per site: where it was at the last build and at the last pruning.
-  mutable std::vector<Vector3<double>> built_at_, pruned_at_;
+  mutable SitePlaces places_;
   /// The outer lists: per site i, the sites of higher bodies within r_c +
   /// skin at the last build, by index, in its chunk c's buffer:
   /// outer_lists_[c][outer_start_[i] - outer_start_[i0] ... outer_start_[i +
@@ -500,7 +603,7 @@ class NeighbourLists {
   /// array: only the pruning reads them, chunk by chunk); neighbours_ and
   /// list_start_ are their pruned form.
   mutable std::vector<std::size_t> outer_start_;
-  mutable std::vector<std::vector<SiteIndex>> outer_lists_;
+  mutable std::vector<SiteList> outer_lists_;
   mutable std::int64_t builds_ = 0, prunes_ = 0;
   mutable bool lists_ready_ = false;  ///< the lists are whole (a build and its pruning completed)
   /// moved_: how far a body's sites moved.

@@ -196,10 +196,18 @@ class PairInteraction {
       scratch.resize(lists_.list_begin(sites().end(a)) - first);
       pair_terms(a, a + 1, scratch, scratch.fx.data(), scratch.fy.data(), scratch.fz.data());
       double w = 0.0;
+      const Matrix3<double> r = s.q[a].matrix();
+      std::size_t b = s.size();  // the partner's body, whose attitude matrix is rb (a body's sites come in a row)
+      Matrix3<double> rb = Matrix3<double>::Zero();
       for (std::size_t i = sites().begin(a); i < sites().end(a); ++i)
         for (std::size_t k = lists_.list_begin(i); k < lists_.list_end(i); ++k) {
           // X_a - X_b = -d - rho_i + rho_j, d = X_j - X_i (minimum image); beyond r_c f = 0 exactly.
-          const Vector3<double> centres = lists_.arm(lists_.partner(k)) - lists_.arm(i) -
+          const std::size_t j = lists_.partner(k);
+          if (sites().body_of(j) != b) {
+            b = sites().body_of(j);
+            rb = s.q[b].matrix();
+          }
+          const Vector3<double> centres = sites().arm(rb, j) - sites().arm(r, i) -
                                           Vector3<double>(scratch.dx[k - first], scratch.dy[k - first],
                                                           scratch.dz[k - first]);
           w += scratch.fx[k - first] * centres.x() + scratch.fy[k - first] * centres.y() +
@@ -331,7 +339,10 @@ class PairInteraction {
   template <class SiteForce>
   void add_body_wrench(const SystemState& s, SystemEvaluation& e, std::size_t a, SiteForce&& site_force) const {
     SiteWrench wrench;
-    for (std::size_t i = sites().begin(a); i < sites().end(a); ++i) wrench.add(lists_.arm(i), site_force(i));
+    const Matrix3<double> r = s.q[a].matrix();
+    const Vector3<double>* const rho = sites().body_rho(a);
+    for (std::size_t i = sites().begin(a); i < sites().end(a); ++i)
+      wrench.add(r * rho[i - sites().begin(a)], site_force(i));  // (the arm, sites().arm(r, i))
     wrench.add_to(s, a, e);
   }
 
