@@ -694,24 +694,36 @@ TEST(LennardJonesPairs, AMoveJustBeyondHalfTheSkinIsSeenWhereThePlacesAreKeptAsF
   // 1e-6) = 0.05 (1 + 1e-6) prunes the lists again, and one of skin/2 (1 +
   // 1e-6) = 0.15 (1 + 1e-6) from the built place rebuilds them. (Without
   // the lowering, most trials fail: checked.)
+  // The same in a periodic cube of side 2e4 (places within half a period
+  // of the centre, stored as minimum images), with the first sphere carried
+  // a whole number of periods away (the state is never wrapped), so that
+  // the stored places are images of the sites.
   const RigidBody sphere(1.0, 0.1 * lgvi::Matrix3<double>::Identity());
-  const System sys(std::vector<RigidBody>(2, sphere));
-  for (int trial = 0; trial < 100; ++trial) {
-    SystemState s = lattice_state(2, 1.5, 0.0);
-    s.x[0] = t::random_vector(1.0);
-    s.x[1] = s.x[0] + V3(2e4 + t::uniform(0.0, 1.0), t::uniform(-1.0, 1.0), t::uniform(-1.0, 1.0));
-    const LennardJones lj(sys, 1.0, 1.0, 2.5);  // skin 0.3, delta = skin/3
-    SystemEvaluation e(2);
-    lj.add(s, e);
-    const std::int64_t builds = lj.list_builds(), prunes = lj.list_prunes();
-    const V3 direction = t::random_vector(1.0).normalized();
-    for (const double move : {0.05, 0.15}) {
-      SystemState moved = s;
-      moved.x[0] += move * (1.0 + 1e-6) * direction;
-      lj.add(moved, e);
+  const double side = 2e4;
+  const lgvi::Box cube(V3::Constant(-0.5 * side), V3::Constant(0.5 * side), {true, true, true});
+  for (const bool periodic : {false, true}) {
+    const System sys(std::vector<RigidBody>(2, sphere), {}, periodic ? cube : lgvi::Box());
+    for (int trial = 0; trial < 100; ++trial) {
+      SystemState s = lattice_state(2, 1.5, 0.0);
+      s.x[0] = t::random_vector(1.0);
+      s.x[1] = s.x[0] + V3(2e4 + t::uniform(0.0, 1.0), t::uniform(-1.0, 1.0), t::uniform(-1.0, 1.0));
+      if (periodic) {
+        s.x[1] = V3(0.25 * side + t::uniform(0.0, 1.0), t::uniform(-1.0, 1.0), t::uniform(-1.0, 1.0));
+        s.x[0] += side * V3(static_cast<double>(trial % 7 - 3), 0.0, 0.0);
+      }
+      const LennardJones lj(sys, 1.0, 1.0, 2.5);  // skin 0.3, delta = skin/3
+      SystemEvaluation e(2);
+      lj.add(s, e);
+      const std::int64_t builds = lj.list_builds(), prunes = lj.list_prunes();
+      const V3 direction = t::random_vector(1.0).normalized();
+      for (const double move : {0.05, 0.15}) {
+        SystemState moved = s;
+        moved.x[0] += move * (1.0 + 1e-6) * direction;
+        lj.add(moved, e);
+      }
+      EXPECT_EQ(lj.list_prunes(), prunes + 2) << "trial " << trial << ", periodic " << periodic;  // the move of 0.05, and the build's
+      EXPECT_EQ(lj.list_builds(), builds + 1) << "trial " << trial << ", periodic " << periodic;
     }
-    EXPECT_EQ(lj.list_prunes(), prunes + 2) << "trial " << trial;  // the move of 0.05, and the build's
-    EXPECT_EQ(lj.list_builds(), builds + 1) << "trial " << trial;
   }
 }
 

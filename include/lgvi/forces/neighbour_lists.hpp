@@ -6,8 +6,9 @@
 // most ~2 per site, so a dilute system gets larger cells instead of a huge
 // empty grid; counting sort, O(S) for S sites). The lists are rebuilt when
 // some site has moved more than skin/2 since the last build (then no pair can
-// have crossed into r_c unseen), so the cost grows like the number of sites,
-// not its square.
+// have crossed into r_c unseen; a little sooner, as the places it moved from
+// are kept in floats: SitePlaces), so the cost grows like the number of
+// sites, not its square.
 //
 // Pruned lists (GROMACS's dynamic pruning): the lists a user reads hold only
 // the pairs within r_c + delta (delta = skin/3), pruned from the built ones
@@ -41,34 +42,10 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <memory>
 #include <string>
-#include <utility>
 #include <vector>
 
 namespace lgvi {
-
-/// std::allocator, except that a vector's resize() leaves its new elements
-/// uninitialized (default-initialized) instead of zeroing them, where the
-/// caller writes them all next.
-template <class T>
-struct UninitializedAllocator : std::allocator<T> {
-  template <class U>
-  struct rebind {
-    using other = UninitializedAllocator<U>;
-  };
-  UninitializedAllocator() = default;
-  template <class U>
-  explicit UninitializedAllocator(const UninitializedAllocator<U>& /*other*/) noexcept {}
-  template <class U>
-  void construct(U* p) noexcept {
-    ::new (static_cast<void*>(p)) U;
-  }
-  template <class U, class... Args>
-  void construct(U* p, Args&&... args) {
-    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
-  }
-};
 
 /// The Verlet lists of a system's interaction sites (the comment at the top
 /// of this file). Built for one system (its sites, kinds and box); update(s)
@@ -82,9 +59,6 @@ class NeighbourLists {
   /// interaction's memory); at most max_sites sites.
   using SiteIndex = std::uint32_t;
   static constexpr std::size_t max_sites = 0x7fffffff;
-  /// Lists' storage: each entry is written before it is read, so a resize
-  /// does not zero the new ones.
-  using SiteList = std::vector<SiteIndex, UninitializedAllocator<SiteIndex>>;
 
   /// What update() did to the lists.
   enum class Change { none, pruned, built };
@@ -110,8 +84,9 @@ class NeighbourLists {
   /// Places the sites at `s` (per body, on the threads) and brings the lists
   /// up to date for it: rebuilt if a site moved more than skin/2 since the
   /// last build, else pruned again if one moved more than delta/2 since the
-  /// last pruning (a move by a whole period along a periodic axis is no
-  /// move). StepFailure if a site's position is not finite.
+  /// last pruning (each limit less the rounding of the places kept,
+  /// SitePlaces; a move by a whole period along a periodic axis is no move).
+  /// StepFailure if a site's position is not finite.
   Change update(const SystemState& s) const {
     const std::size_t n = s.size();
     // The sites, and how far each body's moved, per body on the thread that
@@ -194,8 +169,9 @@ class NeighbourLists {
   /// sooner, which changes no result (the pairs within r_c, in list order,
   /// do not depend on when the lists were built). Where the slack would be
   /// more than an eighth of delta/2 (sites farther than about 3e5 delta
-  /// from their bounding box's centre, or no skin) the places are kept as
-  /// doubles, exactly (slack 0).
+  /// from their bounding box's centre, or no skin, unless all sites are at
+  /// the centre and the floats exact) the places are kept as doubles,
+  /// exactly (slack 0).
   class SitePlaces {
    public:
     /// Room for m sites, each to stay within `extent` of `origin` along
@@ -425,7 +401,7 @@ class NeighbourLists {
     chunk_used_.resize(chunks);
     outer_start_.assign(m + 1, 0);
     parallel_for(chunks, par_, [&](std::size_t chunk) {
-      SiteList& out = outer_lists_[chunk];
+      std::vector<SiteIndex>& out = outer_lists_[chunk];
       std::size_t& used = chunk_used_[chunk];  // out's entries in use (out only grows: no zero fill per site)
       used = 0;
       // Where the chunk's sites are now (the skin's reference).
@@ -508,9 +484,7 @@ class NeighbourLists {
       release(cell_index_, sorted_, cell_body_);
       release(cell_x_, cell_y_, cell_z_);
     }
-    // Room for the pruned lists in place of the outer ones (prune_lists),
-    // not filled here: the pruning's threads write it, chunk by chunk, and
-    // so share the first touch of its pages.
+    // Room for the pruned lists in place of the outer ones (prune_lists).
     neighbours_.resize(outer_start_[m]);
     prune_lists<Periodic>();
   }
@@ -552,8 +526,9 @@ class NeighbourLists {
     for (std::size_t chunk = 0; chunk < chunks; ++chunk) {  // (to lower or equal offsets: in order, nothing unread is overwritten)
       const std::size_t i0 = sites_.begin(chunk * n / chunks);
       if (list_start_[i0] == outer_start_[i0]) continue;  // (in place already)
-      const SiteIndex* const from = neighbours_.data() + outer_start_[i0];
-      std::copy(from, from + chunk_used_[chunk], neighbours_.data() + list_start_[i0]);
+      const auto from = neighbours_.begin() + static_cast<std::ptrdiff_t>(outer_start_[i0]);
+      std::copy(from, from + static_cast<std::ptrdiff_t>(chunk_used_[chunk]),
+                neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[i0]));
     }
     lists_ready_ = true;
   }
@@ -592,7 +567,7 @@ class NeighbourLists {
   /// The pruned lists: site i's partners neighbours_[list_start_[i] ...
   /// list_start_[i + 1]) (the array as long as the outer lists, which it
   /// holds while they are pruned).
-  mutable SiteList neighbours_;
+  mutable std::vector<SiteIndex> neighbours_;
   mutable std::vector<std::size_t> chunk_used_;  ///< per chunk: its list's entries in use
   /// Per site: where it was at the last build and at the last pruning.
   mutable SitePlaces places_;
@@ -603,7 +578,7 @@ class NeighbourLists {
   /// array: only the pruning reads them, chunk by chunk); neighbours_ and
   /// list_start_ are their pruned form.
   mutable std::vector<std::size_t> outer_start_;
-  mutable std::vector<SiteList> outer_lists_;
+  mutable std::vector<std::vector<SiteIndex>> outer_lists_;
   mutable std::int64_t builds_ = 0, prunes_ = 0;
   mutable bool lists_ready_ = false;  ///< the lists are whole (a build and its pruning completed)
   /// moved_: how far a body's sites moved.
