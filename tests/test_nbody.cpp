@@ -473,6 +473,38 @@ void expect_index_order_sums(const System& sys, const SystemState& s, const std:
   }
 }
 
+TEST(NeighbourListCode, PartnersComeBackExactlyInOneToFiveBytesEach) {
+  // The outer lists' code (neighbour_lists.hpp, lgvi::detail::encode_partners):
+  // each partner's difference from the one before (the first's from the
+  // site), 7 bits a byte. Differences on each side of every byte count's
+  // limit (2^(7k) - 1 takes k bytes, 2^(7k) takes k + 1), then a partner at
+  // the largest site index the lists allow (a difference of about 2^31):
+  // the partners must come back exactly, and the bytes be those counts.
+  const std::size_t site = 5;
+  const std::vector<std::uint32_t> differences = {1,         127,           128,      16383,  16384, (1u << 21) - 1,
+                                                  1u << 21, (1u << 28) - 1, 1u << 28};
+  const std::vector<std::size_t> bytes_each = {1, 1, 2, 2, 3, 3, 4, 4, 5, 5};
+  std::vector<std::uint32_t> partners;
+  auto previous = static_cast<std::uint32_t>(site);
+  for (const std::uint32_t d : differences) partners.push_back(previous += d);
+  partners.push_back(static_cast<std::uint32_t>(lgvi::NeighbourLists::max_sites) - 1);
+  std::vector<std::uint8_t> code(lgvi::detail::max_coded_bytes * partners.size());
+  const std::uint8_t* end = lgvi::detail::encode_partners(site, partners.data(), partners.size(), code.data());
+  std::size_t expected_bytes = 0;
+  for (const std::size_t b : bytes_each) expected_bytes += b;
+  EXPECT_EQ(static_cast<std::size_t>(end - code.data()), expected_bytes);
+  std::vector<std::uint32_t> back(code.size());
+  ASSERT_EQ(lgvi::detail::decode_partners(site, code.data(), end, back.data()), partners.size());
+  back.resize(partners.size());
+  EXPECT_EQ(back, partners);
+  // One partner at a time: each its own byte count.
+  for (std::size_t k = 0; k < partners.size(); ++k) {
+    const std::size_t from = k == 0 ? site : partners[k - 1];
+    const std::uint8_t* one = lgvi::detail::encode_partners(from, &partners[k], 1, code.data());
+    EXPECT_EQ(static_cast<std::size_t>(one - code.data()), bytes_each[k]) << k;
+  }
+}
+
 TEST(LennardJonesPairs, PrunedListsMissNoPairAlongAWalk) {
   // The pruned lists hold the pairs within r_c + delta at the last pruning
   // (delta = skin/3 = 0.1), and are pruned again when a site has moved more

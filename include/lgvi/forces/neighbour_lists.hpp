@@ -12,8 +12,9 @@
 //
 // Pruned lists (GROMACS's dynamic pruning): the lists a user reads hold only
 // the pairs within r_c + delta (delta = skin/3), pruned from the built ones
-// again when some site has moved more than delta/2 since the last pruning. A
-// pair within r_c now is in the lists (the skin's argument) and was within
+// (the outer lists, kept compressed: detail::encode_partners) again when
+// some site has moved more than delta/2 since the last pruning. A pair
+// within r_c now is in the lists (the skin's argument) and was within
 // r_c + delta at the pruning (each site has moved at most delta/2 since), so
 // no pair within r_c is missed; a user tests r < r_c itself. The measured
 // fractions of pairs and costs are in docs/benchmarks.md ("Against LAMMPS":
@@ -42,10 +43,54 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
 namespace lgvi {
+
+namespace detail {
+
+/// The outer lists' code: site i's partners j_0 < j_1 < ... (all above i)
+/// as the differences j_0 - i, j_1 - j_0, ... (each at least 1), each in
+/// LEB128 (7 bits a byte, the lowest first, the high bit set on every byte
+/// but a number's last: at most max_coded_bytes). The sites of a gas
+/// numbered along its lattice have their neighbours a few indices or a
+/// row or a plane away, so an entry takes a byte or two instead of 4
+/// (docs/benchmarks.md). Returns the end of what was written.
+inline std::uint8_t* encode_partners(std::size_t i, const std::uint32_t* partner, std::size_t count,
+                                     std::uint8_t* out) {
+  auto previous = static_cast<std::uint32_t>(i);
+  for (std::size_t k = 0; k < count; ++k) {
+    std::uint32_t d = partner[k] - previous;
+    previous = partner[k];
+    for (; d >= 0x80; d >>= 7) *out++ = static_cast<std::uint8_t>(d | 0x80);
+    *out++ = static_cast<std::uint8_t>(d);
+  }
+  return out;
+}
+/// At most this many bytes per entry (a difference below 2^32).
+inline constexpr std::size_t max_coded_bytes = 5;
+/// Site i's partners from their code [in, end) into partner (room for
+/// end - in); returns how many.
+inline std::size_t decode_partners(std::size_t i, const std::uint8_t* in, const std::uint8_t* end,
+                                   std::uint32_t* partner) {
+  auto previous = static_cast<std::uint32_t>(i);
+  std::size_t count = 0;
+  while (in < end) {
+    std::uint32_t d = 0;
+    int shift = 0;
+    for (std::uint8_t byte = 0x80; byte >= 0x80; shift += 7) {
+      byte = *in++;
+      d |= static_cast<std::uint32_t>(byte & 0x7f) << shift;
+    }
+    previous += d;
+    partner[count++] = previous;
+  }
+  return count;
+}
+
+}  // namespace detail
 
 /// The Verlet lists of a system's interaction sites (the comment at the top
 /// of this file). Built for one system (its sites, kinds and box); update(s)
@@ -398,16 +443,15 @@ class NeighbourLists {
     const double reach2 = reach * reach;
     const std::size_t chunks = std::min<std::size_t>(n, list_chunks);
     outer_lists_.resize(chunks);
-    chunk_used_.resize(chunks);
-    outer_start_.assign(m + 1, 0);
+    outer_end_.resize(m);
+    chunk_entries_.assign(chunks + 1, 0);
     parallel_for(chunks, par_, [&](std::size_t chunk) {
-      std::vector<SiteIndex>& out = outer_lists_[chunk];
-      std::size_t& used = chunk_used_[chunk];  // out's entries in use (out only grows: no zero fill per site)
-      used = 0;
+      std::vector<std::uint8_t>& out = outer_lists_[chunk];
+      std::size_t used = 0, entries = 0;  // out's bytes in use (out only grows: no zero fill per site), entries
       // Where the chunk's sites are now (the skin's reference).
       for (std::size_t i = sites_.begin(chunk * n / chunks); i < sites_.begin((chunk + 1) * n / chunks); ++i)
         places_.store_built(i, position_[i]);
-      thread_local std::vector<SiteIndex> near;
+      thread_local std::vector<SiteIndex> near, found;
       for (std::size_t a = chunk * n / chunks; a < (chunk + 1) * n / chunks; ++a) {
         // A body of many sites (a wall, a long chain) goes site by site: its
         // box would hold candidates for all of them, each site scanning all.
@@ -462,30 +506,38 @@ class NeighbourLists {
               near[slot] = j;
             }
           }
+          if (found.size() < kept) found.resize(kept);
           for (std::size_t i = g0; i < g1; ++i) {
-            const std::size_t first = used;
-            if (out.size() < first + kept) {
+            const std::size_t count =
+                within<Periodic>(position_.data(), position_[i], near.data(), kept, reach2, found.data());
+            const std::size_t room = used + detail::max_coded_bytes * count;
+            if (out.size() < room) {
               // Grown by a quarter (a vector's resize would double it): the
               // chunks' buffers are the outer lists, kept between builds.
-              out.reserve(first + kept + (first + kept) / 4);
+              out.reserve(room + room / 4);
               out.resize(out.capacity());
             }
-            const std::size_t count =
-                within<Periodic>(position_.data(), position_[i], near.data(), kept, reach2, out.data() + first);
-            used = first + count;
-            outer_start_[i + 1] = count;  // summed below
+            std::uint8_t* const end = detail::encode_partners(i, found.data(), count, out.data() + used);
+            used = static_cast<std::size_t>(end - out.data());
+            if (used > std::numeric_limits<std::uint32_t>::max())
+              throw StepFailure("the neighbour lists of 1/" + std::to_string(chunks) +
+                                    " of the interaction sites take more than 4 GiB",
+                                "shorten the cutoff or skin, or split the system");
+            outer_end_[i] = static_cast<std::uint32_t>(used);
+            entries += count;
           }
         }
       }
+      chunk_entries_[chunk + 1] = entries;
     });
-    for (std::size_t i = 0; i < m; ++i) outer_start_[i + 1] += outer_start_[i];
+    for (std::size_t chunk = 0; chunk < chunks; ++chunk) chunk_entries_[chunk + 1] += chunk_entries_[chunk];
     if (skin_ > 0.0) {
       release(cell_start_, cell_fill_);
       release(cell_index_, sorted_, cell_body_);
       release(cell_x_, cell_y_, cell_z_);
     }
     // Room for the pruned lists in place of the outer ones (prune_lists).
-    neighbours_.resize(outer_start_[m]);
+    neighbours_.resize(chunk_entries_[chunks]);
     prune_lists<Periodic>();
   }
 
@@ -504,19 +556,23 @@ class NeighbourLists {
     chunk_used_.resize(chunks);
     list_start_.assign(m + 1, 0);
     // Each chunk's pruned lists first where its outer lists' entries would
-    // be in one array (neighbours_[outer_start_[i0] ...), then moved down in
-    // chunk order to follow the previous chunk's.
+    // be in one array (neighbours_[chunk_entries_[chunk] ...), then moved
+    // down in chunk order to follow the previous chunk's.
     parallel_for(chunks, par_, [&](std::size_t chunk) {
       const std::size_t i0 = sites_.begin(chunk * n / chunks), i1 = sites_.begin((chunk + 1) * n / chunks);
       for (std::size_t i = i0; i < i1; ++i) places_.store_pruned(i, position_[i]);  // the margin's reference
       const Vector3<double>* const position = position_.data();
-      const SiteIndex* const outer = outer_lists_[chunk].data();  // site i's: outer[outer_start_[i] - base ...]
-      const std::size_t base = outer_start_[i0];
-      SiteIndex* const list = neighbours_.data() + base;
-      std::size_t count = 0;
+      // Site i's outer list: outer[outer_end_[i - 1] ... outer_end_[i]).
+      const std::uint8_t* const outer = outer_lists_[chunk].data();
+      SiteIndex* const list = neighbours_.data() + chunk_entries_[chunk];
+      thread_local std::vector<SiteIndex> partners;
+      std::size_t count = 0, from = 0;
       for (std::size_t i = i0; i < i1; ++i) {
-        const std::size_t k0 = outer_start_[i] - base, k1 = outer_start_[i + 1] - base;
-        const std::size_t kept = within<Periodic>(position, position[i], outer + k0, k1 - k0, reach2, list + count);
+        const std::size_t to = outer_end_[i];
+        if (partners.size() < to - from) partners.resize(to - from);  // (at least a byte an entry)
+        const std::size_t built = detail::decode_partners(i, outer + from, outer + to, partners.data());
+        from = to;
+        const std::size_t kept = within<Periodic>(position, position[i], partners.data(), built, reach2, list + count);
         count += kept;
         list_start_[i + 1] = kept;  // summed below
       }
@@ -525,8 +581,8 @@ class NeighbourLists {
     for (std::size_t i = 0; i < m; ++i) list_start_[i + 1] += list_start_[i];
     for (std::size_t chunk = 0; chunk < chunks; ++chunk) {  // (to lower or equal offsets: in order, nothing unread is overwritten)
       const std::size_t i0 = sites_.begin(chunk * n / chunks);
-      if (list_start_[i0] == outer_start_[i0]) continue;  // (in place already)
-      const auto from = neighbours_.begin() + static_cast<std::ptrdiff_t>(outer_start_[i0]);
+      if (list_start_[i0] == chunk_entries_[chunk]) continue;  // (in place already)
+      const auto from = neighbours_.begin() + static_cast<std::ptrdiff_t>(chunk_entries_[chunk]);
       std::copy(from, from + static_cast<std::ptrdiff_t>(chunk_used_[chunk]),
                 neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[i0]));
     }
@@ -572,13 +628,15 @@ class NeighbourLists {
   /// Per site: where it was at the last build and at the last pruning.
   mutable SitePlaces places_;
   /// The outer lists: per site i, the sites of higher bodies within r_c +
-  /// skin at the last build, by index, in its chunk c's buffer:
-  /// outer_lists_[c][outer_start_[i] - outer_start_[i0] ... outer_start_[i +
-  /// 1] - outer_start_[i0]), i0 the chunk's first site (not joined into one
-  /// array: only the pruning reads them, chunk by chunk); neighbours_ and
-  /// list_start_ are their pruned form.
-  mutable std::vector<std::size_t> outer_start_;
-  mutable std::vector<std::vector<SiteIndex>> outer_lists_;
+  /// skin at the last build, by index, coded (detail::encode_partners) in its chunk
+  /// c's buffer: outer_lists_[c][outer_end_[i - 1] ... outer_end_[i]) (from
+  /// 0 for the chunk's first site; not joined into one array: only the
+  /// pruning reads them, chunk by chunk); chunk_entries_[c]: the chunk's
+  /// first entry's place in the lists, as many entries before it (the pruned
+  /// lists' room). neighbours_ and list_start_ are their pruned form.
+  mutable std::vector<std::uint32_t> outer_end_;
+  mutable std::vector<std::vector<std::uint8_t>> outer_lists_;
+  mutable std::vector<std::size_t> chunk_entries_;
   mutable std::int64_t builds_ = 0, prunes_ = 0;
   mutable bool lists_ready_ = false;  ///< the lists are whole (a build and its pruning completed)
   /// moved_: how far a body's sites moved.
