@@ -390,9 +390,11 @@ class PairInteraction {
       const std::size_t begin = range_bounds_[t], end = range_bounds_[t + 1];
       const std::size_t site_end = sites().begin(end);  // (begin(N) is the number of sites)
       // Each site's sum starts with its crossing pairs' terms, by increasing partner.
+      const bool incoming = !incoming_start_.empty();
       for (std::size_t j = sites().begin(begin); j < site_end; ++j) {
         double fx = 0.0, fy = 0.0, fz = 0.0;
-        for (std::size_t l = incoming_start_[j]; l < incoming_start_[j + 1]; ++l) {
+        const std::size_t l0 = incoming ? incoming_start_[j] : 0, l1 = incoming ? incoming_start_[j + 1] : 0;
+        for (std::size_t l = l0; l < l1; ++l) {
           const std::size_t k = incoming_pair_[l];
           fx -= crossing_fx_[k];
           fy -= crossing_fy_[k];
@@ -562,9 +564,8 @@ class PairInteraction {
       return index < crossing_batches_.size() ? crossing_first_[crossing_batches_[index].first] : crossing_pairs;
     });
     // Each site's crossing pairs (i, j), j this site, by increasing i: a
-    // counting sort by j of the crossing bodies' pairs in list order.
-    incoming_start_.assign(m + 1, 0);
-    // (A site's list is sorted, so its crossing pairs are its list's tail.)
+    // counting sort by j of the crossing bodies' pairs in list order. (A
+    // site's list is sorted, so its crossing pairs are its list's tail.)
     auto for_each_crossing_pair = [&](auto&& visit) {
       for (const std::size_t a : crossing_bodies_) {
         std::size_t t = 0;
@@ -577,11 +578,21 @@ class PairInteraction {
         }
       }
     };
-    for_each_crossing_pair([&](std::size_t j, std::size_t) { ++incoming_start_[j + 1]; });
-    for (std::size_t i = 0; i < m; ++i) incoming_start_[i + 1] += incoming_start_[i];
-    fill_.assign(incoming_start_.begin(), incoming_start_.end() - 1);
-    incoming_pair_.resize(incoming_start_[m]);
-    for_each_crossing_pair([&](std::size_t j, std::size_t k) { incoming_pair_[fill_[j]++] = k; });
+    if (crossing_pairs == 0) {
+      // (One thread, or no pair across ranges: no offsets per site.)
+      incoming_start_ = {};
+      incoming_pair_ = {};
+    } else {
+      incoming_start_.assign(m + 1, 0);
+      for_each_crossing_pair([&](std::size_t j, std::size_t) { ++incoming_start_[j + 1]; });
+      for (std::size_t i = 0; i < m; ++i) incoming_start_[i + 1] += incoming_start_[i];
+      incoming_pair_.resize(incoming_start_[m]);
+      // Each pair placed at incoming_start_[j]++, which then holds site j's
+      // end, the next one's start: the starts are moved back up one place.
+      for_each_crossing_pair([&](std::size_t j, std::size_t k) { incoming_pair_[incoming_start_[j]++] = k; });
+      for (std::size_t j = m; j > 0; --j) incoming_start_[j] = incoming_start_[j - 1];
+      incoming_start_[0] = 0;
+    }
     work_ready_ = true;
   }
 
@@ -609,9 +620,9 @@ class PairInteraction {
   /// The crossing bodies in batches [first, end) of consecutive bodies.
   mutable std::vector<std::pair<std::size_t, std::size_t>> crossing_batches_;
   /// Site j's crossing pairs: incoming_pair_[incoming_start_[j] ...
-  /// incoming_start_[j + 1]) index the crossing arrays, by increasing lower site.
+  /// incoming_start_[j + 1]) index the crossing arrays, by increasing lower
+  /// site (both empty where no pair crosses).
   mutable std::vector<std::size_t> incoming_start_, incoming_pair_;
-  mutable std::vector<std::size_t> fill_;  ///< scratch of split_work's counting sort
   mutable bool work_ready_ = false;  ///< the ranges and crossing pairs are those of the current lists
 };
 
