@@ -140,6 +140,25 @@ TEST(System, RepeatedNamesAreNamedWithTheirFirstOwner) {
   EXPECT_EQ(lgvi::System(std::vector<RigidBody>(100000, b)).name(99999), "body99999");
 }
 
+// Names numbered in order are kept as runs (a prefix and a first number);
+// every name must come back as given, and be found, whatever mix of runs,
+// lone names, leading zeros, digits-only and over-long numbers it is.
+TEST(System, NamesKeptAsRunsComeBackAsGiven) {
+  const std::vector<std::string> names = {"molecule0", "molecule1", "molecule2", "probe",  "body4",   "body5",
+                                          "x09",       "x10",       "x11",       "7",      "8",       "molecule3",
+                                          "big1234567890123456789",   "big1234567890123456790", "m0", "m00", ""};
+  const RigidBody b(1.0, lgvi::Matrix3<double>::Identity());
+  const lgvi::System sys(std::vector<RigidBody>(names.size(), b), names);
+  ASSERT_EQ(sys.size(), names.size());
+  for (std::size_t a = 0; a < names.size(); ++a) {
+    EXPECT_EQ(sys.name(a), names[a]) << a;
+    EXPECT_EQ(sys.index_of(names[a]), a) << names[a];
+  }
+  // Not names: beyond a run's end, before its first number, a leading zero, another prefix.
+  for (const char* none : {"molecule4", "body3", "body6", "x12", "x8", "x011", "molecule", "6", "9", "bod4"})
+    EXPECT_EQ(sys.index_of(none), sys.size()) << none;
+}
+
 TEST(MutualInteractions, ForcesAndTorquesMatchFiniteDifferences) {
   const System sys = three_bodies();
   const SystemState s = three_body_state();

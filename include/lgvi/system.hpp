@@ -21,9 +21,11 @@
 #include <lgvi/s3.hpp>
 #include <lgvi/state.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <iterator>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -36,7 +38,9 @@ namespace lgvi {
 /// The bodies of a system: mass, inertia and interaction sites of each, and
 /// a unique name; and the box they move in (box.hpp: free space unless
 /// given). Bodies alike may share one RigidBody, their kind (LAMMPS's
-/// "types": a gas of 10^6 identical molecules stores one). Immutable after
+/// "types": a gas of 10^6 identical molecules stores one); names numbered
+/// in order (molecule0, molecule1, ...) are likewise kept as one prefix and
+/// a first number (NameRun), not a string per body. Immutable after
 /// construction, so that its copies share one storage: a copy (each
 /// interaction, stepper and run keeps one) costs a pointer, not the N bodies
 /// again.
@@ -51,9 +55,9 @@ class System {
   /// kinds[a]). Throws InvalidInput as above, or on a kind out of range.
   System(std::vector<RigidBody> kinds, std::vector<std::uint32_t> kind, std::vector<std::string> names,
          const Box& box = {}) {
-    auto data = std::make_shared<Data>(Data{std::move(kinds), std::move(kind), std::move(names), box});
+    auto data = std::make_shared<Data>(Data{std::move(kinds), std::move(kind), 0, {}, box});
     const std::size_t size = data->kind.empty() ? data->kinds.size() : data->kind.size();
-    std::vector<std::string>& n = data->names;
+    std::vector<std::string>& n = names;
     if (size == 0) throw InvalidInput("bodies: a system needs at least one body");
     for (const std::uint32_t k : data->kind)
       if (k >= data->kinds.size()) throw InvalidInput("bodies: a body's kind is out of range");
@@ -71,12 +75,14 @@ class System {
         throw InvalidInput("bodies[" + std::to_string(a) + "].name: \"" + n[a] + "\" is already the name of bodies[" +
                            std::to_string(at->second) + "]; names must be unique");
     }
+    data->size = size;
+    data->name_runs = name_runs(n);
     data_ = std::move(data);
   }
   /// The system of one body.
   explicit System(const RigidBody& body) : System(std::vector<RigidBody>{body}) {}
 
-  std::size_t size() const { return data().names.size(); }
+  std::size_t size() const { return data().size; }
   const RigidBody& body(std::size_t a) const {
     const Data& d = data();
     return d.kinds[d.kind.empty() ? a : d.kind[a]];
@@ -95,8 +101,30 @@ class System {
       if (b.has_wheels()) return true;
     return false;
   }
-  const std::string& name(std::size_t a) const { return data().names[a]; }
-  const std::vector<std::string>& names() const { return data().names; }
+  std::string name(std::size_t a) const {
+    const std::vector<NameRun>& runs = data().name_runs;
+    const NameRun& r = *std::prev(std::upper_bound(runs.begin(), runs.end(), a,
+                                                   [](std::size_t b, const NameRun& run) { return b < run.first; }));
+    return r.numbered ? r.prefix + std::to_string(r.number + (a - r.first)) : r.prefix;
+  }
+  /// The index of the body named `name`, or size() if none is.
+  std::size_t index_of(const std::string& name) const {
+    const std::vector<NameRun>& runs = data().name_runs;
+    for (std::size_t k = 0; k < runs.size(); ++k) {
+      const NameRun& r = runs[k];
+      const std::size_t end = k + 1 < runs.size() ? runs[k + 1].first : size();
+      if (!r.numbered) {
+        if (name == r.prefix) return r.first;
+        continue;
+      }
+      std::size_t number = 0;
+      if (name.compare(0, r.prefix.size(), r.prefix) == 0 &&
+          numbered_suffix(std::string_view(name).substr(r.prefix.size()), number) && number >= r.number &&
+          number - r.number < end - r.first)
+        return r.first + (number - r.number);
+    }
+    return size();
+  }
   const Box& box() const { return data().box; }
   double total_mass() const {
     double m = 0.0;
@@ -105,12 +133,48 @@ class System {
   }
 
  private:
+  /// The names of bodies [first, the next run's first): prefix + (number +
+  /// a - first) for body a if numbered, else prefix (one body).
+  struct NameRun {
+    std::size_t first = 0, number = 0;
+    bool numbered = false;
+    std::string prefix;
+  };
   struct Data {
     std::vector<RigidBody> kinds;
     std::vector<std::uint32_t> kind;  ///< per body (empty: one kind per body)
-    std::vector<std::string> names;
+    std::size_t size = 0;
+    std::vector<NameRun> name_runs;  ///< by first body
     Box box;
   };
+  /// Whether `digits` is a number as std::to_string writes it (1 to 18
+  /// decimal digits, no leading zero but in "0"), and which.
+  static bool numbered_suffix(std::string_view digits, std::size_t& number) {
+    if (digits.empty() || digits.size() > 18 || (digits.size() > 1 && digits[0] == '0')) return false;
+    number = 0;
+    for (const char c : digits) {
+      if (c < '0' || c > '9') return false;
+      number = 10 * number + static_cast<std::size_t>(c - '0');
+    }
+    return true;
+  }
+  /// The runs of `names`: consecutive names that are one prefix and
+  /// consecutive numbers make one run.
+  static std::vector<NameRun> name_runs(const std::vector<std::string>& names) {
+    std::vector<NameRun> runs;
+    for (std::size_t a = 0; a < names.size(); ++a) {
+      const std::string& n = names[a];
+      std::size_t digits = n.size();
+      while (digits > 0 && n[digits - 1] >= '0' && n[digits - 1] <= '9') --digits;
+      std::size_t number = 0;
+      const bool numbered = numbered_suffix(std::string_view(n).substr(digits), number);
+      if (numbered && !runs.empty() && runs.back().numbered && runs.back().number + (a - runs.back().first) == number &&
+          n.compare(0, digits, runs.back().prefix) == 0 && runs.back().prefix.size() == digits)
+        continue;
+      runs.push_back(numbered ? NameRun{a, number, true, n.substr(0, digits)} : NameRun{a, 0, false, n});
+    }
+    return runs;
+  }
   /// A default System (no bodies) reads as this.
   static const Data& empty() {
     static const Data none{};

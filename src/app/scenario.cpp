@@ -912,17 +912,17 @@ std::size_t forcing_body(const Reader& r, const toml::table& t, const std::strin
   if (!b) return ForcingSet::all_bodies;
   if (!b->is_string()) r.fail(prefix + ".body", "must be a body's name (a string)");
   const std::string name = b->value<std::string>().value();
-  const auto& names = system.names();
-  const auto it = std::find(names.begin(), names.end(), name);
-  if (it == names.end())
+  const std::size_t index = system.index_of(name);
+  if (index == system.size())
     r.fail(prefix + ".body", "no body is named \"" + printable(name) + "\"" +
-                                 (names.size() <= 8 ? "; the bodies are " + [&] {
+                                 (system.size() <= 8 ? "; the bodies are " + [&] {
                                    std::string l;
-                                   for (const std::string& n : names) l += (l.empty() ? "\"" : ", \"") + n + "\"";
+                                   for (std::size_t a = 0; a < system.size(); ++a)
+                                     l += (l.empty() ? "\"" : ", \"") + system.name(a) + "\"";
                                    return l;
                                  }()
-                                                    : std::string()));
-  return static_cast<std::size_t>(it - names.begin());
+                                                     : std::string()));
+  return index;
 }
 
 /// A [[forcing]] kind = "wheel-torque" table: a motor torque on one wheel (`wheel`, its name or index) of the

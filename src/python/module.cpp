@@ -269,10 +269,8 @@ Scenario with_python_forcing(const Scenario& sc, py::object forcing) {
   std::size_t body = lgvi::ForcingSet::all_bodies;
   if (!spec[1].is_none()) {
     const std::string name = spec[1].cast<std::string>();
-    const auto& names = sc.system.names();
-    const auto it = std::find(names.begin(), names.end(), name);
-    if (it == names.end()) throw py::value_error("forcing: body: no body is named \"" + name + "\"");
-    body = static_cast<std::size_t>(it - names.begin());
+    body = sc.system.index_of(name);
+    if (body == sc.system.size()) throw py::value_error("forcing: body: no body is named \"" + name + "\"");
   }
   Scenario out = sc;
   auto call = [f](double t, std::size_t, const RigidBodyState& s) {
