@@ -134,7 +134,9 @@ class System {
 
  private:
   /// The names of bodies [first, the next run's first): prefix + (number +
-  /// a - first) for body a if numbered, else prefix (one body).
+  /// a - first) for body a if numbered, else prefix (one body). (A name in
+  /// no run takes 56 B, a string alone 32: the runs pay off for generated
+  /// names, a block's, the defaults, an import's consecutive mol<ID>s.)
   struct NameRun {
     std::size_t first = 0, number = 0;
     bool numbered = false;

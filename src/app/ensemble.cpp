@@ -387,8 +387,10 @@ std::string read_text(const fs::path& path, const std::string& what) {
 std::vector<std::string> state_columns(const Scenario& sc) {
   static const char* names[] = {"x", "y", "z", "qw", "qx", "qy", "qz", "px", "py", "pz", "wx", "wy", "wz"};
   std::vector<std::string> cols;
-  for (std::size_t a = 0; a < sc.bodies(); ++a)
-    for (const char* n : names) cols.push_back(sc.bodies_format ? sc.system.name(a) + "." + n : std::string(n));
+  for (std::size_t a = 0; a < sc.bodies(); ++a) {
+    const std::string body = sc.bodies_format ? sc.system.name(a) + "." : std::string();
+    for (const char* n : names) cols.push_back(body + n);
+  }
   return cols;
 }
 

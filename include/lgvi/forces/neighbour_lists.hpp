@@ -101,7 +101,9 @@ inline std::size_t decode_partners(std::size_t i, const std::uint8_t* in, const 
 class NeighbourLists {
  public:
   /// A site's index in the lists (4 bytes: the lists are most of a pair
-  /// interaction's memory); at most max_sites sites.
+  /// interaction's memory); at most max_sites sites. (The outer lists of
+  /// the bodies of one chunk, 1/64 of them, are also limited to 4 GiB,
+  /// about 3·10^9 entries: checked at each build.)
   using SiteIndex = std::uint32_t;
   static constexpr std::size_t max_sites = 0x7fffffff;
 
@@ -520,8 +522,8 @@ class NeighbourLists {
             std::uint8_t* const end = detail::encode_partners(i, found.data(), count, out.data() + used);
             used = static_cast<std::size_t>(end - out.data());
             if (used > std::numeric_limits<std::uint32_t>::max())
-              throw StepFailure("the neighbour lists of 1/" + std::to_string(chunks) +
-                                    " of the interaction sites take more than 4 GiB",
+              throw StepFailure("the neighbour lists of bodies " + std::to_string(chunk * n / chunks) + " to " +
+                                    std::to_string((chunk + 1) * n / chunks - 1) + " take more than 4 GiB",
                                 "shorten the cutoff or skin, or split the system");
             outer_end_[i] = static_cast<std::uint32_t>(used);
             entries += count;
@@ -565,7 +567,8 @@ class NeighbourLists {
       // Site i's outer list: outer[outer_end_[i - 1] ... outer_end_[i]).
       const std::uint8_t* const outer = outer_lists_[chunk].data();
       SiteIndex* const list = neighbours_.data() + chunk_entries_[chunk];
-      thread_local std::vector<SiteIndex> partners;
+      thread_local std::vector<SiteIndex> partners_of_thread;
+      std::vector<SiteIndex>& partners = partners_of_thread;
       std::size_t count = 0, from = 0;
       for (std::size_t i = i0; i < i1; ++i) {
         const std::size_t to = outer_end_[i];
@@ -621,8 +624,8 @@ class NeighbourLists {
   mutable std::vector<double> cell_x_, cell_y_, cell_z_;  ///< the sites' positions in cell order
   mutable std::vector<SiteIndex> cell_body_;              ///< and their bodies
   /// The pruned lists: site i's partners neighbours_[list_start_[i] ...
-  /// list_start_[i + 1]) (the array as long as the outer lists, which it
-  /// holds while they are pruned).
+  /// list_start_[i + 1]) (the array has room for as many entries as the
+  /// outer lists have, as it holds each chunk's while they are pruned).
   mutable std::vector<SiteIndex> neighbours_;
   mutable std::vector<std::size_t> chunk_used_;  ///< per chunk: its list's entries in use
   /// Per site: where it was at the last build and at the last pruning.
