@@ -144,8 +144,10 @@ class InteractionSites {
       if (b.balls().empty()) {
         kind_rho_.emplace_back(Vector3<double>::Zero());
         kind_radius_.push_back(0.0);
+        kind_mass_.push_back(b.mass());
       } else {
         for (const Ball& ball : b.balls()) {
+          kind_mass_.push_back(ball.mass);
           kind_rho_.push_back(ball.position);
           kind_radius_.push_back(ball.radius);
         }
@@ -157,7 +159,6 @@ class InteractionSites {
       kind_[a] = static_cast<std::uint32_t>(sys.kind(a));
       sites += kind_first_[kind_[a] + 1] - kind_first_[kind_[a]];
     }
-    mass_.reserve(sites);
     type_.reserve(sites);
     body_.reserve(sites);
     offset_.reserve(sys.size() + 1);
@@ -165,21 +166,21 @@ class InteractionSites {
     for (std::size_t a = 0; a < sys.size(); ++a) {
       const RigidBody& b = sys.body(a);
       if (b.balls().empty()) {
-        add(a, b.mass(), 1);
+        add(a, 1);
       } else {
-        for (const Ball& ball : b.balls()) add(a, ball.mass, ball.type);
+        for (const Ball& ball : b.balls()) add(a, ball.type);
       }
-      offset_.push_back(mass_.size());
+      offset_.push_back(body_.size());
     }
   }
 
   std::size_t bodies() const { return offset_.empty() ? 0 : offset_.size() - 1; }
-  std::size_t size() const { return mass_.size(); }
+  std::size_t size() const { return body_.size(); }
   std::size_t begin(std::size_t a) const { return offset_[a]; }
   std::size_t end(std::size_t a) const { return offset_[a + 1]; }
   std::size_t body_of(std::size_t i) const { return body_[i]; }
   const Vector3<double>& rho(std::size_t i) const { return kind_rho_[kind_site(i)]; }
-  double mass(std::size_t i) const { return mass_[i]; }
+  double mass(std::size_t i) const { return kind_mass_[kind_site(i)]; }
   double radius(std::size_t i) const { return kind_radius_[kind_site(i)]; }
   /// The site's type, 0-based (Ball::type - 1; 0 for a body given by mass and inertia).
   std::uint32_t type(std::size_t i) const { return type_[i]; }
@@ -233,18 +234,16 @@ class InteractionSites {
     });
   }
 
-  void add(std::size_t body, double mass, int type) {
-    mass_.push_back(mass);
+  void add(std::size_t body, int type) {
     type_.push_back(static_cast<std::uint32_t>(type - 1));
     body_.push_back(static_cast<std::uint32_t>(body));
   }
-  /// Site i's index among its kind's sites (kind_rho_, kind_radius_).
+  /// Site i's index among its kind's sites (kind_rho_, kind_radius_, kind_mass_).
   std::size_t kind_site(std::size_t i) const { return kind_first_[kind_[body_[i]]] + local_index(i); }
   std::vector<Vector3<double>> kind_rho_;  ///< per kind k: its sites [kind_first_[k], kind_first_[k + 1])
-  std::vector<double> kind_radius_;
+  std::vector<double> kind_radius_, kind_mass_;
   std::vector<std::size_t> kind_first_;
   std::vector<std::uint32_t> kind_;  ///< per body
-  std::vector<double> mass_;
   std::vector<std::uint32_t> type_, body_;  ///< (a body's index in 4 bytes: PairInteraction's limit on sites bounds it)
   std::vector<std::size_t> offset_;
 };

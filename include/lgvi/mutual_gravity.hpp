@@ -52,6 +52,8 @@ class MutualGravityBalls {
       : sys_(sys), sites_(sys), G_(G), par_(par) {
     if (!(std::isfinite(G) && G > 0.0)) throw InvalidInput("interaction.G: must be a finite number > 0");
     detail::require_open_space(sys);
+    mass_.resize(sites_.size());
+    for (std::size_t i = 0; i < mass_.size(); ++i) mass_[i] = sites_.mass(i);
   }
 
   void add(const SystemState& s, SystemEvaluation& e) const {
@@ -63,14 +65,14 @@ class MutualGravityBalls {
       double energy = 0.0;
       for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
         const Vector3<double>& xi = position_[i];
-        const double mi = sites_.mass(i);
+        const double mi = mass_[i];
         for (std::size_t b = 0; b < n; ++b) {
           if (b == a) continue;
           for (std::size_t j = sites_.begin(b); j < sites_.end(b); ++j) {
             const Vector3<double> d = position_[j] - xi;
             const double r2 = d.squaredNorm();
             const double inv_r = 1.0 / std::sqrt(r2);
-            const double gmm_inv_r = G_ * (mi * sites_.mass(j)) * inv_r;
+            const double gmm_inv_r = G_ * (mi * mass_[j]) * inv_r;
             if (!std::isfinite(gmm_inv_r)) detail::close_approach(sys_, sites_, i, j, std::sqrt(r2));
             wrench.add(arm_[i], (gmm_inv_r * inv_r * inv_r) * d);  // towards site j
             if (b > a) energy -= gmm_inv_r;
@@ -91,6 +93,7 @@ class MutualGravityBalls {
   InteractionSites sites_;
   double G_;
   Parallelism par_;
+  std::vector<double> mass_;  ///< per site (the all-pairs loop reads it per pair; sites_ keeps it per kind)
   mutable std::vector<Vector3<double>> position_, arm_;
   mutable std::vector<double> energy_;
 };

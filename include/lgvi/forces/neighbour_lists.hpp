@@ -101,9 +101,10 @@ inline std::size_t decode_partners(std::size_t i, const std::uint8_t* in, const 
 class NeighbourLists {
  public:
   /// A site's index in the lists (4 bytes: the lists are most of a pair
-  /// interaction's memory); at most max_sites sites. (The outer lists of
-  /// the bodies of one chunk, 1/64 of them, are also limited to 4 GiB,
-  /// about 3·10^9 entries: checked at each build.)
+  /// interaction's memory); at most max_sites sites. (Checked at each
+  /// build: at most 2^32 - 1 list entries in all, 4-byte offsets, some 10^8
+  /// molecules of the benchmarks' gas; and 4 GiB of coded outer lists for
+  /// the bodies of one chunk, 1/64 of them.)
   using SiteIndex = std::uint32_t;
   static constexpr std::size_t max_sites = 0x7fffffff;
 
@@ -533,6 +534,10 @@ class NeighbourLists {
       chunk_entries_[chunk + 1] = entries;
     });
     for (std::size_t chunk = 0; chunk < chunks; ++chunk) chunk_entries_[chunk + 1] += chunk_entries_[chunk];
+    if (chunk_entries_[chunks] > std::numeric_limits<ListOffset>::max())
+      throw StepFailure("the neighbour lists hold " + std::to_string(chunk_entries_[chunks]) +
+                            " pairs, more than their 4-byte offsets can index (2^32 - 1)",
+                        "shorten the cutoff or skin, or split the system");
     if (skin_ > 0.0) {
       release(cell_start_, cell_fill_);
       release(cell_index_, sorted_, cell_body_);
@@ -577,7 +582,7 @@ class NeighbourLists {
         from = to;
         const std::size_t kept = within<Periodic>(position, position[i], partners.data(), built, reach2, list + count);
         count += kept;
-        list_start_[i + 1] = kept;  // summed below
+        list_start_[i + 1] = static_cast<ListOffset>(kept);  // summed below
       }
       chunk_used_[chunk] = count;
     });
@@ -615,7 +620,9 @@ class NeighbourLists {
   /// Lists are built per body for bodies of up to this many sites (molecules,
   /// rubble), site by site for larger ones (build_lists).
   static constexpr std::size_t group_sites = 16;
-  mutable std::vector<std::size_t> list_start_;
+  /// An offset into the lists (4 bytes: checked at each build).
+  using ListOffset = std::uint32_t;
+  mutable std::vector<ListOffset> list_start_;
   /// The cells (empty outside a build, with a skin): cell c's sites are sorted_[cell_start_[c]
   /// ... cell_start_[c + 1]) (site counts: at most max_sites, as the cells'
   /// numbers, fewer than 2 max_sites + 2).
