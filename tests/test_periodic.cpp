@@ -256,6 +256,44 @@ TEST(PeriodicPairs, TheMolecularVirialIsMinusTheEnergysDerivativeUnderScaling) {
   }
 }
 
+TEST(PeriodicPairs, ABodyCrossingAFaceBetweenPruningsGivesTheBitsOfFreshLists) {
+  // The lists place each body's sites about its centre of mass wrapped into
+  // the box, so a body whose centre crosses a face while the lists are kept
+  // is placed a period away from its partners: their plain separations are
+  // then beyond half a period, and only their minimum images are right (the
+  // pair pass gathers those bodies' separations again, reduced). The
+  // forces depend on the state only: bit for bit those of an interaction
+  // whose lists are built at the new state, on one thread and on two (where
+  // the pairs crossing into the other thread's range are computed apart).
+  const Box box(V3::Zero(), V3::Constant(11.0), {true, true, true});
+  const System sys = triangles(125, box);
+  SystemState s = gas(125, 2.2, box, 0.0);
+  for (V3& x : s.x) x(0) += 1.1 - 1e-3;  // a layer of 25 bodies 1e-3 below the x face (body 4: x = 10.999)
+  SystemState crossed = s;
+  for (std::size_t a = 4; a < s.size(); a += 5) crossed.x[a](0) += 2e-3;  // that layer, across the face
+  SystemEvaluation fresh(s.size());
+  const LennardJones built_there(sys, 1.0, 1.0, 2.5);
+  built_there.add(crossed, fresh);
+  ASSERT_GT(fresh.force[4].norm(), 1e-3);  // the bodies across the face do interact
+  for (const int threads : {1, 2}) {
+    const LennardJones lj(sys, 1.0, 1.0, 2.5, Parallelism{threads});
+    SystemEvaluation before(s.size()), kept(s.size());
+    lj.add(s, before);
+    const std::int64_t builds = lj.list_builds(), prunes = lj.list_prunes();
+    lj.add(crossed, kept);
+    EXPECT_EQ(lj.list_builds(), builds);  // moved 2e-3, less than delta / 2 = 0.05: the lists kept as they were
+    EXPECT_EQ(lj.list_prunes(), prunes);
+    for (std::size_t a = 0; a < s.size(); ++a) {
+      EXPECT_EQ(kept.force[a], fresh.force[a]) << a << ", " << threads << " threads";
+      EXPECT_EQ(kept.torque[a], fresh.torque[a]) << a << ", " << threads << " threads";
+    }
+    EXPECT_EQ(kept.energy, fresh.energy) << threads << " threads";
+    EXPECT_EQ(lj.virial(crossed), built_there.virial(crossed)) << threads << " threads";
+  }
+  const LennardJones lj(sys, 1.0, 1.0, 2.5);
+  expect_direct_sum(sys, lj, crossed, "crossed");
+}
+
 TEST(PeriodicPairs, AFewCellsPerAxisAndABoxJustOverTwiceTheReach) {
   // reach = 2.5 + 0.3 = 2.8 and L = 5.7: the least box allowed (+0.1), with
   // 8 molecules (a budget of 2 cells per axis: the windows wrap onto every

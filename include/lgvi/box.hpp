@@ -11,6 +11,9 @@
 // interaction's reach (cutoff + skin) below half the shortest periodic
 // length, a pair has at most one image within reach, so that the lists and
 // the sums see each pair once (checked where the box meets an interaction).
+// The pair interactions place each body's sites about its centre of mass
+// wrapped into the box (InteractionSites::place_wrapped), a function of the
+// state alone, so that only the pairs that straddle a face need reducing.
 //
 // Along a non-periodic axis space is open: bodies move freely beyond lower and
 // upper, and no separation is reduced (lower and upper only bound the box that
@@ -101,7 +104,10 @@ class Box {
     return r;
   }
   /// One component of minimum_image.
-  double reduce(double d, int k) const { return d - length_(k) * nearest_integer(d * inverse_length_(k)); }
+  double reduce(double d, int k) const { return d - length_(k) * image(d, k); }
+  /// round(d_k / L_k) (as reduce computes it: reduce(d, k) = d - L_k
+  /// image(d, k)); +-0 along an open axis.
+  double image(double d, int k) const { return nearest_integer(d * inverse_length_(k)); }
 
   /// std::nearbyint(x) in the default rounding mode (to nearest, ties to
   /// even), sign of zero included, without a call into libm on the pair

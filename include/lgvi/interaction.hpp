@@ -197,11 +197,13 @@ class InteractionSites {
     arm.resize(size());
     place(s, par, position, arm.data(), after);
   }
-  /// The same without the arms (which arm() gives again, bit for bit).
+  /// The same without the arms (which arm() gives again, bit for bit), each
+  /// body's sites placed about its centre of mass wrapped into `box`
+  /// (Box::wrap: X_i = wrapped x_a + R_a rho_i, an image of the site).
   template <class AfterBody = void (*)(std::size_t)>
-  void place_positions(const SystemState& s, const Parallelism& par, std::vector<Vector3<double>>& position,
-                       AfterBody&& after = [](std::size_t) {}) const {
-    place(s, par, position, nullptr, after);
+  void place_wrapped(const SystemState& s, const Parallelism& par, const Box& box,
+                     std::vector<Vector3<double>>& position, AfterBody&& after = [](std::size_t) {}) const {
+    place(s, par, position, nullptr, after, &box);
   }
   /// Site i's arm R_a rho_i for its body's attitude matrix R_a =
   /// s.q[a].matrix(), the same bits as place()'s.
@@ -212,7 +214,7 @@ class InteractionSites {
  private:
   template <class AfterBody>
   void place(const SystemState& s, const Parallelism& par, std::vector<Vector3<double>>& position,
-             Vector3<double>* const arms, AfterBody&& after) const {
+             Vector3<double>* const arms, AfterBody&& after, const Box* box = nullptr) const {
     position.resize(size());
     // (Through local pointers: `after` may store chars, which could alias
     // anything, and the vectors' data would be reloaded for every site.)
@@ -223,7 +225,7 @@ class InteractionSites {
     Vector3<double>* const positions = position.data();
     parallel_for(bodies(), par, [&](std::size_t a) {
       const Matrix3<double> r = s.q[a].matrix();
-      const Vector3<double> x = s.x[a];
+      const Vector3<double> x = box != nullptr && box->any_periodic() ? box->wrap(s.x[a]).x : s.x[a];
       const Vector3<double>* const rho_a = rho + kind_first[kind[a]];  // the kind's sites
       for (std::size_t i = offset[a]; i < offset[a + 1]; ++i) {
         const Vector3<double> arm_i = r * rho_a[i - offset[a]];

@@ -29,7 +29,15 @@
 //
 // In a periodic box the separations are minimum images (box.hpp), and the
 // reach must be below half the shortest periodic length (checked), so that a
-// pair has one image within reach.
+// pair has one image within reach. The sites are placed about their bodies'
+// centres of mass wrapped into the box, so that a pair's plain separation
+// is its minimum image unless it straddles a face: a separation of which
+// each component is within plain_bound() (just below half a period) is taken
+// as it is, the reduction paid only beyond. Each pruned entry says whether
+// its pair was across a period at the pruning (across()), so that a user can
+// take the plain separations of a site none of whose pairs were, checking
+// them against plain_bound() (a body that has crossed a face since is
+// placed a period away from its partners).
 #pragma once
 
 #include <lgvi/box.hpp>
@@ -107,6 +115,11 @@ class NeighbourLists {
   /// the bodies of one chunk, 1/64 of them.)
   using SiteIndex = std::uint32_t;
   static constexpr std::size_t max_sites = 0x7fffffff;
+  /// A pruned list entry: its partner's SiteIndex, and in the bit above
+  /// the highest (max_sites + 1) whether the pair was across a period at the
+  /// pruning (across()).
+  using Entry = std::uint32_t;
+  static constexpr Entry across_bit = 0x80000000u;
 
   /// What update() did to the lists.
   enum class Change { none, pruned, built };
@@ -118,6 +131,9 @@ class NeighbourLists {
   NeighbourLists(const System& sys, double cutoff, double skin, Parallelism par, const std::string& owner)
       : sites_(sys), cutoff_(cutoff), skin_(skin), prune_margin_(prune_fraction * skin_), par_(par),
         box_(sys.box()) {
+    for (int k = 0; k < 3; ++k)
+      plain_bound_(k) = box_.periodic(k) ? 0.5 * box_.periodic_length()(k) * (1.0 - 0x1p-20)
+                                         : std::numeric_limits<double>::infinity();
     if (sites_.size() > max_sites)
       throw InvalidInput(owner + ": " + std::to_string(sites_.size()) +
                          " interaction sites; the neighbour lists index at most " + std::to_string(max_sites) +
@@ -138,8 +154,9 @@ class NeighbourLists {
   Change update(const SystemState& s) const {
     const std::size_t n = s.size();
     // The sites, and how far each body's moved, per body on the thread that
-    // placed it. (The plain distance first: a run's state is not wrapped, so
-    // the minimum image is looked at only for a site that seems to have moved.)
+    // placed it. (The plain distance first; the minimum image only for a site
+    // that seems to have moved: a body whose centre crossed a face is placed
+    // a period away, which is no move.)
     const bool have_lists = lists_ready_ && places_.size() == sites_.size();
     // Squared: skin/2 and delta/2, less the rounding of the stored places.
     auto squared_less_slack = [&](double half) {
@@ -153,7 +170,7 @@ class NeighbourLists {
       return d.squaredNorm() <= bound || (periodic && box_.minimum_image(d).squaredNorm() <= bound);
     };
     moved_.resize(n);
-    sites_.place_positions(s, par_, position_, [&](std::size_t a) {
+    sites_.place_wrapped(s, par_, box_, position_, [&](std::size_t a) {
       char moved = have_lists ? no_move : beyond_skin;
       for (std::size_t i = sites_.begin(a); i < sites_.end(a) && moved != beyond_skin; ++i) {
         if (!within_limit(places_.from_built(i, position_[i]), limit)) moved = beyond_skin;
@@ -178,7 +195,9 @@ class NeighbourLists {
   double cutoff() const { return cutoff_; }
   double skin() const { return skin_; }
   /// Site i's inertial position X_i = x_a + R_a rho_i at the last update
-  /// (its arm R_a rho_i: sites().arm()).
+  /// (its arm R_a rho_i: sites().arm()); in a periodic box its image about
+  /// its body's centre of mass wrapped into the box (place_wrapped), which
+  /// depends on the state only.
   const Vector3<double>& position(std::size_t i) const { return position_[i]; }
   /// Site i's list entries are [list_begin(i), list_end(i)); the entries of
   /// consecutive sites are consecutive (list_begin(i + 1) = list_end(i);
@@ -186,15 +205,21 @@ class NeighbourLists {
   std::size_t list_begin(std::size_t i) const { return list_start_[i]; }
   std::size_t list_end(std::size_t i) const { return list_start_[i + 1]; }
   /// Entry k's partner site.
-  SiteIndex partner(std::size_t k) const { return neighbours_[k]; }
-
-  /// A separation's component along axis k: its minimum image in a periodic
-  /// box (the identity along an open axis), as it is.
-  template <bool Periodic>
-  double separation(double d, int k) const {
-    if constexpr (Periodic) return box_.reduce(d, k);
-    else return d;
-  }
+  SiteIndex partner(std::size_t k) const { return partner_of(neighbours_[k]); }
+  /// Entry k as stored: partner_of() and across() take it apart.
+  Entry entry(std::size_t k) const { return neighbours_[k]; }
+  static SiteIndex partner_of(Entry e) { return e & ~across_bit; }
+  /// Whether the entry's pair was across a period at the last pruning: its
+  /// minimum image X_j - X_i - L n with some n_k != 0 (box.hpp). A separation d
+  /// whose every component is within plain_bound() is its own minimum
+  /// image, d + 0.0 to the bit (the reduction turns -0 into +0); beyond
+  /// (across a period, or a body that has crossed a face since the
+  /// pruning), only Box::reduce gives it.
+  static bool across(Entry e) { return (e & across_bit) != 0; }
+  /// Per axis, a bound on |d_k| within which the minimum image of d_k is d_k
+  /// itself: just below L_k / 2 along a periodic axis (so that d_k / L_k,
+  /// rounded, is below 1/2 however it rounds), infinity along an open one.
+  const Vector3<double>& plain_bound() const { return plain_bound_; }
 
   /// How many times the lists were built, and pruned (every build prunes
   /// too), for tests and benchmarks.
@@ -277,23 +302,38 @@ class NeighbourLists {
   };
 
   /// The candidates[0, n) within r^2 < reach2 of position x, in their order,
-  /// into list (which has room for n); returns how many. Branch-free: each
-  /// candidate is written, and kept by advancing the count (the lists'
-  /// build and pruning both filter so).
-  template <bool Periodic>
+  /// into list (which has room for n); returns how many. Each candidate is
+  /// written, and kept by advancing the count (the lists' build and
+  /// pruning both filter so). MarkAcross: each as an Entry, across_bit set if
+  /// its minimum image is another than its plain separation (else the
+  /// partner's SiteIndex alone).
+  template <bool Periodic, bool MarkAcross = false>
   std::size_t within(const Vector3<double>* position, const Vector3<double>& x, const SiteIndex* candidates,
-                     std::size_t n, double reach2, SiteIndex* list) const {
+                     std::size_t n, double reach2, Entry* list) const {
     const double xi = x(0), yi = x(1), zi = x(2);
     std::size_t count = 0;
     for (std::size_t k = 0; k < n; ++k) {
       const SiteIndex j = candidates[k];
-      const double dx = separation<Periodic>(position[j](0) - xi, 0),
-                   dy = separation<Periodic>(position[j](1) - yi, 1),
-                   dz = separation<Periodic>(position[j](2) - zi, 2);
-      list[count] = j;
+      double dx = position[j](0) - xi, dy = position[j](1) - yi, dz = position[j](2) - zi;
+      SiteIndex mark = 0;
+      if (Periodic && beyond_plain(dx, dy, dz)) {
+        // (Box::reduce's operations, the image kept)
+        const double nx = box_.image(dx, 0), ny = box_.image(dy, 1), nz = box_.image(dz, 2);
+        dx -= box_.periodic_length()(0) * nx;
+        dy -= box_.periodic_length()(1) * ny;
+        dz -= box_.periodic_length()(2) * nz;
+        if constexpr (MarkAcross) mark = (nx != 0.0) | (ny != 0.0) | (nz != 0.0) ? across_bit : 0;
+      }
+      list[count] = j | mark;
       count += static_cast<std::size_t>(dx * dx + dy * dy + dz * dz < reach2);
     }
     return count;
+  }
+  /// Whether a component of the plain separation d is beyond plain_bound()
+  /// (only then is its minimum image another: sites placed about wrapped
+  /// centres are mostly not, so the branch is rarely taken).
+  bool beyond_plain(double dx, double dy, double dz) const {
+    return (std::fabs(dx) > plain_bound_(0)) | (std::fabs(dy) > plain_bound_(1)) | (std::fabs(dz) > plain_bound_(2));
   }
 
   /// The cell of a site at x: along an open axis from the sites' bounding
@@ -487,11 +527,15 @@ class NeighbourLists {
                     if (near.size() < kept + (run_end - run_first)) near.resize(2 * (kept + (run_end - run_first)));
                     SiteIndex* const list = near.data();
                     // Every candidate written, the count advanced only for those kept:
-                    // no branch to mispredict on the distance test.
+                    // no branch to mispredict on the distance test (the minimum
+                    // image's is taken only across a period).
                     for (std::size_t k = run_first; k < run_end; ++k) {
-                      const double dx = separation<Periodic>(cell_x_[k] - cx, 0),
-                                   dy = separation<Periodic>(cell_y_[k] - cy, 1),
-                                   dz = separation<Periodic>(cell_z_[k] - cz, 2);
+                      double dx = cell_x_[k] - cx, dy = cell_y_[k] - cy, dz = cell_z_[k] - cz;
+                      if (Periodic && beyond_plain(dx, dy, dz)) {
+                        dx = box_.reduce(dx, 0);
+                        dy = box_.reduce(dy, 1);
+                        dz = box_.reduce(dz, 2);
+                      }
                       list[kept] = sorted_[k];
                       kept += static_cast<std::size_t>((dx * dx + dy * dy + dz * dz < around2) & (cell_body_[k] > a));
                     }
@@ -571,7 +615,7 @@ class NeighbourLists {
       const Vector3<double>* const position = position_.data();
       // Site i's outer list: outer[outer_end_[i - 1] ... outer_end_[i]).
       const std::uint8_t* const outer = outer_lists_[chunk].data();
-      SiteIndex* const list = neighbours_.data() + chunk_entries_[chunk];
+      Entry* const list = neighbours_.data() + chunk_entries_[chunk];
       thread_local std::vector<SiteIndex> partners_of_thread;
       std::vector<SiteIndex>& partners = partners_of_thread;
       std::size_t count = 0, from = 0;
@@ -580,7 +624,8 @@ class NeighbourLists {
         if (partners.size() < to - from) partners.resize(to - from);  // (at least a byte an entry)
         const std::size_t built = detail::decode_partners(i, outer + from, outer + to, partners.data());
         from = to;
-        const std::size_t kept = within<Periodic>(position, position[i], partners.data(), built, reach2, list + count);
+        const std::size_t kept = within<Periodic, true>(position, position[i], partners.data(), built, reach2,
+                                                         list + count);
         count += kept;
         list_start_[i + 1] = static_cast<ListOffset>(kept);  // summed below
       }
@@ -601,6 +646,7 @@ class NeighbourLists {
   double cutoff_, skin_, prune_margin_;
   Parallelism par_;
   Box box_;  ///< the system's: separations are minimum images along its periodic axes
+  Vector3<double> plain_bound_;  ///< plain_bound()
   mutable std::vector<Vector3<double>> position_;
   mutable std::vector<char> moved_;  ///< per body: how far its sites moved (no_move ...)
   mutable Vector3<double> origin_ = Vector3<double>::Zero(), inv_cell_ = Vector3<double>::Ones();
@@ -630,10 +676,11 @@ class NeighbourLists {
   mutable std::vector<SiteIndex> cell_index_, sorted_;
   mutable std::vector<double> cell_x_, cell_y_, cell_z_;  ///< the sites' positions in cell order
   mutable std::vector<SiteIndex> cell_body_;              ///< and their bodies
-  /// The pruned lists: site i's partners neighbours_[list_start_[i] ...
-  /// list_start_[i + 1]) (the array has room for as many entries as the
-  /// outer lists have, as it holds each chunk's while they are pruned).
-  mutable std::vector<SiteIndex> neighbours_;
+  /// The pruned lists: site i's entries (partner and across_bit)
+  /// neighbours_[list_start_[i] ... list_start_[i + 1]) (the array has room
+  /// for as many entries as the outer lists have, as it holds each chunk's
+  /// while they are pruned).
+  mutable std::vector<Entry> neighbours_;
   mutable std::vector<std::size_t> chunk_used_;  ///< per chunk: its list's entries in use
   /// Per site: where it was at the last build and at the last pruning.
   mutable SitePlaces places_;

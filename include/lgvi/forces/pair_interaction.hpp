@@ -63,6 +63,7 @@
 #include <cmath>
 #include <concepts>
 #include <cstdint>
+#include <limits>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -266,20 +267,67 @@ class PairInteraction {
   /// TypedPairKernel also each entry's pair of site types.
   template <class Buffers>
   std::size_t gather(std::size_t a, std::size_t b, Buffers& scratch) const {
-    return lists_.box().any_periodic() ? gather<true>(a, b, scratch) : gather<false>(a, b, scratch);
+    if (!lists_.box().any_periodic()) return gather<Separation::plain>(a, b, scratch);
+    const std::size_t count = gather<Separation::marked>(a, b, scratch);
+    return count != not_plain ? count : gather<Separation::reduced>(a, b, scratch);
   }
-  template <bool Periodic, class Buffers>
+  /// How gather<How>() takes a site's separations: `plain`, as they are (an
+  /// open box); `reduced`, their minimum images (Box::reduce); `unmarked`,
+  /// as they are + 0.0, which is their minimum images' bits where each
+  /// component is within NeighbourLists::plain_bound(); `marked`, per site:
+  /// reduced if one of its entries is marked across a period
+  /// (NeighbourLists::across), else unmarked. So a periodic box pays for
+  /// the reduction only at sites with a pair across a period. gather<marked>
+  /// returns not_plain if an unmarked separation is beyond the bound (a
+  /// body whose centre has crossed a face since the pruning is placed a
+  /// period away from its partners), and the bodies are then gathered
+  /// again, reduced.
+  enum class Separation { plain, reduced, unmarked, marked };
+  static constexpr std::size_t not_plain = std::numeric_limits<std::size_t>::max();
+  template <Separation How, class Buffers>
   std::size_t gather(std::size_t a, std::size_t b, Buffers& scratch) const {
     const std::size_t first = lists_.list_begin(sites().begin(a)),
                       count = lists_.list_begin(sites().end(b - 1)) - first;
     scratch.resize(count);
+    const Box& box = lists_.box();
+    // The largest plain |d_k| taken, per axis (compared with plain_bound() at the end).
+    double largest_x = 0.0, largest_y = 0.0, largest_z = 0.0;
+    // Site i's entries [k0, k1), taken as `how` says (plain, reduced or unmarked).
+    auto separations = [&](const Vector3<double>& xi, std::size_t k0, std::size_t k1, auto how) {
+      for (std::size_t k = k0; k < k1; ++k) {
+        const NeighbourLists::Entry e = lists_.entry(k);
+        const Vector3<double>& xj = lists_.position(NeighbourLists::partner_of(e));
+        double dx = xj(0) - xi(0), dy = xj(1) - xi(1), dz = xj(2) - xi(2);
+        if (how == Separation::reduced) {
+          dx = box.reduce(dx, 0);
+          dy = box.reduce(dy, 1);
+          dz = box.reduce(dz, 2);
+        } else if (how != Separation::plain) {
+          largest_x = std::max(largest_x, std::fabs(dx));
+          largest_y = std::max(largest_y, std::fabs(dy));
+          largest_z = std::max(largest_z, std::fabs(dz));
+          dx += 0.0;
+          dy += 0.0;
+          dz += 0.0;
+        }
+        scratch.dx[k - first] = dx;
+        scratch.dy[k - first] = dy;
+        scratch.dz[k - first] = dz;
+      }
+    };
     for (std::size_t i = sites().begin(a); i < sites().end(b - 1); ++i) {
       const Vector3<double> xi = lists_.position(i);
-      for (std::size_t k = lists_.list_begin(i); k < lists_.list_end(i); ++k) {
-        const Vector3<double>& xj = lists_.position(lists_.partner(k));
-        scratch.dx[k - first] = lists_.separation<Periodic>(xj(0) - xi(0), 0);
-        scratch.dy[k - first] = lists_.separation<Periodic>(xj(1) - xi(1), 1);
-        scratch.dz[k - first] = lists_.separation<Periodic>(xj(2) - xi(2), 2);
+      const std::size_t k0 = lists_.list_begin(i), k1 = lists_.list_end(i);
+      if constexpr (How == Separation::marked) {
+        // (Per site, not per entry: the loop over a site's entries has no branch.)
+        NeighbourLists::Entry any = 0;
+        for (std::size_t k = k0; k < k1; ++k) any |= lists_.entry(k);
+        if (NeighbourLists::across(any))
+          separations(xi, k0, k1, std::integral_constant<Separation, Separation::reduced>{});
+        else
+          separations(xi, k0, k1, std::integral_constant<Separation, Separation::unmarked>{});
+      } else {
+        separations(xi, k0, k1, std::integral_constant<Separation, How>{});
       }
       if constexpr (TypedPairKernel<Kernel>) {
         const std::uint32_t row = kernel_.types() * sites().type(i);
@@ -287,9 +335,9 @@ class PairInteraction {
           scratch.pair[k - first] = row + sites().type(lists_.partner(k));
       }
     }
-    return count;
+    const Vector3<double>& bound = lists_.plain_bound();
+    return largest_x > bound(0) || largest_y > bound(1) || largest_z > bound(2) ? not_plain : count;
   }
-
 
   /// The pair terms of bodies [a, b): the separations gathered into the
   /// scratch, the forces on their sites into fx, fy, fz and the pairs'
