@@ -142,6 +142,9 @@ DESCRIPTIONS = {
     # [output]
     "output.every": "integer >= 1: write every n-th step, plus the first and last (default 1)",
     "output.format": "one of the formats below (default \"csv\")",
+    "output.body_lists": "[[bodies]]: \"summary\" | \"file\": each body's set-up and final state in summary.json "
+                         "(setup.bodies, final_bodies) or one body a line in bodies.jsonl beside it (default: the "
+                         "summary up to 10 000 bodies, the file beyond)",
     # [run]
     "run.threads": "integer: threads of a many-body run (default all cores; --threads overrides)",
     "run.on_contact": "\"stop\" (default) | \"warn\" | \"ignore\": when two bodies overlap",
@@ -453,6 +456,8 @@ def outputs(core, binary):
         "an adaptive step (`scenarios/paper-close-pass.toml`)": ("run", ROOT / "scenarios" / "paper-close-pass.toml"),
         "a periodic molecular gas (`tests/cli/good/periodic-gas.toml`)":
             ("run", ROOT / "tests" / "cli" / "good" / "periodic-gas.toml"),
+        "the same with its lists of bodies in a file (`[output] body_lists = \"file\"`, the default beyond 10 000 "
+        "bodies)": ("run", ROOT / "tests" / "cli" / "good" / "periodic-gas.toml"),
         "a body with reaction wheels (`scenarios/slew-wheels.toml`)": ("run", ROOT / "scenarios" / "slew-wheels.toml"),
     }
     out += ["## `summary.json` keys", "",
@@ -463,6 +468,8 @@ def outputs(core, binary):
         for i, (what, (cmd, scenario)) in enumerate(runs.items()):
             text = scenario.read_text(encoding="utf-8")
             text = re.sub(r"(?m)^duration\s*=.*$", "duration = 0.0", text)
+            if "body_lists" in what:  # (this scenario has an [output] table)
+                text = text.replace("[output]\n", '[output]\nbody_lists = "file"\n', 1)
             short = tmp / f"s{i}_{scenario.name}"
             short.write_text(text)
             # a table of forcing given as a file is resolved relative to the scenario: keep them beside it
@@ -473,6 +480,10 @@ def outputs(core, binary):
             summary = json.loads((folder / "summary.json").read_text())
             keys = _json_keys(summary)
             out += [f"### {what}", "", ", ".join(f"`{k}`" for k in keys), ""]
+            if (folder / "bodies.jsonl").exists():
+                line = json.loads((folder / "bodies.jsonl").read_text().splitlines()[0])
+                out += ["The keys of a line of `bodies.jsonl` (one body a line, in scenario order): "
+                        + ", ".join(f"`{k}`" for k in _json_keys(line)) + ".", ""]
             if i == 0:
                 run_files = sorted(p.name for p in folder.iterdir())
         # An ensemble of two members of the shortened paper orbit, random attitudes.

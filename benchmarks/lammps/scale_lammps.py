@@ -73,7 +73,12 @@ def data_file(lgvi, work, n, box):
                    check=True)
     rows = np.loadtxt(work / "initial" / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
     with open(work / "initial" / "summary.json") as f:
-        body = json.load(f)["setup"]["bodies"][0]
+        summary = json.load(f)
+    if "body_lists" in summary:  # beyond 10 000 bodies: their lists a body a line in a file beside it
+        with open(work / "initial" / summary["body_lists"]["file"]) as f:
+            body = json.loads(f.readline())
+    else:
+        body = summary["setup"]["bodies"][0]
     rho = np.array([b["position"] for b in body["balls"]])
     inertia, mass = np.array(body["inertia"]), body["mass"]
     x, q, p, w = rows[:, 2:5], rows[:, 5:9], rows[:, 9:12], rows[:, 12:15]

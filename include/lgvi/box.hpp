@@ -70,6 +70,7 @@ class Box {
       if (periodic[static_cast<std::size_t>(k)]) {
         length_(k) = length;
         inverse_length_(k) = 1.0 / length;
+        plain_bound_(k) = 0.5 * length * (1.0 - 0x1p-20);
       }
     }
     any_periodic_ = periodic[0] || periodic[1] || periodic[2];
@@ -105,6 +106,16 @@ class Box {
   }
   /// One component of minimum_image.
   double reduce(double d, int k) const { return d - length_(k) * image(d, k); }
+  /// Per axis, a bound on |d_k| within which d_k is its own minimum image:
+  /// reduce(d_k, k) is d_k + 0.0 to the bit (the reduction turns -0 into +0).
+  /// Just below L_k / 2 along a periodic axis, so that d_k / L_k, rounded, is
+  /// below 1/2 however it rounds; infinity along an open one.
+  const Vector3<double>& plain_bound() const { return plain_bound_; }
+  /// Whether a component of d is beyond plain_bound(): only then is its
+  /// minimum image another than d + 0.0, and reduce() needed.
+  bool beyond_plain(double dx, double dy, double dz) const {
+    return (std::fabs(dx) > plain_bound_(0)) | (std::fabs(dy) > plain_bound_(1)) | (std::fabs(dz) > plain_bound_(2));
+  }
   /// round(d_k / L_k) (as reduce computes it: reduce(d, k) = d - L_k
   /// image(d, k)); +-0 along an open axis.
   double image(double d, int k) const { return nearest_integer(d * inverse_length_(k)); }
@@ -168,6 +179,7 @@ class Box {
   std::array<bool, 3> periodic_{false, false, false};
   bool any_periodic_ = false;
   Vector3<double> length_ = Vector3<double>::Zero(), inverse_length_ = Vector3<double>::Zero();
+  Vector3<double> plain_bound_ = Vector3<double>::Constant(std::numeric_limits<double>::infinity());
 };
 
 }  // namespace lgvi

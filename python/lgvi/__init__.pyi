@@ -385,6 +385,10 @@ def load(path: PathLike) -> Union[Result, SystemResult]:
 
 def load_run(run_dir: PathLike) -> Tuple[Dict[str, npt.NDArray[np.float64]], Dict[str, Any]]: ...
 
+def load_bodies(run_dir: PathLike) -> List[Dict[str, Any]]:
+    """A many-body run folder's bodies: set-up and final state, from summary.json or the file it names."""
+    ...
+
 
 class EnsembleResult:
     """The members table of an ensemble: members.csv's text, header and columns."""

@@ -996,8 +996,14 @@ def simulate(scenario, potential=None, *, forcing=None, control=None, check=True
     summary = json.loads(summary_text)
     if core_pot is not None:
         summary["setup"]["potential"] = {"kind": "python", "function": repr(potential)}
-    many = "bodies" in summary.get("setup", {})  # a [[bodies]] scenario: the long format
-    result = SystemResult(data, summary, sc.toml) if many else Result(data, summary, sc.toml)
+    # A [[bodies]] scenario (the long format): its lists of bodies in the summary, or (beyond 10 000 bodies, or
+    # [output] body_lists = "file") in a file the CLI writes beside it; this run writes none (the final
+    # state is the arrays' last row, the names come from the scenario).
+    many = "bodies" in summary.get("setup", {}) or "body_lists" in summary
+    if "body_lists" in summary:
+        summary["body_lists"]["file"] = None
+    result = SystemResult(data, summary, sc.toml, names=sc._core.body_names if "body_lists" in summary else None) \
+        if many else Result(data, summary, sc.toml)
     # The side tables (the CLI's sensors.csv and wheels.csv): column name -> array.
     side = {file: {n: rows[:, j].copy() for j, n in enumerate(columns)} for file, (columns, rows) in tables.items()}
     result._sensors = side.get("sensors.csv", {})

@@ -161,7 +161,7 @@ def load(path):
         summary = _summary(folder, summary_text)
         if scenario is None:
             scenario = _read_side_file(folder, "scenario.toml")
-        result = SystemResult(data, summary, scenario, source=file, columns=many)
+        result = SystemResult(data, summary, scenario, source=file, columns=many, names=_body_names(folder, summary))
         result._wheel_rows = _read_side_table(folder, "wheels.csv")  # a system's wheels ([[bodies.wheel]])
         result._sensors = _read_side_table(folder, "sensors.csv")
         return result
@@ -179,6 +179,78 @@ def load(path):
     result = Result(data, summary, scenario, source=file)
     result._sensors = _read_side_table(folder, "sensors.csv")  # what a controller's sensors read ([[sensor]])
     return result
+
+
+def load_bodies(run_dir):
+    """The lists of bodies of a many-body ([[bodies]]) run folder of the CLI: one dict per body, in scenario
+    order, with its set-up (``name``, ``mass``, ``inertia``, ``balls``, ... as summary.json's setup.bodies)
+    and ``final``: its final state (``position``, ``quaternion`` scalar-first, ``momentum``, ``w``; absent
+    for a run that failed before its first step).
+
+    They are summary.json's setup.bodies and final_bodies up to 10 000 bodies, and beyond (or with
+    ``[output] body_lists = "file"``) the file summary.json's body_lists names (bodies.jsonl, one body a line),
+    read line by line. FileNotFoundError if the folder has no summary.json or the file it names is missing;
+    ValueError for a single-body run or a malformed file.
+    """
+    folder = os.fspath(run_dir)
+    summary_text = _read_side_file(folder, "summary.json")
+    if summary_text is None:
+        raise FileNotFoundError(2, "No such file or directory", os.path.join(folder, "summary.json"))
+    summary = _summary(folder, summary_text)
+    lists = summary.get("body_lists")
+    if lists is None:
+        setups = summary.get("setup", {}).get("bodies")
+        if setups is None:
+            raise ValueError(f"{folder}: a single-body run has no lists of bodies (its final state: summary.json's "
+                             "final)")
+        finals = summary.get("final_bodies", [])
+        bodies = []
+        for a, setup in enumerate(setups):
+            body = dict(setup)
+            if a < len(finals):
+                body["final"] = {k: v for k, v in finals[a].items() if k != "name"}
+            bodies.append(body)
+        return bodies
+    path = os.path.join(folder, lists["file"])
+    with open(path, encoding="utf-8") as f:
+        bodies = []
+        for number, line in enumerate(f, 1):
+            try:
+                bodies.append(json.loads(line))
+            except json.JSONDecodeError as e:
+                raise ValueError(f"{path}:{number}: not valid JSON ({e})") from None
+    if len(bodies) != lists.get("bodies"):
+        raise ValueError(f"{path}: holds {len(bodies)} bodies where the summary's body_lists says "
+                         f"{lists.get('bodies')}")
+    return bodies
+
+
+def _body_names(folder, summary):
+    """The bodies' names from the file of the lists of bodies the summary names (summary.json's body_lists:
+    beyond 10 000 bodies, or with [output] body_lists = "file"), one body a line; None without one (the
+    names are then the summary's final_bodies')."""
+    lists = summary.get("body_lists")
+    if not isinstance(lists, dict) or not isinstance(lists.get("file"), str):
+        return None
+    path = os.path.join(folder, lists["file"])
+    names, decoder, start = [], json.JSONDecoder(), '{"name": '
+    try:
+        with open(path, encoding="utf-8") as f:
+            for number, line in enumerate(f, 1):
+                try:  # the name is each line's first member: decoded alone, not the whole line
+                    names.append(decoder.raw_decode(line, len(start))[0] if line.startswith(start)
+                                 else json.loads(line)["name"])
+                except (ValueError, KeyError, TypeError):
+                    raise ValueError(f"{path}:{number}: not a body's line of the lists of bodies "
+                                     "(a JSON object with its name first)") from None
+    except FileNotFoundError:  # a trajectory file (npz, HDF5: its own summary) taken away from its folder
+        warnings.warn(f"{path}: not there (the summary's body_lists names it); the bodies are named body0, "
+                      "body1, ...", stacklevel=3)
+        return None
+    if len(names) != lists.get("bodies"):
+        raise ValueError(f"{path}: holds {len(names)} bodies where the summary's body_lists says "
+                         f"{lists.get('bodies')}")
+    return names
 
 
 def _read_side_table(folder, name):

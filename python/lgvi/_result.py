@@ -239,10 +239,11 @@ class SystemResult(_RunSummary, _Attitude):
       ``momentum_error`` (steps,), and ``P``, ``L`` (steps, 3): total linear
       momentum and total angular momentum about the origin.
 
-    ``names`` are the bodies' names; ``summary`` the run's summary dict.
+    ``names`` are the bodies' names (given, or from the summary's final_bodies; body0, body1, ... if neither
+    has them); ``summary`` the run's summary dict.
     """
 
-    def __init__(self, data, summary=None, scenario_toml=None, source=None, columns=None):
+    def __init__(self, data, summary=None, scenario_toml=None, source=None, columns=None, names=None):
         data = np.asarray(data, dtype=float)
         widths = range(len(BODIES_COLUMNS), len(FORCED_BODIES_COLUMNS) + len(THERMO_COLUMNS) + 1)
         if data.ndim == 2:  # the long format's rows: regroup them by step
@@ -261,7 +262,8 @@ class SystemResult(_RunSummary, _Attitude):
         self.summary = dict(summary or {})
         self.scenario_toml = scenario_toml
         self.source = source
-        names = [b.get("name") for b in self.summary.get("final_bodies", [])]
+        if names is None:
+            names = [b.get("name") for b in self.summary.get("final_bodies", [])]
         #: The bodies' names, in scenario order.
         self.names = names if len(names) == data.shape[1] else [f"body{i}" for i in range(data.shape[1])]
         if columns is not None:

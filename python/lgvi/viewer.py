@@ -29,7 +29,7 @@ import tempfile
 import numpy as np
 
 from ._columns import body_of
-from ._io import load
+from ._io import load, load_bodies
 from ._result import SystemResult
 
 #: Frames embedded at most (the page interpolates between them).
@@ -156,6 +156,20 @@ def _finite(values):
     return [v if np.isfinite(v) else None for v in (float(x) for x in values)]
 
 
+def _bodies_beside(result):
+    """setup.bodies where the run wrote its lists of bodies to a file of their own (summary.json's
+    body_lists: beyond 10 000 bodies, or [output] body_lists = "file"); [{}] per body (refused below) where
+    there is none."""
+    lists = result.summary.get("body_lists")
+    if not isinstance(lists, dict):
+        return [{}] * result.bodies
+    if not lists.get("file") or not result.source:
+        raise ViewError("this run kept no lists of bodies (lgvi.simulate of more than 10 000 bodies, or [output] "
+                        "body_lists = \"file\", writes no file): view the run folder of lgvi run, or set [output] "
+                        "body_lists = \"summary\"")
+    return load_bodies(os.path.dirname(os.fspath(result.source)) or ".")
+
+
 def page_data(result, max_frames=MAX_FRAMES, max_bytes=MAX_BYTES):
     """The metadata (JSON-able dict) and the base64 arrays the page embeds, from an lgvi Result/SystemResult."""
     summary = result.summary
@@ -163,7 +177,7 @@ def page_data(result, max_frames=MAX_FRAMES, max_bytes=MAX_BYTES):
     potential = setup.get("potential") or {}
     if isinstance(result, SystemResult):
         x, q = result.x, result.q
-        bodies = setup.get("bodies") or [{}] * result.bodies
+        bodies = setup.get("bodies") or _bodies_beside(result)
         names = list(result.names)
         quat_err = np.max(np.abs(result.quat_norm_error), axis=1)
     else:

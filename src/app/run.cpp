@@ -99,6 +99,7 @@ int execute(const Scenario& sc, SystemState start, const std::string& dir, const
       fs::create_directories(dir);
       // A summary left by an earlier run must not describe this one.
       fs::remove(summary_path);
+      fs::remove(fs::path(dir) / kBodyListsFile);  // nor the lists of bodies beside it
       if (!resume) {
         fs::remove(checkpoint_path);
         // Nor side tables (SimulationResult::sensors, wheels) that this run may not write.

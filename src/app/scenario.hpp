@@ -112,6 +112,14 @@ struct IntegratorSpec {
   bool ends(std::int64_t k, double t) const { return adaptive() ? t >= duration : k >= steps; }
 };
 
+/// Where a [[bodies]] run writes its lists of bodies (each body's set-up and
+/// final state): in summary.json (setup.bodies, final_bodies), or one body a
+/// line in bodies.jsonl beside it, the summary naming the file and its length
+/// ([output] body_lists; by default the summary up to kBodyListsInSummaryUpTo
+/// bodies, about 0.9 kB each, and the file beyond).
+enum class BodyLists { summary, file };
+inline constexpr std::size_t kBodyListsInSummaryUpTo = 10000;
+
 struct Scenario {
   std::string name;  ///< the file's stem
   std::string source;  ///< the file it was read from (what parse_scenario was given): refusals start with it
@@ -138,6 +146,7 @@ struct Scenario {
   IntegratorSpec integrator;
   std::int64_t output_every = 1;
   TrajectoryFormat output_format;  ///< [output] format (default csv)
+  BodyLists body_lists = BodyLists::summary;  ///< [output] body_lists, or its default for this scenario
   std::string source_text;  ///< the TOML text it was read from
   bool imported = false;    ///< its bodies come from a data file ([import])
   FileIds file_ids;         ///< an [import]'s (empty without one)

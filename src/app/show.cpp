@@ -1,5 +1,6 @@
 #include "app/show.hpp"
 
+#include "app/summary.hpp"
 #include "io/json_io.hpp"
 
 #include <lgvi/error.hpp>
@@ -120,9 +121,18 @@ void show_run(const std::string& dir, std::ostream& out) {
                                       text(field("initial_angular_momentum")), number(field("max_momentum_error")),
                                       number(field("max_relative_momentum_error")),
                                       is_change("max_momentum_error") ? change_note : ""));
-  const std::size_t n = std::max<std::size_t>(final_bodies, 1);
+  // With more bodies than kBodyListsInSummaryUpTo (or [output] body_lists = "file"), the lists are in a
+  // file of their own, which the summary names with their length.
+  const Json* lists = field("body_lists");
+  const Json* listed = lists ? member(lists, "bodies") : nullptr;
+  const Json* lists_file = lists ? member(lists, "file") : nullptr;
+  const std::size_t n =
+      listed && listed->is_number_unsigned() ? listed->get<std::size_t>() : std::max<std::size_t>(final_bodies, 1);
   if (n > 1) {
-    row("bodies", fmt::format("{} (the final state of each is in summary.json, final_bodies)", n));
+    row("bodies", listed ? fmt::format("{} (the set-up and final state of each are in {}, a body a line)", n,
+                                       lists_file && lists_file->is_string() ? lists_file->get<std::string>()
+                                                                             : kBodyListsFile)
+                         : fmt::format("{} (the final state of each is in summary.json, final_bodies)", n));
     row("linear momentum", fmt::format("max |P - P0| / sum |p_a0| = {:.3e}{}", number(field("max_linear_momentum_error")),
                                        is_change("max_linear_momentum_error") ? change_note : ""));
     // Contact episodes, where the run checked for them ([run] on_contact "stop" or "warn").

@@ -5,6 +5,7 @@
 #include "io/output.hpp"
 
 #include <cmath>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -113,7 +114,7 @@ Json setup_json(const Scenario& s) {
   Json o;
   if (!s.bodies_format) {
     o["body"] = body_json(s.body());
-  } else {
+  } else if (s.body_lists == BodyLists::summary) {
     o["bodies"] = Json::array();  // setup_body_json's, one body at a time as it is written (summary_json)
   }
   o["potential"] = std::move(pot);
@@ -231,7 +232,10 @@ auto with_summary(const Scenario& sc, const SimulationResult& r, Use&& use) {
   s["potential_evaluations"] = st.potential_evaluations;
   // (No state: a run that failed before its first step, e.g. writing its folder.)
   s["final"] = r.final_state.size() > 0 ? state_json(r.final_state.body(0)) : Json();
-  s["final_bodies"] = Json::array();  // one body at a time as it is written (below)
+  if (sc.body_lists == BodyLists::summary)
+    s["final_bodies"] = Json::array();  // one body at a time as it is written (below)
+  else  // setup.bodies and final_bodies, a body a line in the file beside the summary (write_summary_file)
+    s["body_lists"] = {{"file", kBodyListsFile}, {"bodies", sc.bodies()}};
   if (sc.bodies_format && sc.on_contact != OnContact::Ignore) {
     // The episodes of overlap (the one that stopped the run under "stop").
     Json contacts = Json::array();
@@ -307,20 +311,31 @@ auto with_summary(const Scenario& sc, const SimulationResult& r, Use&& use) {
     }
     s["thermodynamics"] = std::move(t);
   }
-  // The two short diagnostics on one line each, the lists of bodies one body a line.
+  // The short diagnostics on one line each, the lists of bodies one body a line.
   // The lists of bodies are made one body at a time as they are written, so
   // that a large system's summary holds its text, not also a JSON object per
   // body (several times the text's size).
-  JsonLayout layout{{"rotation", "conserved", "thermodynamics"}, {"contacts"}, {}};
-  layout.generated.push_back({&s["final_bodies"], r.final_state.size(), [&](std::size_t a) {
-                                Json body = {{"name", sc.system.name(a)}};
-                                body.update(state_json(r.final_state.body(a)));
-                                return body;
-                              }});
-  if (sc.bodies_format)
-    layout.generated.push_back(
-        {&s["setup"]["bodies"], sc.bodies(), [&](std::size_t a) { return setup_body_json(sc, a); }});
+  JsonLayout layout{{"rotation", "conserved", "thermodynamics", "body_lists"}, {"contacts"}, {}};
+  if (sc.body_lists == BodyLists::summary) {
+    layout.generated.push_back({&s["final_bodies"], r.final_state.size(), [&](std::size_t a) {
+                                  Json body = {{"name", sc.system.name(a)}};
+                                  body.update(state_json(r.final_state.body(a)));
+                                  return body;
+                                }});
+    if (sc.bodies_format)
+      layout.generated.push_back(
+          {&s["setup"]["bodies"], sc.bodies(), [&](std::size_t a) { return setup_body_json(sc, a); }});
+  }
   return use(s, layout);
+}
+
+/// Line a of bodies.jsonl: body a's entry of setup.bodies, and "final", its
+/// entry of final_bodies but the name (none for a run that failed before its
+/// first step).
+Json body_line_json(const Scenario& sc, const SimulationResult& r, std::size_t a) {
+  Json body = setup_body_json(sc, a);
+  if (a < r.final_state.size()) body["final"] = state_json(r.final_state.body(a));
+  return body;
 }
 
 }  // namespace
@@ -330,6 +345,10 @@ std::string summary_json(const Scenario& sc, const SimulationResult& r) {
 }
 
 void write_summary_file(const std::string& path, const Scenario& sc, const SimulationResult& r) {
+  if (sc.body_lists == BodyLists::file)  // first, so that a summary never names a file not yet there
+    write_file_atomically((std::filesystem::path(path).parent_path() / kBodyListsFile).string(), [&](std::FILE* file) {
+      return write_json_lines(file, sc.bodies(), [&](std::size_t a) { return body_line_json(sc, r, a); });
+    });
   write_file_atomically(path, [&](std::FILE* file) {
     return with_summary(sc, r, [&](const Json& doc, const JsonLayout& layout) {
       return write_json(file, doc, layout) && std::fputc('\n', file) != EOF;

@@ -119,6 +119,17 @@ bool write_json(std::FILE* file, const Json& doc, const JsonLayout& layout) {
   return drain.ok && std::fwrite(out.data(), 1, out.size(), file) == out.size();
 }
 
+bool write_json_lines(std::FILE* file, std::size_t count, const std::function<Json(std::size_t)>& element) {
+  std::string out;
+  Drain drain{file};
+  for (std::size_t i = 0; i < count; ++i) {
+    append_one_line(out, element(i));
+    out += '\n';
+    drain(out);
+  }
+  return drain.ok && std::fwrite(out.data(), 1, out.size(), file) == out.size();
+}
+
 namespace {
 
 /// Parses with `parse`; a parse error as parse_json_file_text's message.

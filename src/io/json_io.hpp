@@ -48,6 +48,10 @@ std::string json_text(const Json& doc, const JsonLayout& layout = {});
 /// write failed.
 bool write_json(std::FILE* file, const Json& doc, const JsonLayout& layout = {});
 
+/// JSON Lines: elements 0 ... count - 1 written to `file` one a line, each on
+/// one line as json_text lays out an array's elements, made one at a time as
+/// they are written; false if a write failed.
+bool write_json_lines(std::FILE* file, std::size_t count, const std::function<Json(std::size_t)>& element);
 /// Parses the JSON text read from `file`; throws InvalidInput "FILE: not
 /// valid JSON (parse error at line L, column C: WHAT)", on one line, if it is
 /// not JSON.

@@ -958,6 +958,14 @@ PYBIND11_MODULE(_core, m) {
       .def_readonly("name", &Scenario::name, "The scenario's name (the file's stem).")
       .def_readonly("toml", &Scenario::source_text, "The TOML text it was read from.")
       .def_property_readonly("body", [](const Scenario& s) { return s.body(); }, "The body (a copy; the first body of a [[bodies]] scenario).")
+      .def_property_readonly(
+          "body_names",
+          [](const Scenario& s) {
+            std::vector<std::string> names(s.bodies());
+            for (std::size_t a = 0; a < names.size(); ++a) names[a] = s.system.name(a);
+            return names;
+          },
+          "The bodies' names, in scenario order.")
       .def_property_readonly("potential_kind", [](const Scenario& s) { return std::string(to_string(s.potential.kind)); },
                              "\"none\", \"central\" or \"uniform\".")
       .def_property_readonly("mu", [](const Scenario& s) { return s.potential.mu; }, "mu of a central potential.")

@@ -376,3 +376,87 @@ def test_show_counts_the_bodies_without_holding_their_lists(tmp_path):
     e0 = float(rows["energy"].split("E0 = ")[1].split(",")[0])  # printed to 10 digits
     assert e0 == pytest.approx(summary["initial_energy"], rel=1e-9)
     assert f"(max {summary['solver_iterations_max']})" in rows["solver iterations"]
+
+
+def gas_with(tmp_path, folder, count, *extra):
+    """scenarios/lj-gas.toml with `count` molecules over 10 steps, as FOLDER/gas.toml (one scenario name)."""
+    (tmp_path / folder).mkdir()
+    return variant(tmp_path, "lj-gas", [("count = 1000", f"count = {count}"), ("duration = 2.0", "duration = 0.02"),
+                                        *extra], f"{folder}/gas.toml")
+
+
+def test_the_lists_of_bodies_in_a_file_of_their_own_are_the_summarys_lists(tmp_path):
+    # [output] body_lists = "file" (the default beyond 10 000 bodies) moves setup.bodies and final_bodies to
+    # bodies.jsonl, one body a line: the same bodies and the same numbers to the bit (both files write
+    # doubles with 17 significant digits), and nothing else changes but where the lists are.
+    import lgvi
+    inline = gas_with(tmp_path, "inline", 27)
+    filed = gas_with(tmp_path, "filed", 27, ("every = 100", 'every = 100\nbody_lists = "file"'))
+    for path in (inline, filed):
+        proc = run(path, "--out", path.parent / "run")
+        assert proc.returncode == 0, proc.stderr
+    a, b = inline.parent / "run", filed.parent / "run"
+    assert not (a / "bodies.jsonl").exists()
+    sa, sb = (json.loads((d / "summary.json").read_text()) for d in (a, b))
+    assert "bodies" not in sb["setup"] and "final_bodies" not in sb
+    assert sb["body_lists"] == {"file": "bodies.jsonl", "bodies": 27}
+    lines = (b / "bodies.jsonl").read_text().splitlines()
+    assert len(lines) == 27
+    expected = [{**setup, "final": {k: v for k, v in final.items() if k != "name"}}
+                for setup, final in zip(sa["setup"]["bodies"], sa["final_bodies"])]
+    assert [json.loads(line) for line in lines] == expected
+    assert lgvi.load_bodies(a) == lgvi.load_bodies(b) == expected
+    for s in (sa, sb):
+        for key in ("wall_seconds", "ns_per_step", "final_bodies", "body_lists"):
+            s.pop(key, None)
+        s["setup"].pop("bodies", None)
+    assert sa == sb
+    assert (a / "trajectory.csv").read_bytes() == (b / "trajectory.csv").read_bytes()
+    # The names for lgvi.load come from the file (its lines' first member).
+    assert lgvi.load(b).names == lgvi.load(a).names == [f"molecule{i}" for i in range(27)]
+    # The viewer draws the bodies from the file: the same page data.
+    from lgvi import viewer
+    assert viewer.page_data(lgvi.load(b)) == viewer.page_data(lgvi.load(a))
+    shown = subprocess.run([BINARY, "show", str(b)], capture_output=True, text=True, check=True).stdout
+    assert "bodies                 27 (the set-up and final state of each are in bodies.jsonl, a body a line)" \
+        in shown.splitlines()
+    # lgvi.simulate writes no file: its summary says so ("file": null), its names come from the scenario and
+    # the final state is the arrays' last row, the CLI's to the bit.
+    memory = lgvi.simulate(lgvi.Scenario.from_toml(str(filed)))
+    assert memory.summary["body_lists"] == {"file": None, "bodies": 27}
+    assert memory.names == lgvi.load(a).names
+    assert memory.x[-1].tolist() == [body["final"]["position"] for body in expected]
+    assert memory.q[-1].tolist() == [body["final"]["quaternion"] for body in expected]
+    with pytest.raises(viewer.ViewError, match="kept no lists of bodies"):
+        viewer.page_data(memory)
+    # A trajectory taken away from the file: the bodies are numbered, with a warning saying why.
+    (b / "bodies.jsonl").unlink()
+    with pytest.warns(UserWarning, match="bodies.jsonl: not there"):
+        assert lgvi.load(b).names == [f"body{i}" for i in range(27)]
+
+
+def test_beyond_ten_thousand_bodies_their_lists_are_in_a_file_of_their_own(tmp_path):
+    # kBodyListsInSummaryUpTo: 10 000 bodies keep their lists in summary.json, 10 001 write bodies.jsonl
+    # (no steps: the set-up and the files only).
+    for count, in_file in ((10000, False), (10001, True)):
+        path = gas_with(tmp_path, str(count), count, ("duration = 0.02", "duration = 0.0"))
+        proc = run(path, "--out", path.parent / "run")
+        assert proc.returncode == 0, proc.stderr
+        summary = json.loads((path.parent / "run" / "summary.json").read_text())
+        assert ("body_lists" in summary) == in_file == (path.parent / "run" / "bodies.jsonl").exists()
+        assert len(summary.get("final_bodies", ())) == (0 if in_file else count)
+        if in_file:
+            assert summary["body_lists"]["bodies"] == count
+            assert len((path.parent / "run" / "bodies.jsonl").read_text().splitlines()) == count
+
+
+@pytest.mark.parametrize("scenario, old, new, expected", [
+    ("lj-gas", "every = 100", 'every = 100\nbody_lists = "files"', ['output.body_lists', '"summary"', '"file"']),
+    ("paper-orbit", "[output]\n", '[output]\nbody_lists = "file"\n',
+     ["output.body_lists", "[[bodies]]", '"final"']),
+])
+def test_body_lists_refuses_a_wrong_value_or_a_single_body(tmp_path, scenario, old, new, expected):
+    path = variant(tmp_path, scenario, [(old, new)])
+    proc = run(path, "--out", tmp_path / "run")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert all(e in proc.stderr for e in expected), proc.stderr

@@ -32,11 +32,11 @@
 // pair has one image within reach. The sites are placed about their bodies'
 // centres of mass wrapped into the box, so that a pair's plain separation
 // is its minimum image unless it straddles a face: a separation of which
-// each component is within plain_bound() (just below half a period) is taken
+// each component is within Box::plain_bound() (just below half a period) is taken
 // as it is, the reduction paid only beyond. Each pruned entry says whether
 // its pair was across a period at the pruning (across()), so that a user can
 // take the plain separations of a site none of whose pairs were, checking
-// them against plain_bound() (a body that has crossed a face since is
+// them against Box::plain_bound() (a body that has crossed a face since is
 // placed a period away from its partners).
 #pragma once
 
@@ -131,9 +131,6 @@ class NeighbourLists {
   NeighbourLists(const System& sys, double cutoff, double skin, Parallelism par, const std::string& owner)
       : sites_(sys), cutoff_(cutoff), skin_(skin), prune_margin_(prune_fraction * skin_), par_(par),
         box_(sys.box()) {
-    for (int k = 0; k < 3; ++k)
-      plain_bound_(k) = box_.periodic(k) ? 0.5 * box_.periodic_length()(k) * (1.0 - 0x1p-20)
-                                         : std::numeric_limits<double>::infinity();
     if (sites_.size() > max_sites)
       throw InvalidInput(owner + ": " + std::to_string(sites_.size()) +
                          " interaction sites; the neighbour lists index at most " + std::to_string(max_sites) +
@@ -211,15 +208,10 @@ class NeighbourLists {
   static SiteIndex partner_of(Entry e) { return e & ~across_bit; }
   /// Whether the entry's pair was across a period at the last pruning: its
   /// minimum image X_j - X_i - L n with some n_k != 0 (box.hpp). A separation d
-  /// whose every component is within plain_bound() is its own minimum
-  /// image, d + 0.0 to the bit (the reduction turns -0 into +0); beyond
-  /// (across a period, or a body that has crossed a face since the
-  /// pruning), only Box::reduce gives it.
+  /// whose every component is within Box::plain_bound() is its own minimum
+  /// image, d + 0.0 to the bit; beyond (across a period, or a body that has
+  /// crossed a face since the pruning), only Box::reduce gives it.
   static bool across(Entry e) { return (e & across_bit) != 0; }
-  /// Per axis, a bound on |d_k| within which the minimum image of d_k is d_k
-  /// itself: just below L_k / 2 along a periodic axis (so that d_k / L_k,
-  /// rounded, is below 1/2 however it rounds), infinity along an open one.
-  const Vector3<double>& plain_bound() const { return plain_bound_; }
 
   /// How many times the lists were built, and pruned (every build prunes
   /// too), for tests and benchmarks.
@@ -329,12 +321,10 @@ class NeighbourLists {
     }
     return count;
   }
-  /// Whether a component of the plain separation d is beyond plain_bound()
-  /// (only then is its minimum image another: sites placed about wrapped
-  /// centres are mostly not, so the branch is rarely taken).
-  bool beyond_plain(double dx, double dy, double dz) const {
-    return (std::fabs(dx) > plain_bound_(0)) | (std::fabs(dy) > plain_bound_(1)) | (std::fabs(dz) > plain_bound_(2));
-  }
+  /// Whether a component of the plain separation d is beyond
+  /// Box::plain_bound() (sites placed about wrapped centres are mostly not,
+  /// so the branch is rarely taken).
+  bool beyond_plain(double dx, double dy, double dz) const { return box_.beyond_plain(dx, dy, dz); }
 
   /// The cell of a site at x: along an open axis from the sites' bounding
   /// box (clamped to it); along a periodic one from x's fractional
@@ -646,7 +636,6 @@ class NeighbourLists {
   double cutoff_, skin_, prune_margin_;
   Parallelism par_;
   Box box_;  ///< the system's: separations are minimum images along its periodic axes
-  Vector3<double> plain_bound_;  ///< plain_bound()
   mutable std::vector<Vector3<double>> position_;
   mutable std::vector<char> moved_;  ///< per body: how far its sites moved (no_move ...)
   mutable Vector3<double> origin_ = Vector3<double>::Zero(), inv_cell_ = Vector3<double>::Ones();

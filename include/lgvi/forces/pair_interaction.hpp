@@ -274,7 +274,7 @@ class PairInteraction {
   /// How gather<How>() takes a site's separations: `plain`, as they are (an
   /// open box); `reduced`, their minimum images (Box::reduce); `unmarked`,
   /// as they are + 0.0, which is their minimum images' bits where each
-  /// component is within NeighbourLists::plain_bound(); `marked`, per site:
+  /// component is within Box::plain_bound(); `marked`, per site:
   /// reduced if one of its entries is marked across a period
   /// (NeighbourLists::across), else unmarked. So a periodic box pays for
   /// the reduction only at sites with a pair across a period. gather<marked>
@@ -290,7 +290,7 @@ class PairInteraction {
                       count = lists_.list_begin(sites().end(b - 1)) - first;
     scratch.resize(count);
     const Box& box = lists_.box();
-    // The largest plain |d_k| taken, per axis (compared with plain_bound() at the end).
+    // The largest plain |d_k| taken, per axis (compared with Box::plain_bound() at the end).
     double largest_x = 0.0, largest_y = 0.0, largest_z = 0.0;
     // Site i's entries [k0, k1), taken as `how` says (plain, reduced or unmarked).
     auto separations = [&](const Vector3<double>& xi, std::size_t k0, std::size_t k1, auto how) {
@@ -335,8 +335,7 @@ class PairInteraction {
           scratch.pair[k - first] = row + sites().type(lists_.partner(k));
       }
     }
-    const Vector3<double>& bound = lists_.plain_bound();
-    return largest_x > bound(0) || largest_y > bound(1) || largest_z > bound(2) ? not_plain : count;
+    return box.beyond_plain(largest_x, largest_y, largest_z) ? not_plain : count;
   }
 
   /// The pair terms of bodies [a, b): the separations gathered into the
