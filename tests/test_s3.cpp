@@ -8,7 +8,9 @@
 #include "test_support.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <vector>
 
@@ -85,6 +87,30 @@ TEST_P(S3Property, PiIsAHomomorphismIntoSO3) {
     const S3d q = lgvi::test::random_unit_quaternion();
     const V3 w = lgvi::test::random_vector(10.0);
     EXPECT_EQ(q.act(w), q.quaternion() * w);
+  }
+}
+
+// matrix() is the Eigen expression of the paper's formula written out, entry by
+// entry in its operations' order: equal bit for bit (so that it replaced the
+// expression without changing any output), here over random attitudes and the
+// hard cases (the identity, half turns with q_s = +-0, a near-identity).
+TEST(S3Matrix, IsThePapersFormulaAsAnEigenExpressionBitForBit) {
+  auto expression = [](const S3d& q) {
+    const double s = q.w();
+    const V3 v = q.quaternion().vec();
+    M3 r = (2.0 * v) * v.transpose();
+    r.diagonal().array() += 2.0 * s * s - 1.0;
+    r += (2.0 * s) * S3d::hat(v);
+    return r;
+  };
+  std::vector<S3d> cases = {S3d(), S3d(0.0, 1.0, 0.0, 0.0), S3d(-0.0, 0.0, -1.0, 0.0), S3d(0.0, 0.6, 0.0, -0.8),
+                            S3d::exp(V3(1e-9, -2e-9, 3e-9))};
+  for (int k = 0; k < 1000; ++k) cases.push_back(lgvi::test::random_unit_quaternion());
+  for (const S3d& q : cases) {
+    const M3 written = q.matrix(), reference = expression(q);
+    for (int i = 0; i < 9; ++i)
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(written(i)), std::bit_cast<std::uint64_t>(reference(i)))
+          << "entry " << i << " of q = " << q.quaternion().coeffs().transpose();
   }
 }
 

@@ -18,6 +18,12 @@ lgvi's process's, and the sum of LAMMPS's ranks' (each rank under
 /usr/bin/time). The energy error is the largest |E - E0| over the run: lgvi's
 over every step (its summary), LAMMPS's over every step too (thermo 1, in a second run: its time and memory are
 from a run printing the first and last step only, as lgvi's).
+
+With --no-squish, a second table gives the energy errors to five digits, with
+those of lgvi's own NO_SQUISH method (`method = "no-squish"`, the rotation
+splitting fix rigid/nve/small uses) on the same gas: where lgvi's NO_SQUISH
+agrees with LAMMPS, a difference between lgvi's LGVI and LAMMPS is the
+methods', not the programs'.
 Prints a Markdown table.
 """
 import argparse
@@ -107,7 +113,10 @@ def main():
     ap.add_argument("--step", type=float, default=0.002)
     ap.add_argument("--threads", type=int, nargs="+", default=[1],
                     help="lgvi's threads and LAMMPS's MPI ranks (default 1)")
+    ap.add_argument("--no-squish", action="store_true",
+                    help="also run lgvi's no-squish method: a table of the energy errors to five digits")
     args = ap.parse_args()
+    errors = []  # (molecules, lgvi's max |dE|, lgvi no-squish's, LAMMPS's) with --no-squish
     print(f"Periodic Lennard-Jones gas of rigid triangle molecules, {args.steps} steps of h = {args.step}:\n")
     print("| molecules | threads / ranks | lgvi set-up s | LAMMPS set-up s | lgvi ms/step | LAMMPS ms/step | / LAMMPS "
           "| lgvi MB | LAMMPS MB | / LAMMPS | lgvi max abs dE | LAMMPS max abs dE |")
@@ -142,6 +151,19 @@ def main():
                 print(f"| {n ** 3} | {threads} | {lgvi_wall - lgvi_loop:.2f} | {lmp_wall - lmp_loop:.2f} "
                       f"| {t_lgvi:.2f} | {t_lmp:.2f} | {t_lgvi / t_lmp:.2f} | {lgvi_rss:.0f} | {lmp_rss:.0f} "
                       f"| {lgvi_rss / lmp_rss:.2f} | {lgvi_de:.2e} | {lmp_de:.2e} |", flush=True)
+            if args.no_squish:  # (its energy does not depend on the threads: one run)
+                (work / "no-squish.toml").write_text(text.replace('method = "lgvi"', 'method = "no-squish"', 1))
+                subprocess.run([args.lgvi, "run", work / "no-squish.toml", "--out", work / "no-squish", "--force",
+                                "--no-figures", "-q"], check=True)
+                with open(work / "no-squish" / "summary.json") as f:
+                    errors.append((n ** 3, lgvi_de, json.load(f)["max_abs_energy_error"], lmp_de))
+    if errors:
+        print("\n| molecules | lgvi (LGVI) max abs dE | lgvi (NO_SQUISH) max abs dE | LAMMPS max abs dE "
+              "| LGVI / LAMMPS | NO_SQUISH / LAMMPS |")
+        print("|---:|---:|---:|---:|---:|---:|")
+        for n, lgvi_de, no_squish_de, lmp_de in errors:
+            print(f"| {n} | {lgvi_de:.5e} | {no_squish_de:.5e} | {lmp_de:.5e} | {lgvi_de / lmp_de:.4f} "
+                  f"| {no_squish_de / lmp_de:.4f} |")
 
 
 if __name__ == "__main__":

@@ -67,6 +67,7 @@ class Box {
       if (!(std::isfinite(upper(k)) && upper(k) > lower(k))) fail("box.upper", "must be a finite number > box.lower");
       const double length = upper(k) - lower(k);
       if (!std::isfinite(length)) fail("box.upper", "the box is wider than a double can hold");
+      below_upper_(k) = std::nextafter(upper(k), lower(k));
       if (periodic[static_cast<std::size_t>(k)]) {
         length_(k) = length;
         inverse_length_(k) = 1.0 / length;
@@ -168,7 +169,7 @@ class Box {
         n -= 1.0;
         v = x(k) - n * length_(k);
       }
-      w.x(k) = std::clamp(v, lower_(k), std::nextafter(upper_(k), lower_(k)));
+      w.x(k) = std::clamp(v, lower_(k), below_upper_(k));
       w.image[static_cast<std::size_t>(k)] = static_cast<std::int64_t>(n);
     }
     return w;
@@ -180,6 +181,7 @@ class Box {
   bool any_periodic_ = false;
   Vector3<double> length_ = Vector3<double>::Zero(), inverse_length_ = Vector3<double>::Zero();
   Vector3<double> plain_bound_ = Vector3<double>::Constant(std::numeric_limits<double>::infinity());
+  Vector3<double> below_upper_ = Vector3<double>::Zero();  ///< the largest double below upper, per axis (wrap)
 };
 
 }  // namespace lgvi

@@ -161,12 +161,28 @@ class S3 {
 
   /// pi: S^3 -> SO(3), pi(q) = (2 q_s^2 - 1) I + 2 q_v q_v^T + 2 q_s hat(q_v)
   /// (the paper's formula). A group homomorphism: pi(q1 q2) = pi(q1) pi(q2).
+  /// Entry by entry, the operations of the Eigen expression
+  ///   r = (2 v) v^T;  r.diagonal() += 2 s s - 1;  r += (2 s) hat(v)
+  /// in its order (u_i v_j, then + d on the diagonal, then + 2 s hat(v)_ij,
+  /// the diagonal's 2 s 0 included: it turns a -0 into +0), so the bits are
+  /// that expression's (tests/test_s3.cpp); written out because GCC calls it
+  /// rather than inlining it, at a cost in a many-body step (two per body).
   Matrix3<Scalar> matrix() const {
-    const Scalar s = q_.w();
-    const Tangent v = q_.vec();
-    Matrix3<Scalar> r = (Scalar(2) * v) * v.transpose();
-    r.diagonal().array() += Scalar(2) * s * s - Scalar(1);
-    r += (Scalar(2) * s) * hat(v);
+    const Scalar s = q_.w(), x = q_.x(), y = q_.y(), z = q_.z();
+    const Scalar ux = Scalar(2) * x, uy = Scalar(2) * y, uz = Scalar(2) * z;
+    const Scalar d = Scalar(2) * s * s - Scalar(1);
+    const Scalar s2 = Scalar(2) * s;
+    const Scalar zero = s2 * Scalar(0);
+    Matrix3<Scalar> r;
+    r(0, 0) = (ux * x + d) + zero;
+    r(0, 1) = ux * y + s2 * -z;
+    r(0, 2) = ux * z + s2 * y;
+    r(1, 0) = uy * x + s2 * z;
+    r(1, 1) = (uy * y + d) + zero;
+    r(1, 2) = uy * z + s2 * -x;
+    r(2, 0) = uz * x + s2 * -y;
+    r(2, 1) = uz * y + s2 * x;
+    r(2, 2) = (uz * z + d) + zero;
     return r;
   }
 
