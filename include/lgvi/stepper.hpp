@@ -169,6 +169,7 @@ class StepperBase {
   const SystemEvaluation& evaluation() const { return eval_; }
   const SolveReport& last_solve() const { return report_; }
   void set_parallelism(Parallelism par) { par_ = par; }
+  const Parallelism& parallelism() const { return par_; }
   /// The forcing acting besides the potential (forcing.hpp); empty if none.
   const ForcingSet& forcing() const { return forcing_; }
   /// The work done by the forcing since initialize() (trapezoidal rule,
