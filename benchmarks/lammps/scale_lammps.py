@@ -21,9 +21,9 @@ from a run printing the first and last step only, as lgvi's).
 
 With --no-squish, a second table gives the energy errors to five digits, with
 those of lgvi's own NO_SQUISH method (`method = "no-squish"`, the rotation
-splitting fix rigid/nve/small uses) on the same gas: where lgvi's NO_SQUISH
-agrees with LAMMPS, a difference between lgvi's LGVI and LAMMPS is the
-methods', not the programs'.
+splitting fix rigid/nve/small uses) on the same gas: as far as lgvi's
+NO_SQUISH agrees with LAMMPS, a difference between lgvi's LGVI and LAMMPS is
+the methods', not the programs'.
 Prints a Markdown table.
 """
 import argparse
@@ -152,6 +152,7 @@ def main():
                       f"| {t_lgvi:.2f} | {t_lmp:.2f} | {t_lgvi / t_lmp:.2f} | {lgvi_rss:.0f} | {lmp_rss:.0f} "
                       f"| {lgvi_rss / lmp_rss:.2f} | {lgvi_de:.2e} | {lmp_de:.2e} |", flush=True)
             if args.no_squish:  # (its energy does not depend on the threads: one run)
+                assert 'method = "lgvi"' in text, "scenarios/lj-gas.toml no longer names its method as expected"
                 (work / "no-squish.toml").write_text(text.replace('method = "lgvi"', 'method = "no-squish"', 1))
                 subprocess.run([args.lgvi, "run", work / "no-squish.toml", "--out", work / "no-squish", "--force",
                                 "--no-figures", "-q"], check=True)

@@ -164,8 +164,10 @@ class S3 {
   /// Entry by entry, the operations of the Eigen expression
   ///   r = (2 v) v^T;  r.diagonal() += 2 s s - 1;  r += (2 s) hat(v)
   /// in its order (u_i v_j, then + d on the diagonal, then + 2 s hat(v)_ij,
-  /// the diagonal's 2 s 0 included: it turns a -0 into +0), so the bits are
-  /// that expression's (tests/test_s3.cpp); written out because GCC calls it
+  /// the diagonal's 2 s 0 included, which matters only for values that are
+  /// not finite), so the bits are that expression's (tests/test_s3.cpp) where
+  /// the compiler contracts neither into fused multiply-adds (x86-64 at its
+  /// baseline, as built here); written out because GCC calls the expression
   /// rather than inlining it, at a cost in a many-body step (two per body).
   Matrix3<Scalar> matrix() const {
     const Scalar s = q_.w(), x = q_.x(), y = q_.y(), z = q_.z();

@@ -38,6 +38,7 @@ class Scenario:
     name: str
     toml: str
     body: Body
+    body_names: List[str]
     potential_kind: str
     mu: float
     g: Array

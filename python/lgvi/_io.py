@@ -201,8 +201,8 @@ def load_bodies(run_dir):
     if lists is None:
         setups = summary.get("setup", {}).get("bodies")
         if setups is None:
-            raise ValueError(f"{folder}: a single-body run has no lists of bodies (its final state: summary.json's "
-                             "final)")
+            raise ValueError(f"{folder}: summary.json has no lists of bodies (a single-body run's final state is its "
+                             "final; a run of [[bodies]] has setup.bodies or body_lists)")
         finals = summary.get("final_bodies", [])
         bodies = []
         for a, setup in enumerate(setups):
@@ -211,6 +211,9 @@ def load_bodies(run_dir):
                 body["final"] = {k: v for k, v in finals[a].items() if k != "name"}
             bodies.append(body)
         return bodies
+    if not isinstance(lists, dict) or not isinstance(lists.get("file"), str):
+        raise ValueError(f"{folder}: summary.json's body_lists must name its file, as {{\"file\": \"bodies.jsonl\", "
+                         f"\"bodies\": N}}; got {lists!r}")
     path = os.path.join(folder, lists["file"])
     with open(path, encoding="utf-8") as f:
         bodies = []

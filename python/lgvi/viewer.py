@@ -167,7 +167,11 @@ def _bodies_beside(result):
         raise ViewError("this run kept no lists of bodies (lgvi.simulate of more than 10 000 bodies, or [output] "
                         "body_lists = \"file\", writes no file): view the run folder of lgvi run, or set [output] "
                         "body_lists = \"summary\"")
-    return load_bodies(os.path.dirname(os.fspath(result.source)) or ".")
+    try:
+        return load_bodies(os.path.dirname(os.fspath(result.source)) or ".")
+    except FileNotFoundError as e:  # a trajectory (npz, HDF5: its own summary) away from its folder
+        raise ViewError(f"{result.source}: its summary's lists of bodies are in {lists['file']} beside it, which is "
+                        f"not there ({e.filename or e})") from None
 
 
 def page_data(result, max_frames=MAX_FRAMES, max_bytes=MAX_BYTES):

@@ -429,10 +429,18 @@ def test_the_lists_of_bodies_in_a_file_of_their_own_are_the_summarys_lists(tmp_p
     assert memory.q[-1].tolist() == [body["final"]["quaternion"] for body in expected]
     with pytest.raises(viewer.ViewError, match="kept no lists of bodies"):
         viewer.page_data(memory)
-    # A trajectory taken away from the file: the bodies are numbered, with a warning saying why.
+    # A trajectory taken away from the file: the bodies are numbered, with a warning saying why; the viewer
+    # refuses it, naming the file.
     (b / "bodies.jsonl").unlink()
     with pytest.warns(UserWarning, match="bodies.jsonl: not there"):
-        assert lgvi.load(b).names == [f"body{i}" for i in range(27)]
+        moved = lgvi.load(b)
+    assert moved.names == [f"body{i}" for i in range(27)]
+    with pytest.raises(viewer.ViewError, match="bodies.jsonl beside it, which is not there"):
+        viewer.page_data(moved)
+    # A run into the same folder that keeps its lists in the summary leaves no file of an earlier run's.
+    assert run(filed, "--out", b, "--force").returncode == 0 and (b / "bodies.jsonl").exists()
+    assert run(inline, "--out", b, "--force").returncode == 0
+    assert not (b / "bodies.jsonl").exists() and len(json.loads((b / "summary.json").read_text())["final_bodies"]) == 27
 
 
 def test_beyond_ten_thousand_bodies_their_lists_are_in_a_file_of_their_own(tmp_path):
@@ -448,6 +456,28 @@ def test_beyond_ten_thousand_bodies_their_lists_are_in_a_file_of_their_own(tmp_p
         if in_file:
             assert summary["body_lists"]["bodies"] == count
             assert len((path.parent / "run" / "bodies.jsonl").read_text().splitlines()) == count
+
+
+def test_load_bodies_refuses_a_file_that_disagrees_with_its_summary_and_a_single_body(tmp_path):
+    import lgvi
+    filed = gas_with(tmp_path, "filed", 8, ("every = 100", 'every = 100\nbody_lists = "file"'))
+    out = filed.parent / "run"
+    assert run(filed, "--out", out).returncode == 0
+    lines = (out / "bodies.jsonl").read_text().splitlines()
+    assert len(lgvi.load_bodies(out)) == 8
+    (out / "bodies.jsonl").write_text("\n".join(lines[:-1]) + "\n")  # a body short
+    for load in (lgvi.load_bodies, lgvi.load):
+        with pytest.raises(ValueError, match="holds 7 bodies where the summary's body_lists says 8"):
+            load(out)
+    (out / "bodies.jsonl").write_text("\n".join(lines[:3] + ["{not json"] + lines[4:]) + "\n")
+    with pytest.raises(ValueError, match=r"bodies.jsonl:4: not valid JSON"):
+        lgvi.load_bodies(out)
+    with pytest.raises(ValueError, match=r"bodies.jsonl:4: not a body's line"):
+        lgvi.load(out)
+    single = tmp_path / "single"
+    assert run(SOURCE / "tests" / "cli" / "good" / "short.toml", "--out", single).returncode == 0
+    with pytest.raises(ValueError, match="no lists of bodies"):
+        lgvi.load_bodies(single)
 
 
 @pytest.mark.parametrize("scenario, old, new, expected", [
