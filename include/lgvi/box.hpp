@@ -117,6 +117,18 @@ class Box {
   bool beyond_plain(double dx, double dy, double dz) const {
     return (std::fabs(dx) > plain_bound_(0)) | (std::fabs(dy) > plain_bound_(1)) | (std::fabs(dz) > plain_bound_(2));
   }
+  /// d as its minimum image where a component is beyond plain_bound()
+  /// (reduce()'s operations, so its bits), else left as it is (the same
+  /// up to the sign of a zero); whether an image other than 0 was taken
+  /// along some axis (the pair is across a period).
+  bool reduce_beyond_plain(double& dx, double& dy, double& dz) const {
+    if (!beyond_plain(dx, dy, dz)) return false;
+    const double nx = image(dx, 0), ny = image(dy, 1), nz = image(dz, 2);
+    dx -= length_(0) * nx;
+    dy -= length_(1) * ny;
+    dz -= length_(2) * nz;
+    return (nx != 0.0) | (ny != 0.0) | (nz != 0.0);
+  }
   /// round(d_k / L_k) (as reduce computes it: reduce(d, k) = d - L_k
   /// image(d, k)); +-0 along an open axis.
   double image(double d, int k) const { return nearest_integer(d * inverse_length_(k)); }

@@ -81,9 +81,9 @@ double physical_time(const S& s, double t) {
   if constexpr (requires { { s.time() } -> std::convertible_to<double>; }) return s.time();
   else return t;
 }
-/// to = from before each step. A system without wheels (eta empty) of the
-/// stepper's size is copied body by body on the stepper's threads where it has
-/// them: a many-body step's copy (104 B per body) is otherwise a serial part
+/// to = from before each step. A system without wheels (eta empty), copied
+/// into one of its size, is copied body by body on the stepper's threads
+/// where the stepper has more than one: a many-body step's copy (104 B per body) is otherwise a serial part
 /// of every step. The same values either way.
 template <class S, class State>
 void copy_state(const S& s, State& to, const State& from) {

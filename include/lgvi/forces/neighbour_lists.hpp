@@ -308,23 +308,15 @@ class NeighbourLists {
       const SiteIndex j = candidates[k];
       double dx = position[j](0) - xi, dy = position[j](1) - yi, dz = position[j](2) - zi;
       SiteIndex mark = 0;
-      if (Periodic && beyond_plain(dx, dy, dz)) {
-        // (Box::reduce's operations, the image kept)
-        const double nx = box_.image(dx, 0), ny = box_.image(dy, 1), nz = box_.image(dz, 2);
-        dx -= box_.periodic_length()(0) * nx;
-        dy -= box_.periodic_length()(1) * ny;
-        dz -= box_.periodic_length()(2) * nz;
-        if constexpr (MarkAcross) mark = (nx != 0.0) | (ny != 0.0) | (nz != 0.0) ? across_bit : 0;
+      if constexpr (Periodic) {
+        [[maybe_unused]] const bool across = box_.reduce_beyond_plain(dx, dy, dz);
+        if constexpr (MarkAcross) mark = across ? across_bit : 0;
       }
       list[count] = j | mark;
       count += static_cast<std::size_t>(dx * dx + dy * dy + dz * dz < reach2);
     }
     return count;
   }
-  /// Whether a component of the plain separation d is beyond
-  /// Box::plain_bound() (sites placed about wrapped centres are mostly not,
-  /// so the branch is rarely taken).
-  bool beyond_plain(double dx, double dy, double dz) const { return box_.beyond_plain(dx, dy, dz); }
 
   /// The cell of a site at x: along an open axis from the sites' bounding
   /// box (clamped to it); along a periodic one from x's fractional
@@ -521,11 +513,7 @@ class NeighbourLists {
                     // image's is taken only across a period).
                     for (std::size_t k = run_first; k < run_end; ++k) {
                       double dx = cell_x_[k] - cx, dy = cell_y_[k] - cy, dz = cell_z_[k] - cz;
-                      if (Periodic && beyond_plain(dx, dy, dz)) {
-                        dx = box_.reduce(dx, 0);
-                        dy = box_.reduce(dy, 1);
-                        dz = box_.reduce(dz, 2);
-                      }
+                      if constexpr (Periodic) box_.reduce_beyond_plain(dx, dy, dz);
                       list[kept] = sorted_[k];
                       kept += static_cast<std::size_t>((dx * dx + dy * dy + dz * dz < around2) & (cell_body_[k] > a));
                     }
