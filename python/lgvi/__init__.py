@@ -11,8 +11,8 @@ Public names: Body, Scenario, simulate, Result, SystemResult (many-body runs), S
 PythonPotential, PythonForcing (forces and torques written in Python), IntegrationError, ensemble,
 EnsembleResult (sweeps and Monte Carlo on any executor), load, potential (none(), central(mu),
 uniform(g)), plot (the paper's figures), view (an interactive 3-D view of a run, one offline HTML
-file), load_run, load_bodies (a many-body run's bodies: set-up and final state), COLUMNS, BODIES_COLUMNS, METHODS, SOLVERS, FORMATS, INTERACTIONS (the names the
-scenario reader accepts). Quaternions are scalar-first (w, x, y, z) numpy arrays everywhere. Invalid
+file), load_run, load_bodies (a many-body run's bodies: set-up and final state), COLUMNS,
+BODIES_COLUMNS, METHODS, SOLVERS, FORMATS, INTERACTIONS (the names the scenario reader accepts). Quaternions are scalar-first (w, x, y, z) numpy arrays everywhere. Invalid
 arguments raise ValueError naming the argument.
 
 `import lgvi` itself is cheap: names are loaded on first use (numpy, and the compiled lgvi._core
@@ -38,8 +38,8 @@ _SUBMODULES = ("plot", "potential", "forcing")
 
 __all__ = ["Body", "Scenario", "simulate", "Result", "SystemResult", "Stepper", "PythonPotential", "PythonForcing",
            "IntegrationError",
-           "load", "potential", "plot", "load_run", "load_bodies", "COLUMNS", "BODIES_COLUMNS", "METHODS", "SOLVERS", "FORMATS",
-           "INTERACTIONS",
+           "load", "potential", "plot", "load_run", "load_bodies", "COLUMNS", "BODIES_COLUMNS", "METHODS", "SOLVERS",
+           "FORMATS", "INTERACTIONS",
            "ensemble", "EnsembleResult", "view"]
 
 

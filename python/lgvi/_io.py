@@ -214,18 +214,41 @@ def load_bodies(run_dir):
     if not isinstance(lists, dict) or not isinstance(lists.get("file"), str):
         raise ValueError(f"{folder}: summary.json's body_lists must name its file, as {{\"file\": \"bodies.jsonl\", "
                          f"\"bodies\": N}}; got {lists!r}")
+    return _body_lines(folder, lists, _json_line)
+
+
+def _body_lines(folder, lists, parse):
+    """parse(line) of each line of the file summary.json's body_lists names (one body a line), checked against
+    the number of bodies it gives. parse raises ValueError saying what is wrong with a line; the error names
+    the file and the line."""
     path = os.path.join(folder, lists["file"])
+    values = []
     with open(path, encoding="utf-8") as f:
-        bodies = []
         for number, line in enumerate(f, 1):
             try:
-                bodies.append(json.loads(line))
-            except json.JSONDecodeError as e:
-                raise ValueError(f"{path}:{number}: not valid JSON ({e})") from None
-    if len(bodies) != lists.get("bodies"):
-        raise ValueError(f"{path}: holds {len(bodies)} bodies where the summary's body_lists says "
+                values.append(parse(line))
+            except ValueError as e:
+                raise ValueError(f"{path}:{number}: {e}") from None
+    if len(values) != lists.get("bodies"):
+        raise ValueError(f"{path}: holds {len(values)} bodies where the summary's body_lists says "
                          f"{lists.get('bodies')}")
-    return bodies
+    return values
+
+
+def _json_line(line):
+    """A line of the lists of bodies, whole."""
+    try:
+        return json.loads(line)
+    except json.JSONDecodeError as e:
+        raise ValueError(f"not valid JSON ({e})") from None
+
+
+def _name_of_line(line, decoder=json.JSONDecoder(), start='{"name": '):
+    """The name of a line of the lists of bodies: its first member, decoded alone, not the whole line."""
+    try:
+        return decoder.raw_decode(line, len(start))[0] if line.startswith(start) else json.loads(line)["name"]
+    except (ValueError, KeyError, TypeError):
+        raise ValueError("not a body's line of the lists of bodies (a JSON object with its name first)") from None
 
 
 def _body_names(folder, summary):
@@ -235,25 +258,12 @@ def _body_names(folder, summary):
     lists = summary.get("body_lists")
     if not isinstance(lists, dict) or not isinstance(lists.get("file"), str):
         return None
-    path = os.path.join(folder, lists["file"])
-    names, decoder, start = [], json.JSONDecoder(), '{"name": '
     try:
-        with open(path, encoding="utf-8") as f:
-            for number, line in enumerate(f, 1):
-                try:  # the name is each line's first member: decoded alone, not the whole line
-                    names.append(decoder.raw_decode(line, len(start))[0] if line.startswith(start)
-                                 else json.loads(line)["name"])
-                except (ValueError, KeyError, TypeError):
-                    raise ValueError(f"{path}:{number}: not a body's line of the lists of bodies "
-                                     "(a JSON object with its name first)") from None
+        return _body_lines(folder, lists, _name_of_line)
     except FileNotFoundError:  # a trajectory file (npz, HDF5: its own summary) taken away from its folder
-        warnings.warn(f"{path}: not there (the summary's body_lists names it); the bodies are named body0, "
-                      "body1, ...", stacklevel=3)
+        warnings.warn(f"{os.path.join(folder, lists['file'])}: not there (the summary's body_lists names it); the "
+                      "bodies are named body0, body1, ...", stacklevel=3)
         return None
-    if len(names) != lists.get("bodies"):
-        raise ValueError(f"{path}: holds {len(names)} bodies where the summary's body_lists says "
-                         f"{lists.get('bodies')}")
-    return names
 
 
 def _read_side_table(folder, name):

@@ -1597,20 +1597,20 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
     }
   }
   std::int64_t every = 1;
+  std::optional<BodyLists> body_lists;  // [output] body_lists, if given
   if (const toml::table* out = r.optional_table(root, "", "output")) {
     r.only_keys(*out, "output", {"every", "format", "body_lists"});
     if (out->contains("every")) {
       every = r.integer(*out, "output", "every");
       if (every < 1) r.fail("output.every", "must be an integer >= 1");
     }
-  }
-  std::optional<BodyLists> body_lists;  // [output] body_lists, if given
-  if (const toml::table* out = root.get_as<toml::table>("output"); out && out->contains("body_lists")) {
-    if (!bodies_format)
-      r.fail("output.body_lists", "is about the lists of [[bodies]]; a single body's final state is summary.json's "
-                                  "\"final\": remove the key");
-    body_lists = r.string(*out, "output", "body_lists", {"summary", "file"}) == "file" ? BodyLists::file
-                                                                                       : BodyLists::summary;
+    if (out->contains("body_lists")) {
+      if (!bodies_format)
+        r.fail("output.body_lists", "is about the lists of [[bodies]]; a single body's final state is "
+                                    "summary.json's \"final\": remove the key");
+      body_lists = r.string(*out, "output", "body_lists", {"summary", "file"}) == "file" ? BodyLists::file
+                                                                                         : BodyLists::summary;
+    }
   }
   TrajectoryFormat format;
   if (const toml::table* out = root.get_as<toml::table>("output"); out && out->contains("format")) {

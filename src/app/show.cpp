@@ -50,8 +50,9 @@ void show_run(const std::string& dir, std::ostream& out) {
   std::ifstream in(file);
   if (!in) throw InvalidInput(file + ": no summary here; is '" + dir + "' a run folder written by lgvi run?");
   // The per-body lists (final_bodies, setup.bodies), where a run keeps them in its summary ([output]
-  // body_lists = "summary" beyond 10 000 bodies: about 1 GB at 10^6), are most of it; this reads only their length: their entries are counted and dropped as they are
-  // parsed, so that the memory stays that of the rest.
+  // body_lists = "summary" beyond 10 000 bodies: about 1 GB at 10^6), are most of it; this reads only
+  // their length: their entries are counted and dropped as they are parsed, so that the memory stays
+  // that of the rest.
   std::size_t final_bodies = 0;
   bool in_final_bodies = false, in_setup = false, in_setup_bodies = false;
   const Json summary = parse_json_file_stream(in, file, [&](int depth, Json::parse_event_t event, Json& parsed) {
