@@ -524,6 +524,64 @@ TEST(NeighbourListCode, PartnersComeBackExactlyInOneToFiveBytesEach) {
   }
 }
 
+TEST(NeighbourListWorkspace, ASetsArraysAreOnLinesApartAndACopyHoldsTheBytesInUse) {
+  // The lists' one buffer for a build's cell arrays and then the pruned
+  // lists (lgvi::detail::ArrayWorkspace): the arrays of a set each begin on a
+  // 64-byte line, do not overlap (each keeps what was written to it), and a
+  // set larger than the buffer grows it. A copy holds the bytes in use, apart
+  // from the original; an array beyond its set's bytes is refused.
+  using lgvi::detail::ArrayWorkspace;
+  ArrayWorkspace w;
+  for (const std::size_t n : {std::size_t{5}, std::size_t{1000}, std::size_t{100000}}) {
+    w.begin_arrays(ArrayWorkspace::bytes_for<std::uint32_t>(n + 1) + ArrayWorkspace::bytes_for<double>(n) +
+                   ArrayWorkspace::bytes_for<std::uint32_t>(n));
+    std::uint32_t* const a = w.array<std::uint32_t>(n + 1);
+    double* const b = w.array<double>(n);
+    std::uint32_t* const c = w.array<std::uint32_t>(n);
+    for (const void* p : {static_cast<const void*>(a), static_cast<const void*>(b), static_cast<const void*>(c)})
+      EXPECT_EQ(reinterpret_cast<std::uintptr_t>(p) % 64, 0u) << n;
+    EXPECT_EQ(w.first<std::uint32_t>(), a);
+    for (std::size_t i = 0; i <= n; ++i) a[i] = static_cast<std::uint32_t>(3 * i + 1);
+    for (std::size_t i = 0; i < n; ++i) b[i] = 0.5 * static_cast<double>(i);
+    for (std::size_t i = 0; i < n; ++i) c[i] = static_cast<std::uint32_t>(7 * i);
+    bool kept = true;
+    for (std::size_t i = 0; i < n; ++i)
+      kept = kept && a[i] == 3 * i + 1 && b[i] == 0.5 * static_cast<double>(i) && c[i] == 7 * i;
+    EXPECT_TRUE(kept && a[n] == 3 * n + 1) << n;
+    EXPECT_THROW(w.array<std::uint32_t>(16), std::logic_error) << n;
+  }
+  const ArrayWorkspace copy = w;
+  std::uint32_t* const original = w.first<std::uint32_t>();
+  for (std::size_t i = 0; i < 100001; ++i) original[i] = 0;
+  const std::uint32_t* const copied = copy.first<std::uint32_t>();
+  EXPECT_NE(copied, original);
+  EXPECT_EQ(copied[0], 1u);
+  EXPECT_EQ(copied[100000], 300001u);
+}
+
+TEST(LennardJonesPairs, ACopyWithItsListsBuiltGivesTheSameSumsBitForBit) {
+  // A pair interaction copied after its lists were built and pruned (its
+  // lists in the workspace's bytes): the copy's sums at a moved state, where
+  // it uses the copied lists, equal the original's bit for bit.
+  const System sys = molecules(64);
+  const SystemState s = lattice_state(64, 1.7, 0.4);
+  const LennardJones lj(sys, 1.0, 1.0, 2.5, Parallelism{2});
+  SystemEvaluation e0(s.size());
+  lj.add(s, e0);
+  const LennardJones copy = lj;  // NOLINT(performance-unnecessary-copy-initialization): the copy is what is tested
+  SystemState moved = s;
+  for (std::size_t a = 0; a < moved.size(); ++a) moved.x[a] += t::random_vector(0.01);
+  SystemEvaluation e1(s.size()), e2(s.size());
+  lj.add(moved, e1);
+  copy.add(moved, e2);
+  EXPECT_EQ(copy.list_builds(), lj.list_builds());
+  for (std::size_t a = 0; a < s.size(); ++a) {
+    EXPECT_EQ(e2.force[a], e1.force[a]) << a;
+    EXPECT_EQ(e2.torque[a], e1.torque[a]) << a;
+  }
+  EXPECT_EQ(e2.energy, e1.energy);
+}
+
 TEST(LennardJonesPairs, PrunedListsMissNoPairAlongAWalk) {
   // The pruned lists hold the pairs within r_c + delta at the last pruning
   // (delta = skin/3 = 0.1), and are pruned again when a site has moved more

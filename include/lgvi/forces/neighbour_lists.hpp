@@ -52,7 +52,12 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <memory>
+#include <new>
+#include <stdexcept>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace lgvi {
@@ -97,6 +102,101 @@ inline std::size_t decode_partners(std::size_t i, const std::uint8_t* in, const 
   }
   return count;
 }
+
+/// One buffer for arrays of trivial types that are used one set at a time
+/// (the neighbour lists' cell arrays during a build, then the pruned lists):
+/// begin_arrays(bytes) starts a set of that many bytes (bytes_for's sum),
+/// growing the buffer if needed, which discards its contents; array<T>(count)
+/// places the set's next array after the previous one, each on a 64-byte
+/// line. The buffer is kept between sets, not freed: its pages are taken
+/// from the system once rather than at every build, and the memory one set
+/// frees does not stay in the heap apart from the next (with glibc's malloc
+/// it did, on two threads: 130 MB more peak memory at 10^6 molecules;
+/// docs/benchmarks.md). Copies copy the bytes in use.
+class ArrayWorkspace {
+ public:
+  ArrayWorkspace() = default;
+  ArrayWorkspace(const ArrayWorkspace& other) { *this = other; }
+  ArrayWorkspace& operator=(const ArrayWorkspace& other) {
+    if (this == &other) return *this;
+    release();
+    if (other.used_ > 0) {
+      grow(other.used_);
+      std::copy(other.base_, other.base_ + other.used_, base_);
+    }
+    used_ = set_ = other.used_;
+    return *this;
+  }
+  ArrayWorkspace(ArrayWorkspace&& other) noexcept
+      : bytes_(std::move(other.bytes_)), base_(other.base_), size_(other.size_), used_(other.used_), set_(other.set_) {
+    other.base_ = nullptr;
+    other.size_ = other.used_ = other.set_ = 0;
+  }
+  ArrayWorkspace& operator=(ArrayWorkspace&& other) noexcept {
+    bytes_ = std::move(other.bytes_);
+    base_ = std::exchange(other.base_, nullptr);
+    size_ = std::exchange(other.size_, 0);
+    used_ = std::exchange(other.used_, 0);
+    set_ = std::exchange(other.set_, 0);
+    return *this;
+  }
+  ~ArrayWorkspace() = default;
+
+  /// The bytes an array of count T's takes.
+  template <class T>
+  static constexpr std::size_t bytes_for(std::size_t count) {
+    static_assert(std::is_trivially_default_constructible_v<T> && std::is_trivially_destructible_v<T> &&
+                  alignof(T) <= line);
+    return (count * sizeof(T) + line - 1) / line * line;
+  }
+
+  void begin_arrays(std::size_t bytes) {
+    if (bytes > capacity()) grow(bytes);
+    used_ = 0;
+    set_ = bytes;
+  }
+
+  /// Room for count T's after the set's arrays so far; their values are
+  /// unspecified (not initialized).
+  template <class T>
+  T* array(std::size_t count) {
+    const std::size_t at = used_, end = at + bytes_for<T>(count);
+    if (end > set_) throw std::logic_error("ArrayWorkspace: an array beyond its set's bytes");
+    used_ = end;
+    // Begins the array's lifetime in the buffer (no initialization, no
+    // overhead for a trivial type).
+    return ::new (static_cast<void*>(base_ + at)) T[count];
+  }
+
+  /// The set's first array, as placed by array<T>.
+  template <class T>
+  T* first() const {
+    return std::launder(reinterpret_cast<T*>(base_));
+  }
+
+ private:
+  static constexpr std::size_t line = 64;
+  std::size_t capacity() const { return size_ == 0 ? 0 : size_ - line; }
+  void grow(std::size_t bytes) {
+    // Freed before the larger one is taken (the contents are not kept):
+    // never both at once. An eighth more, as the lists grow with the
+    // system's density; not initialized, so that what is never written
+    // takes no memory (a large block's pages are the system's until
+    // touched).
+    release();
+    size_ = bytes + bytes / 8 + line;
+    bytes_ = std::make_unique_for_overwrite<std::byte[]>(size_);
+    base_ = bytes_.get() + (line - reinterpret_cast<std::uintptr_t>(bytes_.get()) % line) % line;
+  }
+  void release() {
+    bytes_.reset();
+    base_ = nullptr;
+    size_ = 0;
+  }
+  std::unique_ptr<std::byte[]> bytes_;
+  std::byte* base_ = nullptr;  ///< the buffer's first 64-byte line (it has a line more than its capacity())
+  std::size_t size_ = 0, used_ = 0, set_ = 0;
+};
 
 }  // namespace detail
 
@@ -202,9 +302,9 @@ class NeighbourLists {
   std::size_t list_begin(std::size_t i) const { return list_start_[i]; }
   std::size_t list_end(std::size_t i) const { return list_start_[i + 1]; }
   /// Entry k's partner site.
-  SiteIndex partner(std::size_t k) const { return partner_of(neighbours_[k]); }
+  SiteIndex partner(std::size_t k) const { return partner_of(entries()[k]); }
   /// Entry k as stored: partner_of() and across() take it apart.
-  Entry entry(std::size_t k) const { return neighbours_[k]; }
+  Entry entry(std::size_t k) const { return entries()[k]; }
   static SiteIndex partner_of(Entry e) { return e & ~across_bit; }
   /// Whether the entry's pair was across a period at the last pruning: its
   /// minimum image X_j - X_i - L n with some n_k != 0 (box.hpp). A separation d
@@ -388,15 +488,11 @@ class NeighbourLists {
     ++builds_;
     const std::size_t m = position_.size();
     // Memory: the pruned lists are stale from here on, and the cell arrays
-    // are needed only until the outer lists are made. Each is released when
-    // done with, so that the two are never held at once (they are the
-    // largest arrays after the outer lists). A build pays for taking them
-    // anew, where builds are steps apart: with a skin. Without one every
-    // evaluation builds, and they are kept. (Until the pruning below
-    // completes there are no lists: a build cut short by an exception is
-    // redone.)
+    // are needed only until the outer lists are made, so the two share one
+    // buffer (workspace_; they are the largest arrays after the outer
+    // lists). (Until the pruning below completes there are no lists: a
+    // build cut short by an exception is redone.)
     lists_ready_ = false;
-    if (skin_ > 0.0) release(neighbours_);
     Vector3<double> lo = position_[0], hi = position_[0];
     bool finite = true;  // (each site's: the bounds pass over a NaN)
     for (const Vector3<double>& x : position_) {
@@ -427,29 +523,37 @@ class NeighbourLists {
       inv_cell_(k) = count / std::max(extent, reach / cells_per_reach);
       cells *= static_cast<std::size_t>(count);
     }
-    cell_index_.resize(m);
-    cell_start_.assign(cells + 1, 0);
+    // The cells, in the workspace: cell c's sites are sorted[cell_start[c]
+    // ... cell_start[c + 1]) (site counts: at most max_sites, as the cells'
+    // numbers, fewer than 2 max_sites + 2).
+    using Workspace = detail::ArrayWorkspace;
+    workspace_.begin_arrays(Workspace::bytes_for<SiteIndex>(cells + 1) + Workspace::bytes_for<SiteIndex>(cells) +
+                            4 * Workspace::bytes_for<SiteIndex>(m) + 3 * Workspace::bytes_for<double>(m));
+    SiteIndex* const cell_start = workspace_.array<SiteIndex>(cells + 1);
+    SiteIndex* const cell_fill = workspace_.array<SiteIndex>(cells);
+    SiteIndex* const cell_index = workspace_.array<SiteIndex>(m);
+    SiteIndex* const sorted = workspace_.array<SiteIndex>(m);
+    double* const cell_x = workspace_.array<double>(m);  // the sites' positions in cell order
+    double* const cell_y = workspace_.array<double>(m);
+    double* const cell_z = workspace_.array<double>(m);
+    SiteIndex* const cell_body = workspace_.array<SiteIndex>(m);  // and their bodies
+    std::fill(cell_start, cell_start + cells + 1, SiteIndex{0});
     for (std::size_t i = 0; i < m; ++i) {
       const std::array<std::int64_t, 3> c = cell_of(position_[i]);
-      cell_index_[i] = static_cast<SiteIndex>((c[2] * dims_[1] + c[1]) * dims_[0] + c[0]);
-      ++cell_start_[cell_index_[i] + 1];
+      cell_index[i] = static_cast<SiteIndex>((c[2] * dims_[1] + c[1]) * dims_[0] + c[0]);
+      ++cell_start[cell_index[i] + 1];
     }
-    for (std::size_t c = 0; c < cells; ++c) cell_start_[c + 1] += cell_start_[c];
-    cell_fill_.assign(cell_start_.begin(), cell_start_.end() - 1);
-    sorted_.resize(m);
-    for (std::size_t i = 0; i < m; ++i) sorted_[cell_fill_[cell_index_[i]]++] = static_cast<SiteIndex>(i);
+    for (std::size_t c = 0; c < cells; ++c) cell_start[c + 1] += cell_start[c];
+    std::copy(cell_start, cell_start + cells, cell_fill);
+    for (std::size_t i = 0; i < m; ++i) sorted[cell_fill[cell_index[i]]++] = static_cast<SiteIndex>(i);
     // The sites' positions and bodies in cell order: a row of neighbouring
     // cells along x is one contiguous run of these arrays.
-    cell_x_.resize(m);
-    cell_y_.resize(m);
-    cell_z_.resize(m);
-    cell_body_.resize(m);
     for (std::size_t k = 0; k < m; ++k) {
-      const Vector3<double>& x = position_[sorted_[k]];
-      cell_x_[k] = x(0);
-      cell_y_[k] = x(1);
-      cell_z_[k] = x(2);
-      cell_body_[k] = static_cast<SiteIndex>(sites_.body_of(sorted_[k]));
+      const Vector3<double>& x = position_[sorted[k]];
+      cell_x[k] = x(0);
+      cell_y[k] = x(1);
+      cell_z[k] = x(2);
+      cell_body[k] = static_cast<SiteIndex>(sites_.body_of(sorted[k]));
     }
     // The lists, one body after the other. Each site's list is its own: the
     // sites of higher bodies within r_c + skin, by index. Per body (per site
@@ -504,18 +608,18 @@ class NeighbourLists {
                 for (std::int64_t y = ys.run[yr][0]; y <= ys.run[yr][1]; ++y)
                   for (int xr = 0; xr < xs.count; ++xr) {
                     const auto row = static_cast<std::size_t>((z * dims_[1] + y) * dims_[0]);
-                    const std::size_t run_first = cell_start_[row + static_cast<std::size_t>(xs.run[xr][0])],
-                                      run_end = cell_start_[row + static_cast<std::size_t>(xs.run[xr][1]) + 1];
+                    const std::size_t run_first = cell_start[row + static_cast<std::size_t>(xs.run[xr][0])],
+                                      run_end = cell_start[row + static_cast<std::size_t>(xs.run[xr][1]) + 1];
                     if (near.size() < kept + (run_end - run_first)) near.resize(2 * (kept + (run_end - run_first)));
                     SiteIndex* const list = near.data();
                     // Every candidate written, the count advanced only for those kept:
                     // no branch to mispredict on the distance test (the minimum
                     // image's is taken only across a period).
                     for (std::size_t k = run_first; k < run_end; ++k) {
-                      double dx = cell_x_[k] - cx, dy = cell_y_[k] - cy, dz = cell_z_[k] - cz;
+                      double dx = cell_x[k] - cx, dy = cell_y[k] - cy, dz = cell_z[k] - cz;
                       if constexpr (Periodic) box_.reduce_beyond_plain(dx, dy, dz);
-                      list[kept] = sorted_[k];
-                      kept += static_cast<std::size_t>((dx * dx + dy * dy + dz * dz < around2) & (cell_body_[k] > a));
+                      list[kept] = sorted[k];
+                      kept += static_cast<std::size_t>((dx * dx + dy * dy + dz * dz < around2) & (cell_body[k] > a));
                     }
                   }
           // By index; insertion sort for tens of sites, where it is fastest
@@ -560,13 +664,10 @@ class NeighbourLists {
       throw StepFailure("the neighbour lists hold " + std::to_string(chunk_entries_[chunks]) +
                             " pairs, more than their 4-byte offsets can index (2^32 - 1)",
                         "shorten the cutoff or skin, or split the system");
-    if (skin_ > 0.0) {
-      release(cell_start_, cell_fill_);
-      release(cell_index_, sorted_, cell_body_);
-      release(cell_x_, cell_y_, cell_z_);
-    }
-    // Room for the pruned lists in place of the outer ones (prune_lists).
-    neighbours_.resize(chunk_entries_[chunks]);
+    // The cells are done with: the pruned lists in their place, with room
+    // for as many entries as the outer lists (prune_lists).
+    workspace_.begin_arrays(Workspace::bytes_for<Entry>(chunk_entries_[chunks]));
+    workspace_.array<Entry>(chunk_entries_[chunks]);
     prune_lists<Periodic>();
   }
 
@@ -593,7 +694,7 @@ class NeighbourLists {
       const Vector3<double>* const position = position_.data();
       // Site i's outer list: outer[outer_end_[i - 1] ... outer_end_[i]).
       const std::uint8_t* const outer = outer_lists_[chunk].data();
-      Entry* const list = neighbours_.data() + chunk_entries_[chunk];
+      Entry* const list = entries() + chunk_entries_[chunk];
       thread_local std::vector<SiteIndex> partners_of_thread;
       std::vector<SiteIndex>& partners = partners_of_thread;
       std::size_t count = 0, from = 0;
@@ -613,9 +714,8 @@ class NeighbourLists {
     for (std::size_t chunk = 0; chunk < chunks; ++chunk) {  // (to lower or equal offsets: in order, nothing unread is overwritten)
       const std::size_t i0 = sites_.begin(chunk * n / chunks);
       if (list_start_[i0] == chunk_entries_[chunk]) continue;  // (in place already)
-      const auto from = neighbours_.begin() + static_cast<std::ptrdiff_t>(chunk_entries_[chunk]);
-      std::copy(from, from + static_cast<std::ptrdiff_t>(chunk_used_[chunk]),
-                neighbours_.begin() + static_cast<std::ptrdiff_t>(list_start_[i0]));
+      Entry* const from = entries() + chunk_entries_[chunk];
+      std::copy(from, from + chunk_used_[chunk], entries() + list_start_[i0]);
     }
     lists_ready_ = true;
   }
@@ -646,18 +746,12 @@ class NeighbourLists {
   /// An offset into the lists (4 bytes: checked at each build).
   using ListOffset = std::uint32_t;
   mutable std::vector<ListOffset> list_start_;
-  /// The cells (empty outside a build, with a skin): cell c's sites are sorted_[cell_start_[c]
-  /// ... cell_start_[c + 1]) (site counts: at most max_sites, as the cells'
-  /// numbers, fewer than 2 max_sites + 2).
-  mutable std::vector<SiteIndex> cell_start_, cell_fill_;
-  mutable std::vector<SiteIndex> cell_index_, sorted_;
-  mutable std::vector<double> cell_x_, cell_y_, cell_z_;  ///< the sites' positions in cell order
-  mutable std::vector<SiteIndex> cell_body_;              ///< and their bodies
-  /// The pruned lists: site i's entries (partner and across_bit)
-  /// neighbours_[list_start_[i] ... list_start_[i + 1]) (the array has room
-  /// for as many entries as the outer lists have, as it holds each chunk's
-  /// while they are pruned).
-  mutable std::vector<Entry> neighbours_;
+  /// A build's cell arrays, then the pruned lists: site i's entries
+  /// (partner and across_bit) entries()[list_start_[i] ... list_start_[i +
+  /// 1]) (room for as many entries as the outer lists have, as it holds
+  /// each chunk's while they are pruned).
+  mutable detail::ArrayWorkspace workspace_;
+  Entry* entries() const { return workspace_.first<Entry>(); }
   mutable std::vector<std::size_t> chunk_used_;  ///< per chunk: its list's entries in use
   /// Per site: where it was at the last build and at the last pruning.
   mutable SitePlaces places_;
@@ -667,7 +761,7 @@ class NeighbourLists {
   /// 0 for the chunk's first site; not joined into one array: only the
   /// pruning reads them, chunk by chunk); chunk_entries_[c]: the chunk's
   /// first entry's place in the lists, as many entries before it (the pruned
-  /// lists' room). neighbours_ and list_start_ are their pruned form.
+  /// lists' room). entries() and list_start_ are their pruned form.
   mutable std::vector<std::uint32_t> outer_end_;
   mutable std::vector<std::vector<std::uint8_t>> outer_lists_;
   mutable std::vector<std::size_t> chunk_entries_;

@@ -564,7 +564,7 @@ class PairInteraction {
       std::size_t pairs = 0;
       for (const std::vector<std::size_t>& found : range_crossing_)
         for (const std::size_t a : found) {
-          crossing_first_[a] = pairs;
+          crossing_first_[a] = static_cast<CrossingOffset>(pairs);
           crossing_bodies_.push_back(a);
           pairs += entries(a);
         }
@@ -582,11 +582,21 @@ class PairInteraction {
     if (new_ranges || range_bounds_.size() != static_cast<std::size_t>(threads) + 1) {
       range_bounds_ = balanced_ranges(n, threads, [&](std::size_t a) { return lists_.list_begin(sites().begin(a)); });
       if (threads > 1) {
-        find_crossing();
-        std::vector<std::size_t> work(n + 1, 0);
-        for (std::size_t a = 0; a < n; ++a)
-          work[a + 1] = work[a] + entries(a) * (crossing_first_[a] == no_crossing ? 3 : 1);
-        range_bounds_ = balanced_ranges(n, threads, [&](std::size_t a) { return work[a]; });
+        const std::size_t pairs = find_crossing();
+        // The work before body a: 3 per entry before it, less 2 per entry of
+        // the crossing bodies before it (crossing_first_ of the first crossing
+        // body from a on, the entries of those before it). (`next`: that
+        // body's place in crossing_bodies_, found again only where a goes
+        // back: balanced_ranges asks for the total, then scans up.)
+        std::size_t next = 0;
+        range_bounds_ = balanced_ranges(n, threads, [&](std::size_t a) {
+          if (next > 0 && crossing_bodies_[next - 1] >= a)
+            next = static_cast<std::size_t>(std::lower_bound(crossing_bodies_.begin(), crossing_bodies_.end(), a) -
+                                            crossing_bodies_.begin());
+          while (next < crossing_bodies_.size() && crossing_bodies_[next] < a) ++next;
+          const std::size_t crossing = next == crossing_bodies_.size() ? pairs : crossing_first_[crossing_bodies_[next]];
+          return 3 * lists_.list_begin(sites().begin(a)) - 2 * crossing;
+        });
       }
     }
     range_ids_.resize(static_cast<std::size_t>(threads) + 1);
@@ -636,7 +646,7 @@ class PairInteraction {
       incoming_pair_.resize(incoming_start_[m]);
       // Each pair placed at incoming_start_[j]++, which then holds site j's
       // end, the next one's start: the starts are moved back up one place.
-      for_each_crossing_pair([&](std::size_t j, std::size_t k) { incoming_pair_[incoming_start_[j]++] = k; });
+      for_each_crossing_pair([&](std::size_t j, std::size_t k) { incoming_pair_[incoming_start_[j]++] = static_cast<CrossingOffset>(k); });
       for (std::size_t j = m; j > 0; --j) incoming_start_[j] = incoming_start_[j - 1];
       incoming_start_[0] = 0;
     }
@@ -654,14 +664,18 @@ class PairInteraction {
   mutable std::vector<double> site_force_;
   /// Range t: bodies [range_bounds_[t], range_bounds_[t + 1]); range_ids_ = 0, 1, ..., T.
   mutable std::vector<std::size_t> range_bounds_, range_ids_;
-  static constexpr std::size_t no_crossing = static_cast<std::size_t>(-1);
+  /// An offset into the crossing arrays: they hold list entries, fewer than
+  /// 2^32 (the lists' own offsets are 4 bytes, checked at each build).
+  using CrossingOffset = std::uint32_t;
+  static constexpr CrossingOffset no_crossing = std::numeric_limits<CrossingOffset>::max();
   /// A range pass computes the pair terms of consecutive bodies in batches
   /// of about this many list entries (7 arrays of it stay in a core's L1).
   static constexpr std::size_t batch_entries = 256;
   /// The bodies with pairs into a higher range, in order; per body, where
   /// its list entries' terms start in the crossing arrays (or no_crossing);
   /// the split of those bodies between threads.
-  mutable std::vector<std::size_t> crossing_bodies_, crossing_first_, crossing_ranges_;
+  mutable std::vector<std::size_t> crossing_bodies_, crossing_ranges_;
+  mutable std::vector<CrossingOffset> crossing_first_;
   mutable std::vector<std::vector<std::size_t>> range_crossing_;  ///< find_crossing's, per range
   mutable std::vector<double> crossing_fx_, crossing_fy_, crossing_fz_;  ///< per entry: the force on its list's site
   /// The crossing bodies in batches [first, end) of consecutive bodies.
@@ -669,7 +683,7 @@ class PairInteraction {
   /// Site j's crossing pairs: incoming_pair_[incoming_start_[j] ...
   /// incoming_start_[j + 1]) index the crossing arrays, by increasing lower
   /// site (both empty where no pair crosses).
-  mutable std::vector<std::size_t> incoming_start_, incoming_pair_;
+  mutable std::vector<CrossingOffset> incoming_start_, incoming_pair_;
   mutable bool work_ready_ = false;  ///< the ranges and crossing pairs are those of the current lists
 };
 
