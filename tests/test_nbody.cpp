@@ -557,6 +557,15 @@ TEST(NeighbourListWorkspace, ASetsArraysAreOnLinesApartAndACopyHoldsTheBytesInUs
   EXPECT_NE(copied, original);
   EXPECT_EQ(copied[0], 1u);
   EXPECT_EQ(copied[100000], 300001u);
+  // A move takes the buffer itself; a copy assigned over a larger one holds the copied bytes.
+  ArrayWorkspace moved = std::move(w);
+  EXPECT_EQ(moved.first<std::uint32_t>(), original);
+  ArrayWorkspace small;
+  small.begin_arrays(ArrayWorkspace::bytes_for<std::uint32_t>(2));
+  small.array<std::uint32_t>(2)[1] = 42;
+  moved = small;
+  EXPECT_EQ(moved.first<std::uint32_t>()[1], 42u);
+  EXPECT_NE(moved.first<std::uint32_t>(), small.first<std::uint32_t>());
 }
 
 TEST(LennardJonesPairs, ACopyWithItsListsBuiltGivesTheSameSumsBitForBit) {

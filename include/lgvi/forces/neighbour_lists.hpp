@@ -119,13 +119,13 @@ class ArrayWorkspace {
   ArrayWorkspace(const ArrayWorkspace& other) { *this = other; }
   ArrayWorkspace& operator=(const ArrayWorkspace& other) {
     if (this == &other) return *this;
-    release();
-    if (other.used_ > 0) {
-      grow(other.used_);
-      std::copy(other.base_, other.base_ + other.used_, base_);
+    ArrayWorkspace copy;  // (this one unchanged if the allocation fails)
+    if (other.base_ != nullptr) {
+      copy.grow(other.used_);
+      std::copy(other.base_, other.base_ + other.used_, copy.base_);
     }
-    used_ = set_ = other.used_;
-    return *this;
+    copy.used_ = copy.set_ = other.used_;
+    return *this = std::move(copy);
   }
   ArrayWorkspace(ArrayWorkspace&& other) noexcept
       : bytes_(std::move(other.bytes_)), base_(other.base_), size_(other.size_), used_(other.used_), set_(other.set_) {
@@ -191,7 +191,7 @@ class ArrayWorkspace {
   void release() {
     bytes_.reset();
     base_ = nullptr;
-    size_ = 0;
+    size_ = used_ = set_ = 0;
   }
   std::unique_ptr<std::byte[]> bytes_;
   std::byte* base_ = nullptr;  ///< the buffer's first 64-byte line (it has a line more than its capacity())
@@ -528,7 +528,7 @@ class NeighbourLists {
     // numbers, fewer than 2 max_sites + 2).
     using Workspace = detail::ArrayWorkspace;
     workspace_.begin_arrays(Workspace::bytes_for<SiteIndex>(cells + 1) + Workspace::bytes_for<SiteIndex>(cells) +
-                            4 * Workspace::bytes_for<SiteIndex>(m) + 3 * Workspace::bytes_for<double>(m));
+                            3 * Workspace::bytes_for<SiteIndex>(m) + 3 * Workspace::bytes_for<double>(m));
     SiteIndex* const cell_start = workspace_.array<SiteIndex>(cells + 1);
     SiteIndex* const cell_fill = workspace_.array<SiteIndex>(cells);
     SiteIndex* const cell_index = workspace_.array<SiteIndex>(m);
@@ -672,7 +672,7 @@ class NeighbourLists {
   }
 
   /// The outer lists' entries within r_c + prune_margin_ now, per site in
-  /// the same order: the lists the users read (neighbours_, list_start_).
+  /// the same order: the lists the users read (entries(), list_start_).
   void prune_lists() const { box_.any_periodic() ? prune_lists<true>() : prune_lists<false>(); }
   template <bool Periodic>
   void prune_lists() const {
@@ -686,7 +686,7 @@ class NeighbourLists {
     chunk_used_.resize(chunks);
     list_start_.assign(m + 1, 0);
     // Each chunk's pruned lists first where its outer lists' entries would
-    // be in one array (neighbours_[chunk_entries_[chunk] ...), then moved
+    // be in one array (entries()[chunk_entries_[chunk] ...), then moved
     // down in chunk order to follow the previous chunk's.
     parallel_for(chunks, par_, [&](std::size_t chunk) {
       const std::size_t i0 = sites_.begin(chunk * n / chunks), i1 = sites_.begin((chunk + 1) * n / chunks);
