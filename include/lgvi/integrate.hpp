@@ -83,8 +83,9 @@ double physical_time(const S& s, double t) {
 }
 /// to = from before each step. A system without wheels (eta empty), copied
 /// into one of its size, is copied body by body on the stepper's threads
-/// where the stepper has more than one: a many-body step's copy (104 B per body) is otherwise a serial part
-/// of every step. The same values either way.
+/// where the stepper has more than one: a many-body step's copy (104 B per
+/// body) is otherwise a serial part of every step. The same values either
+/// way.
 template <class S, class State>
 void copy_state(const S& s, State& to, const State& from) {
   if constexpr (std::is_same_v<State, SystemState> && requires { s.parallelism(); }) {

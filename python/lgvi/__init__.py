@@ -12,8 +12,9 @@ PythonPotential, PythonForcing (forces and torques written in Python), Integrati
 EnsembleResult (sweeps and Monte Carlo on any executor), load, potential (none(), central(mu),
 uniform(g)), plot (the paper's figures), view (an interactive 3-D view of a run, one offline HTML
 file), load_run, load_bodies (a many-body run's bodies: set-up and final state), COLUMNS,
-BODIES_COLUMNS, METHODS, SOLVERS, FORMATS, INTERACTIONS (the names the scenario reader accepts). Quaternions are scalar-first (w, x, y, z) numpy arrays everywhere. Invalid
-arguments raise ValueError naming the argument.
+BODIES_COLUMNS, METHODS, SOLVERS, FORMATS, INTERACTIONS (the names the scenario reader accepts).
+Quaternions are scalar-first (w, x, y, z) numpy arrays everywhere. Invalid arguments raise ValueError
+naming the argument.
 
 `import lgvi` itself is cheap: names are loaded on first use (numpy, and the compiled lgvi._core
 for Body, Scenario, simulate, Stepper), so `python3 -m lgvi.plot` also works from the source tree

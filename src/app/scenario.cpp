@@ -1598,6 +1598,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   }
   std::int64_t every = 1;
   std::optional<BodyLists> body_lists;  // [output] body_lists, if given
+  TrajectoryFormat format;
   if (const toml::table* out = r.optional_table(root, "", "output")) {
     r.only_keys(*out, "output", {"every", "format", "body_lists"});
     if (out->contains("every")) {
@@ -1611,12 +1612,11 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
       body_lists = r.string(*out, "output", "body_lists", {"summary", "file"}) == "file" ? BodyLists::file
                                                                                          : BodyLists::summary;
     }
-  }
-  TrajectoryFormat format;
-  if (const toml::table* out = root.get_as<toml::table>("output"); out && out->contains("format")) {
-    std::vector<std::string_view> names;
-    for (const FormatDescriptor* d : trajectory_formats()) names.push_back(d->name);
-    format = TrajectoryFormat::named(r.string(*out, "output", "format", names));
+    if (out->contains("format")) {
+      std::vector<std::string_view> format_names;
+      for (const FormatDescriptor* d : trajectory_formats()) format_names.push_back(d->name);
+      format = TrajectoryFormat::named(r.string(*out, "output", "format", format_names));
+    }
   }
   const std::string stem = std::filesystem::path(name).stem().string();
   Scenario sc;

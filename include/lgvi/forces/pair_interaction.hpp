@@ -646,7 +646,9 @@ class PairInteraction {
       incoming_pair_.resize(incoming_start_[m]);
       // Each pair placed at incoming_start_[j]++, which then holds site j's
       // end, the next one's start: the starts are moved back up one place.
-      for_each_crossing_pair([&](std::size_t j, std::size_t k) { incoming_pair_[incoming_start_[j]++] = static_cast<CrossingOffset>(k); });
+      for_each_crossing_pair([&](std::size_t j, std::size_t k) {
+        incoming_pair_[incoming_start_[j]++] = static_cast<CrossingOffset>(k);
+      });
       for (std::size_t j = m; j > 0; --j) incoming_start_[j] = incoming_start_[j - 1];
       incoming_start_[0] = 0;
     }
