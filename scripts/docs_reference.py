@@ -142,6 +142,9 @@ DESCRIPTIONS = {
     # [output]
     "output.every": "integer >= 1: write every n-th step, plus the first and last (default 1)",
     "output.format": "one of the formats below (default \"csv\")",
+    "output.layout": "\"single-body\" | \"long\": the trajectory's rows, one a written step with one body's "
+                     "columns, or one a step and body (default: \"single-body\" for [body], \"long\" for "
+                     "[[bodies]]; \"single-body\" takes one body and no short-range interaction)",
     "output.body_lists": "[[bodies]]: \"summary\" | \"file\": each body's set-up and final state in summary.json "
                          "(setup.bodies, final_bodies) or one body a line in bodies.jsonl beside it (default: the "
                          "summary up to 10 000 bodies, the file beyond)",

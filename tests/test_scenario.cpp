@@ -673,6 +673,8 @@ std::vector<BadCase> bad_cases() {
       {"OutputEveryNegative", "output.every = -3", mutate("every = 10", "every = -3"), {"output.every", ">= 1"}},
       {"OutputEveryFraction", "output.every = 1.5", mutate("every = 10", "every = 1.5"),
        {"output.every", "integer"}},
+      {"OutputLayoutUnknown", "output.layout = \"wide\"", mutate("every = 10", "every = 10\nlayout = \"wide\""),
+       {"output.layout", "\"wide\"", "\"single-body\", \"long\""}},
 
       // TOML syntax.
       {"DuplicateKey", "integrator.step given twice (toml++ parse error)", duplicate,

@@ -7,12 +7,13 @@ variational integrator), from Python.
     result.q                                  # (N, 4) unit quaternions, scalar-first (w, x, y, z)
     lgvi.plot.draw_figures(result, "figures")
 
-Public names: Body, Scenario, simulate, Result, SystemResult (many-body runs), Stepper,
+Public names: Body, Scenario, simulate, Result (a run of one body or many), BodyTrajectory, Stepper,
 PythonPotential, PythonForcing (forces and torques written in Python), IntegrationError, ensemble,
 EnsembleResult (sweeps and Monte Carlo on any executor), load, potential (none(), central(mu),
 uniform(g)), plot (the paper's figures), view (an interactive 3-D view of a run, one offline HTML
 file), load_run, load_bodies (a many-body run's bodies: set-up and final state), COLUMNS,
-BODIES_COLUMNS, METHODS, SOLVERS, FORMATS, INTERACTIONS (the names the scenario reader accepts).
+BODIES_COLUMNS, METHODS, SOLVERS, FORMATS, INTERACTIONS (the names the scenario reader accepts); SystemResult
+(deprecated: Result holds many-body runs too).
 Quaternions are scalar-first (w, x, y, z) numpy arrays everywhere. Invalid arguments raise ValueError
 naming the argument.
 
@@ -28,7 +29,8 @@ _EXPORTS = {
     "__version__": "_api",
     "PythonPotential": "potential",
     "PythonForcing": "forcing",
-    "Result": "_result", "COLUMNS": "_result", "SystemResult": "_result", "BODIES_COLUMNS": "_result",
+    "Result": "_result", "BodyTrajectory": "_result", "COLUMNS": "_result", "SystemResult": "_result",
+    "BODIES_COLUMNS": "_result",
     "load": "_io",
     "load_run": "_io",
     "load_bodies": "_io",
@@ -37,8 +39,8 @@ _EXPORTS = {
 }
 _SUBMODULES = ("plot", "potential", "forcing")
 
-__all__ = ["Body", "Scenario", "simulate", "Result", "SystemResult", "Stepper", "PythonPotential", "PythonForcing",
-           "IntegrationError",
+__all__ = ["Body", "Scenario", "simulate", "Result", "BodyTrajectory", "SystemResult", "Stepper", "PythonPotential",
+           "PythonForcing", "IntegrationError",
            "load", "potential", "plot", "load_run", "load_bodies", "COLUMNS", "BODIES_COLUMNS", "METHODS", "SOLVERS",
            "FORMATS", "INTERACTIONS",
            "ensemble", "EnsembleResult", "view"]

@@ -24,6 +24,8 @@ SOLVERS: Tuple[str, ...]
 FORMATS: Tuple[str, ...]
 INTERACTIONS: Tuple[str, ...]
 
+Layout = Literal["single-body", "long"]  # [output] layout: the trajectory's rows
+
 # The names of the C++ tables (lgvi._core.METHODS, SOLVERS, FORMATS, INTERACTIONS), in their
 # order; tests/python/test_name_lists.py fails when these disagree with them.
 Method = Literal["lgvi", "lgvi-lagrangian", "so3-lgvi", "rattle-quaternion", "rk4-normalized", "euler-exp",
@@ -200,26 +202,52 @@ class Scenario:
     def every(self) -> int: ...
     @property
     def output_format(self) -> str: ...
+    @property
+    def layout(self) -> Layout: ...
     def evaluate_potential(self, position: Vector3, quaternion: Quaternion
                            ) -> Tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         """(energy, force, torque) of the built-in potential; quaternion scalar-first (w, x, y, z)."""
         ...
     def save(self, path: PathLike) -> PathLike: ...
 
+class BodyTrajectory:
+    """One body of a Result at its written steps, the same in either layout."""
+    index: int
+    name: str
+    t: npt.NDArray[np.float64]
+    x: npt.NDArray[np.float64]
+    q: npt.NDArray[np.float64]
+    p: npt.NDArray[np.float64]
+    w: npt.NDArray[np.float64]
+    quat_norm_error: npt.NDArray[np.float64]
+
 class Result:
-    """A trajectory (numpy arrays; q scalar-first (w, x, y, z)) with its summary dict."""
+    """A run's trajectory, one body or many (numpy arrays; q scalar-first (w, x, y, z)) with its summary dict.
+    ``layout`` "single-body": per-body arrays (steps, ...); "long": (steps, N, ...). ``per_body`` and ``body``
+    are the same in either."""
     data: npt.NDArray[np.float64]
     columns: Dict[str, npt.NDArray[np.float64]]
     summary: Dict[str, Any]
     scenario_toml: Optional[str]
     source: Optional[str]
+    layout: Layout
+    names: List[str]
     def __init__(self, data: npt.ArrayLike, summary: Optional[Mapping[str, Any]] = ...,
-                 scenario_toml: Optional[str] = ..., source: Optional[str] = ...) -> None: ...
+                 scenario_toml: Optional[str] = ..., source: Optional[str] = ...,
+                 columns: Optional[Sequence[str]] = ..., names: Optional[Sequence[str]] = ...,
+                 layout: Optional[Layout] = ...) -> None: ...
+    @property
+    def bodies(self) -> int: ...
+    def per_body(self, quantity: Literal["x", "q", "p", "w", "quat_norm_error"]) -> npt.NDArray[np.float64]:
+        """(steps, N, 3), (steps, N, 4) or (steps, N) in either layout."""
+        ...
+    def body(self, which: Union[int, str]) -> BodyTrajectory: ...
     @property
     def t(self) -> npt.NDArray[np.float64]: ...
     @property
-    def wheels(self) -> Dict[str, Dict[str, npt.NDArray[np.float64]]]:
-        """name -> {"speed", "momentum", "torque"} -> (N,) arrays; {} without reaction wheels."""
+    def wheels(self) -> Dict[str, Any]:
+        """single-body: wheel name -> {"speed", "momentum", "torque"} -> (steps,) arrays; long: body name ->
+        wheel name -> the same; {} without reaction wheels."""
         ...
     @property
     def sensors(self) -> Dict[str, npt.NDArray[np.float64]]:
@@ -229,22 +257,30 @@ class Result:
     def x(self) -> npt.NDArray[np.float64]: ...
     @property
     def q(self) -> npt.NDArray[np.float64]:
-        """(N, 4), scalar-first (w, x, y, z)."""
+        """(steps, 4), or (steps, N, 4) in the long layout; scalar-first (w, x, y, z)."""
         ...
     @property
     def p(self) -> npt.NDArray[np.float64]: ...
     @property
     def w(self) -> npt.NDArray[np.float64]: ...
     @property
+    def quat_norm_error(self) -> npt.NDArray[np.float64]: ...
+    @property
     def energy(self) -> npt.NDArray[np.float64]: ...
     @property
     def energy_error(self) -> npt.NDArray[np.float64]: ...
     @property
-    def quat_norm_error(self) -> npt.NDArray[np.float64]: ...
-    @property
     def L(self) -> npt.NDArray[np.float64]: ...
     @property
     def momentum_error(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def P(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def linear_momentum_error(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def temperature(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def pressure(self) -> npt.NDArray[np.float64]: ...
     @property
     def omega(self) -> npt.NDArray[np.float64]: ...
     def rotation_matrices(self) -> npt.NDArray[np.float64]: ...
@@ -257,6 +293,12 @@ class Result:
     def __len__(self) -> int: ...
     def save(self, run_dir: PathLike) -> PathLike: ...
     def draw_figures(self, out_dir: PathLike) -> List[str]: ...  # deprecated: lgvi.plot.draw_figures(result, out_dir)
+
+class SystemResult(Result):
+    """Deprecated: a Result of layout "long" (isinstance tells a Result's layout); Result holds both."""
+    def __init__(self, data: npt.ArrayLike, summary: Optional[Mapping[str, Any]] = ...,
+                 scenario_toml: Optional[str] = ..., source: Optional[str] = ...,
+                 columns: Optional[Sequence[str]] = ..., names: Optional[Sequence[str]] = ...) -> None: ...
 
 ForcingFunction = Callable[[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray], Tuple[Any, Any]]
 
@@ -332,55 +374,8 @@ class Stepper:
     @property
     def state(self) -> Dict[str, Any]: ...
 
-class SystemResult:
-    """A many-body trajectory: data (steps, N, 26) with columns BODIES_COLUMNS, and its summary dict."""
-    data: npt.NDArray[np.float64]
-    columns: Dict[str, npt.NDArray[np.float64]]
-    summary: Dict[str, Any]
-    scenario_toml: Optional[str]
-    source: Optional[str]
-    names: List[str]
-    def __init__(self, data: npt.ArrayLike, summary: Optional[Mapping[str, Any]] = ...,
-                 scenario_toml: Optional[str] = ..., source: Optional[str] = ...,
-                 columns: Optional[Sequence[str]] = ..., names: Optional[Sequence[str]] = ...) -> None: ...
-    @property
-    def bodies(self) -> int: ...
-    @property
-    def temperature(self) -> npt.NDArray[np.float64]: ...
-    @property
-    def pressure(self) -> npt.NDArray[np.float64]: ...
-    t: npt.NDArray[np.float64]
-    x: npt.NDArray[np.float64]
-    q: npt.NDArray[np.float64]
-    p: npt.NDArray[np.float64]
-    w: npt.NDArray[np.float64]
-    quat_norm_error: npt.NDArray[np.float64]
-    energy: npt.NDArray[np.float64]
-    energy_error: npt.NDArray[np.float64]
-    P: npt.NDArray[np.float64]
-    linear_momentum_error: npt.NDArray[np.float64]
-    L: npt.NDArray[np.float64]
-    momentum_error: npt.NDArray[np.float64]
-    @property
-    def completed(self) -> bool: ...
-    @property
-    def error(self) -> str: ...
-    @property
-    def wheels(self) -> Dict[str, Dict[str, Dict[str, npt.NDArray[np.float64]]]]:
-        """body name -> wheel name -> {"speed", "momentum", "torque"} -> (steps,) arrays; {} without wheels."""
-        ...
-    @property
-    def sensors(self) -> Dict[str, npt.NDArray[np.float64]]:
-        """What the controller's sensors read at its samples: name -> (S,) array; {} without sensors."""
-        ...
-    def __len__(self) -> int: ...
-    def rotation_matrices(self) -> npt.NDArray[np.float64]: ...
-    def euler_angles(self, seq: str = ..., degrees: bool = ...) -> npt.NDArray[np.float64]: ...
-    def lvlh_angles(self, degrees: bool = ...) -> npt.NDArray[np.float64]: ...
-    def draw_figures(self, out_dir: PathLike) -> List[str]: ...  # deprecated: lgvi.plot.draw_figures(result, out_dir)
-
-def load(path: PathLike) -> Union[Result, SystemResult]:
-    """A run folder or trajectory file (.csv, .npz, .h5) as a Result (a SystemResult for [[bodies]] runs)."""
+def load(path: PathLike) -> Result:
+    """A run folder or trajectory file (.csv, .npz, .h5) as a Result, in the trajectory's layout."""
     ...
 
 def load_run(run_dir: PathLike) -> Tuple[Dict[str, npt.NDArray[np.float64]], Dict[str, Any]]: ...
@@ -411,7 +406,7 @@ def ensemble(scenario: Union[Scenario, PathLike], vary: Union[Dict[str, Any], Se
     """Run an ensemble of a scenario with some of its numbers varied (the semantics of `lgvi ensemble`)."""
     ...
 
-def view(source: Union[PathLike, Result, SystemResult], out: Optional[PathLike] = ..., max_frames: int = ...,
+def view(source: Union[PathLike, Result], out: Optional[PathLike] = ..., max_frames: int = ...,
          display: bool = ...) -> str:
     """Write the interactive 3-D view of a run (one offline HTML file, default RUN_DIR/view.html); its path.
     In Jupyter it is also displayed inline."""

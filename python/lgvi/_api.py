@@ -12,7 +12,7 @@ import numpy as np
 from . import _check, _core
 from . import forcing as _forcing
 from . import potential as _potential
-from ._result import Result, SystemResult
+from ._result import Result
 from ._toml import toml_text as _toml_text
 
 __version__ = _core.__version__
@@ -723,6 +723,12 @@ class Scenario:
         """The CLI's trajectory format: "csv", "npz", "hdf5", "xyz" (OVITO), "vtk" (ParaView) or "lammps-dump" (LAMMPS)."""
         return self._core.output_format
 
+    @property
+    def layout(self):
+        """The trajectory's row layout ([output] layout): "single-body" (one row a written step, one body's
+        columns: a [body] scenario's default) or "long" (one row a step and body: [[bodies]]'s default)."""
+        return self._core.layout
+
     def evaluate_potential(self, position, quaternion):
         """The built-in potential at x (3,), q (4,) scalar-first (w, x, y, z): (energy, force (3,), torque (3,))."""
         x = _check.vector3(position, "position")
@@ -989,26 +995,24 @@ def simulate(scenario, potential=None, *, forcing=None, control=None, check=True
     sc = _scenario(scenario)
     core_pot = _potential.core_potential(potential)
     try:
-        data, summary_text, completed, error, tables = _core.simulate(
+        data, summary_text, completed, error, tables, columns = _core.simulate(
             sc._core, core_pot, _forcing.core_forcing(forcing), control)
     except ValueError as e:
         raise _value_error(e) from None
     summary = json.loads(summary_text)
     if core_pot is not None:
         summary["setup"]["potential"] = {"kind": "python", "function": repr(potential)}
-    # A [[bodies]] scenario (the long format): its lists of bodies in the summary, or (beyond 10 000 bodies, or
-    # [output] body_lists = "file") in a file the CLI writes beside it; this run writes none (the final
-    # state is the arrays' last row, the names come from the scenario).
-    many = "bodies" in summary.get("setup", {}) or "body_lists" in summary
+    # A [[bodies]] scenario: its lists of bodies in the summary, or (beyond 10 000 bodies, or [output]
+    # body_lists = "file") in a file the CLI writes beside it; this run writes none (the final state is the
+    # arrays' last row, the names come from the scenario).
     if "body_lists" in summary:
         summary["body_lists"]["file"] = None
-    result = SystemResult(data, summary, sc.toml, names=sc._core.body_names if "body_lists" in summary else None) \
-        if many else Result(data, summary, sc.toml)
+    result = Result(data, summary, sc.toml, columns=columns,
+                    names=sc._core.body_names if "body_lists" in summary else None)
     # The side tables (the CLI's sensors.csv and wheels.csv): column name -> array.
-    side = {file: {n: rows[:, j].copy() for j, n in enumerate(columns)} for file, (columns, rows) in tables.items()}
+    side = {file: {n: rows[:, j].copy() for j, n in enumerate(names)} for file, (names, rows) in tables.items()}
     result._sensors = side.get("sensors.csv", {})
-    if many:
-        result._wheel_rows = side.get("wheels.csv", {})
+    result._wheel_rows = side.get("wheels.csv", {})
     if not completed and check:
         e = IntegrationError(error)
         e.step = summary.get("steps", 0)

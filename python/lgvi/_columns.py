@@ -35,7 +35,7 @@ WHEEL_QUANTITIES = ("speed", "momentum", "torque")
 
 
 def wheel_columns(summary):
-    """The wheel columns of a single-body run with reaction wheels ("NAME.speed", ...), () without."""
+    """The wheel columns of a single-body layout's body with reaction wheels ("NAME.speed", ...), () without."""
     wheels = body_of(summary).get("wheels") or []
     return tuple(f"{w['name']}.{q}" for w in wheels for q in WHEEL_QUANTITIES)
 
@@ -78,10 +78,14 @@ def bodies_columns_of(width, summary):
 
 
 def body_of(summary):
-    """The body of a summary: setup.body (the CLI's layout) or body."""
+    """The body of a one-body run's summary: setup.body (a [body] scenario's, the CLI's layout) or body, or the
+    one entry of setup.bodies (a [[bodies]] scenario of one body); {} if none."""
     if not isinstance(summary, dict):
         return {}
+    setup = summary.get("setup") or {}
     body = summary.get("body")
     if body is None:
-        body = (summary.get("setup") or {}).get("body")
+        body = setup.get("body")
+    if body is None and len(setup.get("bodies") or []) == 1:
+        body = setup["bodies"][0]
     return body or {}

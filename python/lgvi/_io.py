@@ -1,16 +1,19 @@
 """Reading trajectories: a run folder of the CLI, or a trajectory file
 (.csv, .npz, .h5). Pure numpy (h5py only for .h5), no compiled code.
 
-Layouts (src/io/formats/csv.cpp, npz.cpp, hdf5.cpp; the columns: src/io/trajectory_sink.hpp):
+Files (src/io/formats/csv.cpp, npz.cpp, hdf5.cpp; the columns: src/io/trajectory_sink.hpp), in either row
+layout (the single-body layout's 21 columns and more, or the long layout's 26 and more, one row a step and
+body; the header says which):
 
-* trajectory.csv: the header line, then rows of 21 numbers with 17
-  significant digits; the summary and the scenario are the side files
-  summary.json and scenario.toml of the run folder;
-* trajectory.npz: entries trajectory.npy (float64, (rows, 21)), columns.npy
-  (the 21 names), scenario.npy and summary.npy (0-d unicode arrays: TOML and
-  JSON text; written when the run closes the file);
-* trajectory.h5: dataset /trajectory (float64, (rows, 21)) with attribute
-  `columns`, root attributes `scenario` and `summary` (strings).
+* trajectory.csv: the header line, then the rows with 17 significant
+  digits; the summary and the scenario are the side files summary.json and
+  scenario.toml of the run folder;
+* trajectory.npz: entries trajectory.npy (float64, (rows, columns); the long
+  layout's (steps, N, columns)), columns.npy (the names), scenario.npy and
+  summary.npy (0-d unicode arrays: TOML and JSON text; written when the run
+  closes the file);
+* trajectory.h5: dataset /trajectory (float64, shaped as in npz) with
+  attribute `columns`, root attributes `scenario` and `summary` (strings).
 """
 
 import json
@@ -21,7 +24,7 @@ import zipfile
 import numpy as np
 
 from ._columns import bodies_columns, single_columns
-from ._result import COLUMNS, Result, SystemResult
+from ._result import COLUMNS, Result
 
 TRAJECTORY_FILES = ("trajectory.csv", "trajectory.npz", "trajectory.h5")
 
@@ -157,26 +160,19 @@ def load(path):
         _refuse_export(file)
     else:
         raise ValueError(f"{file}: unknown trajectory format (expected .csv, .npz or .h5)")
-    if (many := bodies_columns(_text(n).strip() for n in names)) is not None:
-        summary = _summary(folder, summary_text)
-        if scenario is None:
-            scenario = _read_side_file(folder, "scenario.toml")
-        result = SystemResult(data, summary, scenario, source=file, columns=many, names=_body_names(folder, summary))
-        result._wheel_rows = _read_side_table(folder, "wheels.csv")  # a system's wheels ([[bodies.wheel]])
-        result._sensors = _read_side_table(folder, "sensors.csv")
-        return result
-    _check_columns(names, file)
-    if data.ndim != 2 or data.shape[1] != len(names):
-        raise ValueError(f"{file}: trajectory has shape {data.shape}, expected (rows, {len(names)})")
-    if summary_text is None:
-        summary_text = _read_side_file(folder, "summary.json")
+    names = [_text(n).strip() for n in names]
+    long = bodies_columns(names) is not None
+    if not long:
+        _check_columns(names, file)
+        if data.ndim != 2 or data.shape[1] != len(names):
+            raise ValueError(f"{file}: trajectory has shape {data.shape}, expected (rows, {len(names)})")
+    summary = _summary(folder, summary_text)
     if scenario is None:
         scenario = _read_side_file(folder, "scenario.toml")
-    try:
-        summary = json.loads(summary_text) if summary_text else {}
-    except json.JSONDecodeError as e:
-        raise ValueError(f"{folder}: summary is not valid JSON ({e})") from None
-    result = Result(data, summary, scenario, source=file)
+    result = Result(data, summary, scenario, source=file, columns=names,
+                    names=_body_names(folder, summary) if long else None)
+    if long:
+        result._wheel_rows = _read_side_table(folder, "wheels.csv")  # the long layout's wheels ([[bodies.wheel]])
     result._sensors = _read_side_table(folder, "sensors.csv")  # what a controller's sensors read ([[sensor]])
     return result
 

@@ -20,7 +20,7 @@ import numpy as np
 from ._attitude import euler_angles, lvlh_angles, rotation_matrices
 from ._columns import body_of
 from ._io import _trajectory_in, load, load_run  # noqa: F401 (load_run: lgvi.plot.load_run, as before)
-from ._result import SystemResult
+from ._result import Result
 
 REQUIRED_COLUMNS = ("t", "x", "y", "qw", "qx", "qy", "qz", "energy_error",
                     "quat_norm_error", "Lx", "Ly", "Lz", "momentum_error")
@@ -244,9 +244,10 @@ def _columns_and_summary(source):
 
 
 def _system_result(source):
-    """The SystemResult of a many-body run folder/file or object, else None."""
-    if isinstance(source, SystemResult):
-        return source
+    """The Result of a run folder/file or object in the long layout (one row a step and body: a many-body
+    run's), else None."""
+    if isinstance(source, Result):
+        return source if source.layout == "long" else None
     if isinstance(source, (str, bytes, os.PathLike)):
         path = os.fsdecode(source)
         file = path
@@ -257,7 +258,7 @@ def _system_result(source):
                 if not f.readline().startswith("t,body,"):
                     return None
         result = load(path)
-        return result if isinstance(result, SystemResult) else None
+        return result if result.layout == "long" else None
     return None
 
 
@@ -539,8 +540,8 @@ def draw_figures(source, out_dir=None):
     header, and ``.summary``, the summary dict). ``out_dir`` defaults to the
     run folder; it is required for an in-memory result. Quaternion columns
     are scalar-first (qw, qx, qy, qz). Returns the list of written paths.
-    Raises OSError/ValueError on bad input. A many-body run (an
-    lgvi.SystemResult, or a folder of a [[bodies]] scenario) gets its own
+    Raises OSError/ValueError on bad input. A trajectory in the long layout
+    (a many-body run's: an lgvi.Result of layout "long", or its folder) gets its own
     figures: energy_error.png, quaternion_error.png, momentum_error.png (total
     angular and linear momentum), trajectory.png (the bodies' paths), for a molecular run
     thermodynamics.png (temperature, and pressure in a periodic box) and, for

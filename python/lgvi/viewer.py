@@ -30,7 +30,6 @@ import numpy as np
 
 from ._columns import body_of
 from ._io import load, load_bodies
-from ._result import SystemResult
 
 #: Frames embedded at most (the page interpolates between them).
 MAX_FRAMES = 2000
@@ -175,20 +174,22 @@ def _bodies_beside(result):
 
 
 def page_data(result, max_frames=MAX_FRAMES, max_bytes=MAX_BYTES):
-    """The metadata (JSON-able dict) and the base64 arrays the page embeds, from an lgvi Result/SystemResult."""
+    """The metadata (JSON-able dict) and the base64 arrays the page embeds, from an lgvi Result."""
     summary = result.summary
     setup = summary.get("setup") or {}
     potential = setup.get("potential") or {}
-    if isinstance(result, SystemResult):
-        x, q = result.x, result.q
-        bodies = setup.get("bodies") or _bodies_beside(result)
-        names = list(result.names)
-        quat_err = np.max(np.abs(result.quat_norm_error), axis=1)
-    else:
-        x, q = result.x[:, None, :], result.q[:, None, :]
-        bodies = [body_of(summary)]
-        names = [summary.get("scenario") or "body"]
+    x, q = result.per_body("x"), result.per_body("q")  # (steps, N, 3), (steps, N, 4) in either layout
+    names = list(result.names)
+    # One body's own |q| - 1 in the single-body layout; the largest of the bodies' in the long one.
+    if result.layout == "single-body":
         quat_err = result.quat_norm_error
+    else:
+        quat_err = np.max(np.abs(result.quat_norm_error), axis=1)
+    # A [body] scenario's body is setup.body (in either layout), a one-body [[bodies]] scenario's setup.bodies.
+    if result.layout == "single-body" or "body" in setup:
+        bodies = [body_of(summary)]
+    else:
+        bodies = setup.get("bodies") or _bodies_beside(result)
     if len(bodies) != x.shape[1] or any("inertia" not in b and not b.get("balls") for b in bodies):
         raise ViewError(f"{result.source}: the summary does not describe the bodies (setup.body or setup.bodies "
                         f"with mass, inertia and balls); run it again with this lgvi")
@@ -305,7 +306,7 @@ def _script_json(value):
 
 
 def _render(result, max_frames, max_bytes):
-    """(the HTML text of the view of a Result/SystemResult, the page's metadata)."""
+    """(the HTML text of the view of a Result, the page's metadata)."""
     meta, arrays = page_data(result, max_frames, max_bytes)
     with open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "viewer.html"), encoding="utf-8") as f:
         template = f.read()
@@ -316,7 +317,7 @@ def _render(result, max_frames, max_bytes):
 
 
 def render_page(result, max_frames=MAX_FRAMES, max_bytes=MAX_BYTES):
-    """The HTML text of the view of a Result/SystemResult."""
+    """The HTML text of the view of a Result."""
     return _render(result, max_frames, max_bytes)[0]
 
 

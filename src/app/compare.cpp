@@ -94,7 +94,7 @@ StateError state_error(const RigidBodyState& a, const RigidBodyState& ref, const
 /// converged order-8 lgvi run (converged_reference), with per-body errors (system_error). The single-body
 /// scenarios keep their references (the exact flow, RK4 of the continuous equations).
 bool is_system(const Scenario& sc) {
-  return sc.bodies_format || sc.bodies() > 1 || !sc.interaction.none();
+  return sc.many_body_form || sc.bodies() > 1 || !sc.interaction.none();
 }
 
 /// The system's mass-weighted centre.
@@ -150,12 +150,12 @@ std::string not_applicable(const Scenario& sc, const MethodChoice& m) {
     for (std::size_t a = 0; a < sc.bodies(); ++a)
       if (!sc.system.body(a).has_principal_axes())
         return fmt::format("rotates about the principal axes; {}.inertia is not diagonal",
-                           sc.bodies_format ? fmt::format("bodies[{}]", a) : std::string("body"));
+                           sc.many_body_form ? fmt::format("bodies[{}]", a) : std::string("body"));
   if (!t.linear_bodies)
     for (std::size_t a = 0; a < sc.bodies(); ++a)
       if (sc.system.body(a).rotational_dof() != 3)
         return fmt::format("needs three principal moments > 0; {} is {}",
-                           sc.bodies_format ? fmt::format("bodies[{}]", a) : std::string("the body"),
+                           sc.many_body_form ? fmt::format("bodies[{}]", a) : std::string("the body"),
                            sc.system.body(a).rotation_description());
   if (!sc.forcing.empty() && !t.accepts_forcing)
     return "does not take [[forcing]] (" +
@@ -509,8 +509,8 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
       sc.integrator.duration = static_cast<double>(opt.long_steps) * h;
       sc.integrator.steps = adaptive_max_steps(sc.integrator.duration, sc.integrator.step);
     }
-    // A [[bodies]] scenario writes the long layout: one row per body and output step.
-    const TrajectoryLayout layout = base.bodies_format ? scenario_layout(sc) : TrajectoryLayout{};
+    // The long layout (a [[bodies]] scenario's default): one row per body and output step.
+    const TrajectoryLayout layout = base.layout == RowLayout::long_format ? scenario_layout(sc) : TrajectoryLayout{};
     MemorySink sink(2100 * layout.rows_per_step(), layout);
     const SimulationResult r = simulate(sc, sink);
     LongRun& L = long_runs[m];
@@ -526,7 +526,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
     const double l0 = r.stats.momentum0.norm();
     L.max_rel_momentum = l0 > 0 ? r.stats.max_momentum_error / l0 : r.stats.max_momentum_error;
     const std::vector<double> rows = sink.take();
-    if (!base.bodies_format) {
+    if (base.layout == RowLayout::single_body) {
       for (std::size_t i = 0; i + trajectory_columns <= rows.size(); i += trajectory_columns)
         L.rows.insert(L.rows.end(), {rows[i], rows[i + 15], rows[i + 16], rows[i + 20]});
     } else {

@@ -388,7 +388,7 @@ std::vector<std::string> state_columns(const Scenario& sc) {
   static const char* names[] = {"x", "y", "z", "qw", "qx", "qy", "qz", "px", "py", "pz", "wx", "wy", "wz"};
   std::vector<std::string> cols;
   for (std::size_t a = 0; a < sc.bodies(); ++a) {
-    const std::string body = sc.bodies_format ? sc.system.name(a) + "." : std::string();
+    const std::string body = sc.many_body_form ? sc.system.name(a) + "." : std::string();
     for (const char* n : names) cols.push_back(body + n);
   }
   return cols;
@@ -422,10 +422,10 @@ std::vector<double> pointing_frames(const Scenario& sc) {
 void check_metrics(const TomlReader& r, EnsemblePlan& plan, const Scenario& sc) {
   for (const std::string& name : plan.metrics.names) {
     if (name == "pointing_error_deg" || name == "settling_time") {
-      if (sc.bodies_format || sc.attitude_targets.size() != 1)
+      if (sc.many_body_form || sc.attitude_targets.size() != 1)
         r.fail("ensemble.metrics", "\"" + name + "\" is measured from the target of the base scenario's attitude "
                                    "controller: it needs a [body] with one [[forcing]] kind = \"attitude-control\"");
-    } else if (sc.bodies_format || !sc.body().has_wheels()) {
+    } else if (sc.many_body_form || !sc.body().has_wheels()) {
       r.fail("ensemble.metrics", "\"" + name + "\" measures reaction wheels: the base scenario's [body] needs "
                                  "[[body.wheel]] tables");
     }

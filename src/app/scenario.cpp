@@ -819,10 +819,10 @@ Box read_import(const Reader& r, toml::table& root, const std::string& scenario_
 
 /// [box]: lower, upper and periodic (default [true, true, true]); free space
 /// without the table.
-Box read_box(const Reader& r, const toml::table& root, bool bodies_format) {
+Box read_box(const Reader& r, const toml::table& root, bool many_body_form) {
   const toml::table* t = r.optional_table(root, "", "box");
   if (!t) return {};
-  if (!bodies_format)
+  if (!many_body_form)
     r.fail("box", "a box holds [[bodies]]; a single-body scenario ([body] + [initial]) has no pairs to wrap");
   r.only_keys(*t, "box", {"lower", "upper", "periodic"});
   const Vector3<double> lower = r.vector<3>(*t, "box", "lower"), upper = r.vector<3>(*t, "box", "upper");
@@ -1472,8 +1472,8 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
                          "forcing", "box", "import", "sensor"});
   if (root.contains("import") && !root.get("import")->is_table()) r.fail("import", "must be a table [import]");
   const bool imported = root.contains("import");
-  const bool bodies_format = root.contains("bodies") || imported;
-  if (bodies_format && (root.contains("body") || root.contains("initial")))
+  const bool many_body_form = root.contains("bodies") || imported;
+  if (many_body_form && (root.contains("body") || root.contains("initial")))
     r.fail("bodies", "give either [body] + [initial] (one body) or [[bodies]] tables, not both");
   BodyList bodies;
   std::vector<std::string> names;
@@ -1484,22 +1484,22 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   FileIds file_ids;
   if (imported) {
     box = read_import(r, root, name, bodies, names, initial, site_types, file_ids);
-  } else if (bodies_format) {
+  } else if (many_body_form) {
     read_bodies(r, root, bodies, names, initial);
   } else {
     bodies.kinds.push_back(read_body(r, root, wheel_speeds));
     bodies.kind.push_back(0);
   }
   PotentialSpec potential = read_potential(r, root);
-  const std::string converted = bodies_format ? std::string() : convert_orbit_attitude(r, root, bodies[0], potential);
-  if (!bodies_format) initial = SystemState(read_initial(r, root, bodies[0]));
+  const std::string converted = many_body_form ? std::string() : convert_orbit_attitude(r, root, bodies[0], potential);
+  if (!many_body_form) initial = SystemState(read_initial(r, root, bodies[0]));
   if (!wheel_speeds.empty())
     initial.eta.assign(1, initial_wheel_momenta(r, *root.get_as<toml::table>("initial"), "initial", bodies[0],
                                                 wheel_speeds, initial.w[0]));
   for (const RigidBody& kind : bodies.kinds)
     for (const Ball& ball : kind.balls()) site_types = std::max(site_types, ball.type);
   const InteractionSpec interaction = read_interaction(r, root, site_types);
-  if (!imported) box = read_box(r, root, bodies_format);
+  if (!imported) box = read_box(r, root, many_body_form);
   require_fits_box(r, box, bodies, potential, interaction);
   // The state is unwrapped, but a body placed millions of box lengths away
   // would have lost its place in the box to rounding.
@@ -1539,7 +1539,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
       if (!bodies[a].has_principal_axes())
         r.fail("integrator.method", std::string("\"") + to_string(integrator.method) +
                                         "\" rotates about the principal axes: " +
-                                        (bodies_format ? "bodies[" + std::to_string(a) + "]" : std::string("body")) +
+                                        (many_body_form ? "bodies[" + std::to_string(a) + "]" : std::string("body")) +
                                         ".inertia must be diagonal in body axes (give the body in its principal axes)");
     }
   }
@@ -1549,7 +1549,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   for (std::size_t a = 0; a < bodies.size(); ++a) {
     const RigidBody& body = bodies[a];
     if (body.rotational_dof() == 3) continue;
-    const std::string which = bodies_format ? fmt::format("bodies[{}] (\"{}\")", a, names[a]) : "the body";
+    const std::string which = many_body_form ? fmt::format("bodies[{}] (\"{}\")", a, names[a]) : "the body";
     const std::string what = body.rotation_description();
     if (!method.linear_bodies)
       r.fail("integrator.method",
@@ -1557,7 +1557,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
                          method_names_where([](const MethodTraits& m) { return m.linear_bodies; }, ", ", " or ",
                                             false)));
     if (!body.admits_momentum(initial.w[a]))
-      r.fail(bodies_format ? fmt::format("bodies[{}].w", a) : std::string("initial.w"),
+      r.fail(many_body_form ? fmt::format("bodies[{}].w", a) : std::string("initial.w"),
              fmt::format("{} is {}: it has no angular momentum{}", which, what,
                          body.rotational_dof() == 2 ? " about its axis; give w across the axis, or omega"
                                                     : "; give w = 0"));
@@ -1575,7 +1575,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
              fmt::format("the initial rotation per step |Omega| {}{} = {} rad reaches pi; use {} below {} (0.1 rad "
                          "per step)",
                          integrator.adaptive() ? "epsilon" : "h",
-                         bodies_format ? " of bodies[" + std::to_string(a) + "]" : std::string(),
+                         many_body_form ? " of bodies[" + std::to_string(a) + "]" : std::string(),
                          std::to_string(rotation), integrator.adaptive() ? "an epsilon" : "a step",
                          std::to_string(integrator.step / rotation * 0.1)));
   }
@@ -1589,7 +1589,7 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
       threads = static_cast<int>(n);
     }
     if (run->contains("on_contact")) {
-      if (!bodies_format)
+      if (!many_body_form)
         r.fail("run.on_contact", "is about contact between [[bodies]]; a single body has none (a central field's "
                                  "own contact: potential.stop_at_contact)");
       const std::string v = r.string(*run, "run", "on_contact", {"stop", "warn", "ignore"});
@@ -1599,14 +1599,15 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   std::int64_t every = 1;
   std::optional<BodyLists> body_lists;  // [output] body_lists, if given
   TrajectoryFormat format;
+  RowLayout layout = many_body_form ? RowLayout::long_format : RowLayout::single_body;
   if (const toml::table* out = r.optional_table(root, "", "output")) {
-    r.only_keys(*out, "output", {"every", "format", "body_lists"});
+    r.only_keys(*out, "output", {"every", "format", "body_lists", "layout"});
     if (out->contains("every")) {
       every = r.integer(*out, "output", "every");
       if (every < 1) r.fail("output.every", "must be an integer >= 1");
     }
     if (out->contains("body_lists")) {
-      if (!bodies_format)
+      if (!many_body_form)
         r.fail("output.body_lists", "is about the lists of [[bodies]]; a single body's final state is "
                                     "summary.json's \"final\": remove the key");
       body_lists = r.string(*out, "output", "body_lists", {"summary", "file"}) == "file" ? BodyLists::file
@@ -1616,6 +1617,16 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
       std::vector<std::string_view> format_names;
       for (const FormatDescriptor* d : trajectory_formats()) format_names.push_back(d->name);
       format = TrajectoryFormat::named(r.string(*out, "output", "format", format_names));
+    }
+    if (out->contains("layout")) {
+      const std::string v = r.string(*out, "output", "layout", {row_layout_names[0], row_layout_names[1]});
+      layout = v == row_layout_names[0] ? RowLayout::single_body : RowLayout::long_format;
+      if (layout == RowLayout::single_body && bodies.size() != 1)
+        r.fail("output.layout", fmt::format("\"single-body\" holds one body's columns, and the scenario has {} "
+                                            "bodies: use \"long\" (one row a step and body)", bodies.size()));
+      if (layout == RowLayout::single_body && interaction.descriptor && interaction.descriptor->reach)
+        r.fail("output.layout", "\"single-body\" has no temperature column, which a run with a short-range "
+                                "interaction writes: use \"long\"");
     }
   }
   const std::string stem = std::filesystem::path(name).stem().string();
@@ -1627,13 +1638,13 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   } catch (const InvalidInput& e) {
     r.fail("", e.what());
   }
-  if (bodies_format) require_no_overlap(r, sc.system, initial);
+  if (many_body_form) require_no_overlap(r, sc.system, initial);
   // Contact between bodies is checked at every step unless [run] on_contact
   // says otherwise; a Lennard-Jones system is exempt unless it says so (its
   // balls' radii only shape the inertia: the potential keeps molecules apart;
   // so is any interaction whose descriptor says it keeps bodies apart).
   sc.on_contact_given = on_contact.has_value();
-  sc.on_contact = on_contact.value_or(!bodies_format || (interaction.descriptor && interaction.descriptor->keeps_bodies_apart)
+  sc.on_contact = on_contact.value_or(!many_body_form || (interaction.descriptor && interaction.descriptor->keeps_bodies_apart)
                                           ? OnContact::Ignore
                                           : OnContact::Stop);
   bool inlined = false;
@@ -1668,12 +1679,13 @@ Scenario parse_scenario(const std::string& text, const std::string& name) {
   sc.potential = potential;
   sc.interaction = interaction;
   sc.initial_state = std::move(initial);
-  sc.bodies_format = bodies_format;
+  sc.many_body_form = many_body_form;
+  sc.layout = layout;
   sc.threads = threads;
   sc.integrator = integrator;
   sc.output_every = every;
   sc.output_format = format;
-  sc.body_lists = body_lists.value_or(bodies_format && sc.bodies() > kBodyListsInSummaryUpTo ? BodyLists::file
+  sc.body_lists = body_lists.value_or(many_body_form && sc.bodies() > kBodyListsInSummaryUpTo ? BodyLists::file
                                                                                              : BodyLists::summary);
   sc.source_text = text;
   sc.imported = imported;

@@ -137,9 +137,13 @@ struct Scenario {
   /// what an ensemble's pointing error is measured from.
   std::vector<S3d> attitude_targets;
   SystemState initial_state;
-  /// Written with [[bodies]] (trajectories in the long, per-body format) or
-  /// with [body] + [initial] (one body, the single-body format).
-  bool bodies_format = false;
+  /// Written with [[bodies]] (or imported: [import]) rather than with [body]
+  /// + [initial]: what the summary (setup.bodies) and the messages
+  /// ("bodies[a]") name the bodies by.
+  bool many_body_form = false;
+  /// [output] layout: by default the single-body layout for a [body]
+  /// scenario, the long one for [[bodies]].
+  RowLayout layout = RowLayout::single_body;
   int threads = 0;  ///< [run] threads; 0: all cores
   OnContact on_contact = OnContact::Ignore;  ///< [run] on_contact, or its default for this scenario
   bool on_contact_given = false;             ///< whether [run] on_contact was given

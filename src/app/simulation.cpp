@@ -119,7 +119,7 @@ std::vector<std::string> sensor_header(const Scenario& s) {
 }
 
 std::vector<std::string> wheel_row_header(const Scenario& s) {
-  if (!s.bodies_format || !s.system.has_wheels()) return {};
+  if (s.layout != RowLayout::long_format || !s.system.has_wheels()) return {};
   return {"t", "body", "wheel", "speed", "momentum", "torque"};
 }
 
@@ -238,7 +238,7 @@ std::vector<std::string> side_table_files() {
 }
 
 ThermoColumns thermo_columns(const Scenario& s) {
-  if (!s.bodies_format || !s.interaction.descriptor || !s.interaction.descriptor->reach) return ThermoColumns::none;
+  if (s.layout != RowLayout::long_format || !s.interaction.descriptor || !s.interaction.descriptor->reach) return ThermoColumns::none;
   const Box& box = s.system.box();
   const bool closed = !box.free_space() && box.periodic(0) && box.periodic(1) && box.periodic(2);
   return closed ? ThermoColumns::temperature_and_pressure : ThermoColumns::temperature;
@@ -255,11 +255,11 @@ std::int64_t degrees_of_freedom(const Scenario& s) {
 TrajectoryLayout scenario_layout(const Scenario& s) {
   const bool forced = conservation_laws(s).forced;  // a forcing or motor torques: the work column
   TrajectoryLayout layout =
-      s.bodies_format ? TrajectoryLayout::long_format(static_cast<std::int64_t>(s.bodies()), forced, thermo_columns(s))
+      s.layout == RowLayout::long_format ? TrajectoryLayout::long_format(static_cast<std::int64_t>(s.bodies()), forced, thermo_columns(s))
                       : TrajectoryLayout::single_body(forced);
   // A body with reaction wheels: per wheel its speed relative to the body, its axial momentum and the torque
   // applied over the step from the row's time, after the forced columns.
-  if (!s.bodies_format)
+  if (s.layout == RowLayout::single_body)
     for (const Wheel& w : s.body().wheels().list()) {
       layout.header += "," + w.name + ".speed," + w.name + ".momentum," + w.name + ".torque";
       layout.columns += 3;
@@ -414,7 +414,7 @@ struct Recorder {
     // The step from t applies these torques over h: the statistics of torque and time count it, except at
     // the end (no step follows).
     const double h = end ? 0.0 : scenario.integrator.step;
-    const bool rows = written && scenario.bodies_format;
+    const bool rows = written && scenario.layout == RowLayout::long_format;
     wheel_columns.clear();
     bool any_limited = false;
     std::size_t first = 0;  // body a's first wheel in stats.wheels
@@ -447,13 +447,16 @@ struct Recorder {
         if (!end) st.max_torque = std::max(st.max_torque, std::abs(u));
         if (limited) st.time_limited += h;
         if (!end && wheel_control && a == 0) stats.wheel_effort += std::abs(u) * h;  // held over the step
-        if (a == 0 && !scenario.bodies_format) wheel_columns.insert(wheel_columns.end(), {speed, s.eta[a][w], u});
+        if (a == 0 && scenario.layout == RowLayout::single_body) wheel_columns.insert(wheel_columns.end(), {speed, s.eta[a][w], u});
         if (rows && wheel_table) {
           const double row[] = {i.t, static_cast<double>(a), static_cast<double>(w), speed, s.eta[a][w], u};
           wheel_table->row(row);
         }
       }
-      // A wheel-torque table may switch inside a step: its effort is the impulse the step gives (kick_wheels).
+      // A wheel-torque table may switch inside a step: its effort is the impulse the step gives (kick_wheels,
+      // the same formula). Computed here, at t, rather than read from the stepper after the step: the
+      // statistics at step k hold the step from t_k, as the rows' torque columns do and as every checkpoint
+      // holds them, and a step that fails counted its command.
       if (!end)
         for (const WheelTorque& u : scenario.wheel_torques) {
           if (u.body != a) continue;
@@ -594,7 +597,7 @@ struct Recorder {
     const bool written = i.k % scenario.output_every == 0 || scenario.integrator.ends(i.k, i.t) || contact_stop;
     if (wheels) observe_wheels(i, written);  // every step: the statistics
     if (!written) return;
-    if (!scenario.bodies_format) {
+    if (scenario.layout == RowLayout::single_body) {
       const SingleBodyRow row(i.t, s.body(0), energy, de, dq, L, dl, forced ? std::optional(i.work) : std::nullopt);
       if (wheels) {
         row_buffer.assign(row.values, row.values + row.columns);

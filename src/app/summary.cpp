@@ -112,13 +112,13 @@ Json setup_json(const Scenario& s) {
     integ["composition"] = s.integrator.composition.gamma();
   }
   Json o;
-  if (!s.bodies_format) {
+  if (!s.many_body_form) {
     o["body"] = body_json(s.body());
   } else if (s.body_lists == BodyLists::summary) {
     o["bodies"] = Json::array();  // setup_body_json's, one body at a time as it is written (summary_json)
   }
   o["potential"] = std::move(pot);
-  if (s.bodies_format) {
+  if (s.many_body_form) {
     Json inter;
     inter["kind"] = interaction_kind(s.interaction);
     if (s.interaction.descriptor) s.interaction.descriptor->describe(s.interaction, inter);
@@ -236,7 +236,7 @@ auto with_summary(const Scenario& sc, const SimulationResult& r, Use&& use) {
     s["final_bodies"] = Json::array();  // one body at a time as it is written (below)
   else  // setup.bodies and final_bodies, a body a line in the file beside the summary (write_summary_file)
     s["body_lists"] = {{"file", kBodyListsFile}, {"bodies", sc.bodies()}};
-  if (sc.bodies_format && sc.on_contact != OnContact::Ignore) {
+  if (sc.many_body_form && sc.on_contact != OnContact::Ignore) {
     // The episodes of overlap (the one that stopped the run under "stop").
     Json contacts = Json::array();
     for (const ContactEpisode& e : st.contacts)
@@ -277,7 +277,7 @@ auto with_summary(const Scenario& sc, const SimulationResult& r, Use&& use) {
       for (std::size_t w = 0; w < wheels.size() && at < st.wheels.size(); ++w, ++at) {
         const RunStatistics::WheelStatistics& ws = st.wheels[at];
         Json entry;
-        if (sc.bodies_format) entry["body"] = sc.system.name(a);
+        if (sc.many_body_form) entry["body"] = sc.system.name(a);
         entry["name"] = wheels[w].name;
         entry["max_abs_speed"] = ws.max_speed;
         entry["max_abs_torque"] = ws.max_torque;
@@ -322,7 +322,7 @@ auto with_summary(const Scenario& sc, const SimulationResult& r, Use&& use) {
                                   body.update(state_json(r.final_state.body(a)));
                                   return body;
                                 }});
-    if (sc.bodies_format)
+    if (sc.many_body_form)
       layout.generated.push_back(
           {&s["setup"]["bodies"], sc.bodies(), [&](std::size_t a) { return setup_body_json(sc, a); }});
   }

@@ -17,7 +17,7 @@
 
 namespace lgvi::app {
 
-/// The trajectory's columns of a single-body scenario, in order, in every format.
+/// The trajectory's columns of the single-body layout, in order, in every format.
 inline constexpr const char* trajectory_header =
     "t,x,y,z,qw,qx,qy,qz,px,py,pz,wx,wy,wz,energy,energy_error,quat_norm_error,Lx,Ly,Lz,momentum_error";
 inline constexpr int trajectory_columns = 21;
@@ -72,8 +72,8 @@ struct BodyShape {
 };
 
 /// What a trajectory file holds: the column names, and how many rows make
-/// one output step (1 for a single-body scenario; N, one per body, for a
-/// [[bodies]] scenario, whose npz and HDF5 arrays are then shaped
+/// one output step (RowLayout: 1 in the single-body layout; N, one per body,
+/// in the long layout, whose npz and HDF5 arrays are then shaped
 /// (steps, N, columns)).
 struct TrajectoryLayout {
   std::string header = trajectory_header;
@@ -109,6 +109,7 @@ struct TrajectoryLayout {
     }
     return layout;
   }
+  RowLayout row_layout() const { return bodies > 0 ? RowLayout::long_format : RowLayout::single_body; }
   /// Rows per output step.
   std::int64_t rows_per_step() const { return bodies > 0 ? bodies : 1; }
   /// The column names: `header` split at its commas.

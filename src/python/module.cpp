@@ -517,7 +517,8 @@ py::tuple run_simulation(const Scenario& scenario_in, py::object potential, py::
     tables[py::str(table->file)] = py::make_tuple(
         table->columns, rows_array(std::move(table->values), table_rows, static_cast<int>(table->columns.size())));
   }
-  return py::make_tuple(rows_array(sink.take(), rows, layout.columns), summary, r.completed, r.error, tables);
+  return py::make_tuple(rows_array(sink.take(), rows, layout.columns), summary, r.completed, r.error, tables,
+                        layout.column_names());
 }
 
 // ---------------------------------------------------------------------------
@@ -693,7 +694,7 @@ class PyStepper {
     const bool forced = !sc_.forcing.empty();
     // With a forcing: E - E0 - W and the column "work", as simulate() writes them.
     const double de = forced ? e - energy0_ - work() : e - energy0_;
-    if (!sc_.bodies_format) {
+    if (sc_.layout == RowLayout::single_body) {
       const SingleBodyRow row(t(), state_.body(0), e, de, state_.q[0].norm_error(), L, (L - momentum0_).norm(),
                               forced ? std::optional(work()) : std::nullopt);
       py::array_t<double> a(row.columns);
@@ -1005,6 +1006,8 @@ PYBIND11_MODULE(_core, m) {
                              [](const Scenario& s) { return std::string(to_string(s.output_format)); },
                              "The CLI's trajectory format: \"csv\", \"npz\", \"hdf5\", or the exports for viewers "
                              "\"xyz\" (OVITO) and \"vtk\" (ParaView).")
+      .def_property_readonly("layout", [](const Scenario& s) { return std::string(to_string(s.layout)); },
+                             "The trajectory's row layout ([output] layout): \"single-body\" or \"long\".")
       .def(
           "evaluate_potential",
           [](const Scenario& s, py::object x, py::object q) {
@@ -1040,8 +1043,9 @@ PYBIND11_MODULE(_core, m) {
 
   m.def("simulate", &run_simulation, py::arg("scenario"), py::arg("potential") = py::none(),
         py::arg("forcing") = py::none(), py::arg("control") = py::none(),
-        "Runs the scenario with the CLI's run loop: returns (rows (N, 21) float64, summary JSON text, completed, "
-        "error). `potential`: None (the scenario's own; the GIL is released), one callable (x, q) -> (energy, "
+        "Runs the scenario with the CLI's run loop: returns (rows (rows, columns) float64: the trajectory's, "
+        "one row a written step (and body, in the long layout), summary JSON text, completed, error, the side "
+        "tables {file: (columns, rows)}, the trajectory's column names). `potential`: None (the scenario's own; the GIL is released), one callable (x, q) -> (energy, "
         "force, torque) or a tuple of three callables (x, q) -> energy / force / torque, q scalar-first "
         "(w, x, y, z). `forcing`: None or (f, body name or None, velocity_dependent) with f(t, x, q, p, w) -> (force, "
         "torque), added to the scenario's [[forcing]]. `control`: None or f(t, q, omega, wheel_speeds) -> body "

@@ -24,7 +24,7 @@ LAYERS = (
     ("_core",),                             # the compiled module (pybind11): imports nothing of the package
     ("_columns", "_check", "_attitude"),    # the trajectory schema, argument checks, attitude maths
     ("_toml",),                             # TOML text for the compiled reader
-    ("_result",),                           # Result, SystemResult: pure numpy, no compiled code
+    ("_result",),                           # Result (one body or many): pure numpy, no compiled code
     ("_io",),                               # lgvi.load: reads run folders into _result's classes
     ("potential", "forcing"),               # potentials and forcing written in Python
     ("_api",),                              # Body, Scenario, simulate, Stepper (on _core)
@@ -37,8 +37,8 @@ FACADE = "__init__"
 
 #: Upward imports that are kept on purpose, each inside a deprecated function that warns
 #: (DeprecationWarning) and names its replacement: (importer, imported) -> the function.
-#: Result.draw_figures / SystemResult.draw_figures call lgvi.plot: the documented path is
-#: lgvi.plot.draw_figures(result, out_dir); the methods stay for code that calls them.
+#: Result.draw_figures calls lgvi.plot: the documented path is
+#: lgvi.plot.draw_figures(result, out_dir); the method stays for code that calls it.
 DEPRECATED_SHIMS = {("_result", "plot"): "_deprecated_draw_figures"}
 
 

@@ -67,7 +67,7 @@ def test_every_format_holds_steps_by_bodies_and_loads_bit_identically(tmp_path, 
     proc = run(path, "--out", out)
     assert proc.returncode == 0, proc.stderr
     loaded = lgvi.load(out)
-    assert isinstance(loaded, lgvi.SystemResult)
+    assert loaded.layout == "long" and loaded.bodies == 2
     assert loaded.data.shape == (51, 2, 26)
     assert loaded.names == ["primary", "secondary"]
     if fmt == "npz":

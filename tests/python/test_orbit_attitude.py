@@ -152,7 +152,7 @@ def test_body_motion_of_a_tiny_body_draws_lvlh_angles(tmp_path):
 
 
 def test_system_result_attitude_helpers_per_body():
-    """SystemResult has the attitude helpers of Result, per body: two
+    """A Result of many bodies has the attitude helpers of one body's, per body: two
     satellites of the co-rotating kind, on different orbits and with no
     mutual interaction, give each the LVLH angles, rotation matrices and
     Euler angles of its own single-body run. The N-body step of independent

@@ -30,13 +30,13 @@ def test_the_long_formats_columns_are_named_by_the_file_or_the_summary():
     assert _columns.bodies_columns(_columns.BODIES_COLUMNS + ("pressure",)) is None
     assert _columns.bodies_columns(_columns.BODIES_COLUMNS + ("temperature", "work")) is None
     row = [[0.0, 0.0] + [float(i) for i in range(2, m + 1)]]
-    forced = _result.SystemResult(row, {"work": 1.0})
-    molecular = _result.SystemResult(row, {"thermodynamics": {"temperature": {}}})
+    forced = _result.Result(row, {"work": 1.0}, layout="long")
+    molecular = _result.Result(row, {"thermodynamics": {"temperature": {}}}, layout="long")
     assert forced.columns["work"][0] == m and "temperature" not in forced.columns
     assert molecular.temperature[0] == m and "work" not in molecular.columns
-    assert _result.SystemResult(row).columns["work"][0] == m  # no summary: 27 are the forced layout, as before
+    assert _result.Result(row, layout="long").columns["work"][0] == m  # no summary: 27 are the forced layout
     with pytest.raises(ValueError, match="summary says"):
-        _result.SystemResult(row, {"thermodynamics": {"temperature": {}, "pressure": {}}})
+        _result.Result(row, {"thermodynamics": {"temperature": {}, "pressure": {}}}, layout="long")
 
 
 def test_figures_need_only_columns_that_exist():
@@ -46,7 +46,7 @@ def test_figures_need_only_columns_that_exist():
 
 
 def test_result_arrays_follow_the_schema():
-    # Result and SystemResult address columns by position (views into data); their named
+    # Result addresses columns by position in either layout (views into data); its named
     # accessors must land on the columns of those names.
     n = len(_columns.COLUMNS)
     r = _result.Result([[float(i) for i in range(n)]])
@@ -55,7 +55,7 @@ def test_result_arrays_follow_the_schema():
     assert r.t[0] == _columns.COLUMNS.index("t") and r.energy[0] == _columns.COLUMNS.index("energy")
     assert tuple(r.L[0]) == tuple(_columns.COLUMNS.index(c) for c in ("Lx", "Ly", "Lz"))
     m = len(_columns.BODIES_COLUMNS)
-    s = _result.SystemResult([[0.0, 0.0] + [float(i) for i in range(2, m)]])
+    s = _result.Result([[0.0, 0.0] + [float(i) for i in range(2, m)]])  # 26 columns: the long layout's
     assert s.energy[0] == _columns.BODIES_COLUMNS.index("energy")
     assert tuple(s.P[0]) == tuple(_columns.BODIES_COLUMNS.index(c) for c in ("Px", "Py", "Pz"))
     assert s.momentum_error[0] == _columns.BODIES_COLUMNS.index("momentum_error")

@@ -223,7 +223,7 @@ def _alone(name):
 def test_spacecraft_with_wheels_in_a_system_step_as_each_alone(tmp_path):
     # [[bodies.wheel]]: with nothing between them, each spacecraft of a system is stepped as the same body
     # alone ([body] + [[body.wheel]]), to round-off (the same step; 1e-15 leaves room for the system's sums);
-    # the wheels' rows (wheels.csv, SystemResult.wheels) are the single body's wheel columns; every commanded
+    # the wheels' rows (wheels.csv, Result.wheels) are the single body's wheel columns; every commanded
     # impulse arrives (alpha's z wheel clipped to 0.01 N m for 20 s, then -0.005 N m for 20 s; beta's
     # 0.001 N m for 60 s); the total angular momentum is conserved to round-off.
     import lgvi
