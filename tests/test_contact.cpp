@@ -226,7 +226,7 @@ TEST(ContactDetector, FindsExactlyThePairsOfOverlappingBallsOfAllPairs) {
   }
   const System sys(bodies);
   const std::vector<Contact> expected = all_pairs_of_balls(sys, s);
-  const ContactDetector detector(sys);
+  ContactDetector detector(sys);
   const std::vector<Contact>& found = detector.find(s);
   ASSERT_GT(expected.size(), 10u);  // the test would not test much otherwise
   // Rotations by matrix (detector) and by quaternion (here): a few eps of the positions (~6).
@@ -254,7 +254,7 @@ TEST(ContactDetector, CellsOfMixedSizesAndFarBodiesFindWhatAllPairsFind) {
   }
   const System sys(bodies);
   const std::vector<Contact> expected = all_pairs_of_balls(sys, s);
-  const ContactDetector detector(sys);
+  ContactDetector detector(sys);
   const std::vector<Contact>& found = detector.find(s);
   ASSERT_GT(expected.size(), 10u);  // the test would not test much otherwise
   EXPECT_EQ(expected.back().a, 248u);  // the two on top of each other, far out
@@ -292,7 +292,7 @@ TEST(ContactDetector, LongChainsAndAHugeBodyAmongSmallOnesFindWhatAllPairsFind) 
   }
   const System sys(bodies);
   const std::vector<Contact> expected = all_pairs_of_balls(sys, s);
-  const ContactDetector detector(sys);
+  ContactDetector detector(sys);
   const std::vector<Contact>& found = detector.find(s);
   ASSERT_GT(expected.size(), 20u);  // the test would not test much otherwise
   // Rotations by matrix (detector) and by quaternion (here): a few eps of
@@ -318,7 +318,7 @@ TEST(ContactDetector, TheBroadPhaseIsLinearForBodiesWithFarApartBalls) {
     s.x[a] = 2.2 * V3(static_cast<double>(i), static_cast<double>(j), static_cast<double>(k));
   }
   const System sys(bodies);
-  const ContactDetector detector(sys);
+  ContactDetector detector(sys);
   EXPECT_TRUE(detector.find(s).empty());
   EXPECT_EQ(detector.pairs_tested(), 0u);
   // Two of them moved onto each other are found, and only that pair tested.
@@ -359,7 +359,7 @@ TEST(ContactDetector, InAPeriodicBoxBallProxiesFindWhatAllPairsOfImagesFind) {
         }
       if (deepest >= 0.0) expected.push_back({a, b, 0, 0, 0.0, deepest});
     }
-  const ContactDetector detector(sys);
+  ContactDetector detector(sys);
   const std::vector<Contact>& found = detector.find(s);
   ASSERT_GT(expected.size(), 20u);  // the test would not test much otherwise
   expect_same_contacts(found, expected, 1e-13);  // the same sums: a few eps of 10
@@ -386,7 +386,7 @@ TEST(ContactDetector, TwoRubblePilesThroughEachOtherGiveTheDeepestPairOfAllBalls
       if (d < u.radius + v.radius) deepest = std::max(deepest, u.radius + v.radius - d);
     }
   ASSERT_GT(deepest, 0.0);
-  const ContactDetector detector(sys);
+  ContactDetector detector(sys);
   const std::vector<Contact>& found = detector.find(s);
   ASSERT_EQ(found.size(), 1u);
   // The same rotations (matrices) and sums: equal to round-off of the order
@@ -416,7 +416,7 @@ TEST(ContactDetector, EllipsoidsAndABallJustApartAndJustOverlapping) {
     const V3 p = ma * n / std::sqrt(n.dot(ma * n));
     const V3 touching = p + mb * n / std::sqrt(n.dot(mb * n));
     const V3 ball_touching = -p - rb * n - 0.3 * n;  // Q = -P by symmetry
-    const ContactDetector detector(sys);
+    ContactDetector detector(sys);
     for (const double shift : {1e-9, -1e-9}) {
       s.x[1] = touching + shift * n;
       s.x[2] = ball_touching - shift * n;

@@ -27,6 +27,7 @@
 #include <numbers>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace {
@@ -223,7 +224,7 @@ TEST(MutualInteractions, DerivativeCheckCatchesAWrongTorqueFrame) {
   // inertial frame instead of the body frame (a classic mistake).
   struct InertialFrameTorque {
     MutualGravityInertia inner;
-    void evaluate(const SystemState& s, SystemEvaluation& e) const {
+    void evaluate(const SystemState& s, SystemEvaluation& e) {
       e.reset(s.size());
       inner.add(s, e);
       for (std::size_t a = 0; a < s.size(); ++a) e.torque[a] = s.q[a].act(e.torque[a]);
@@ -235,7 +236,7 @@ TEST(MutualInteractions, DerivativeCheckCatchesAWrongTorqueFrame) {
 }
 
 template <class M>
-void expect_third_law_and_invariance(const System& sys, const M& mutual, const SystemState& s) {
+void expect_third_law_and_invariance(const System& sys, M mutual, const SystemState& s) {
   SystemEvaluation e(s.size());
   mutual.add(s, e);
   // Total force and total torque about the origin vanish (translation and
@@ -384,7 +385,7 @@ TEST(LennardJonesPairs, ForcesTorquesAndEnergyEqualADirectSumOverAllPairs) {
   // term; 1e-12 of the sum of the terms' magnitudes allows for that.
   const System sys = molecules(64);
   SystemState s = lattice_state(64, 1.7, 0.0);
-  const LennardJones lj(sys, 1.0, 1.0, 2.5);
+  LennardJones lj(sys, 1.0, 1.0, 2.5);
   const lgvi::InteractionSites sites(sys);
   auto direct = [&](const SystemState& st, std::vector<V3>& force, std::vector<V3>& torque,
                     std::vector<double>& scale, double& energy) {
@@ -433,7 +434,7 @@ TEST(LennardJonesPairs, ForcesTorquesAndEnergyEqualADirectSumOverAllPairs) {
 
 /// Each body's force, torque and energy from `lj` at `moved` against the
 /// O(S^2) sum in index order (see the test below), EXPECT_EQ.
-void expect_index_order_sums_at(const System& sys, const LennardJones& lj, const SystemState& moved,
+void expect_index_order_sums_at(const System& sys, LennardJones& lj, const SystemState& moved,
                                 const std::string& label) {
   const double eps = lj.epsilon(), sigma = lj.sigma(), cutoff = lj.cutoff();
   const lgvi::InteractionSites sites(sys);
@@ -479,7 +480,7 @@ void expect_index_order_sums(const System& sys, const SystemState& s, const std:
   SCOPED_TRACE(label);
   for (const Parallelism par : {Parallelism{1}, Parallelism{2}, Parallelism{3}, Parallelism{7, 1}}) {
     const int threads = par.threads;
-    const LennardJones lj(sys, 1.0, 1.0, 2.5, par);
+    LennardJones lj(sys, 1.0, 1.0, 2.5, par);
     // Each coordinate moved by at most `move`: 0.025 sqrt(3) < delta/2 = 0.05;
     // 0.08 sqrt(3) < skin/2 = 0.15, and some of 64 bodies surely beyond 0.05.
     for (const double move : {0.0, 0.025, 0.08, 0.4}) {
@@ -568,16 +569,51 @@ TEST(NeighbourListWorkspace, ASetsArraysAreOnLinesApartAndACopyHoldsTheBytesInUs
   EXPECT_NE(moved.first<std::uint32_t>(), small.first<std::uint32_t>());
 }
 
+TEST(LennardJonesPairs, ACopySharesTheModelAndEvaluatesInAWorkspaceOfItsOwn) {
+  // Model and workspace (interaction.hpp): a copy shares the parameters and
+  // writes only its own lists. Evaluating the copy far from where the lists
+  // were built rebuilds the copy's lists and leaves the original's as they
+  // were; both then give the same bits at the same state (the sums depend on
+  // the model and the state only), also evaluated at once on two threads.
+  const System sys = molecules(64);
+  const SystemState s = lattice_state(64, 1.7, 0.4);
+  LennardJones lj(sys, 1.0, 1.0, 2.5, Parallelism{1});
+  SystemEvaluation e0(s.size());
+  lj.add(s, e0);
+  ASSERT_EQ(lj.list_builds(), 1);
+  LennardJones copy = lj;
+  EXPECT_EQ(&copy.kernel(), &lj.kernel());  // one model
+  SystemState far = s;
+  for (std::size_t a = 0; a < far.size(); ++a) far.x[a] += t::random_vector(0.6);  // beyond skin / 2
+  SystemEvaluation e1(s.size()), e2(s.size());
+  copy.add(far, e1);
+  EXPECT_EQ(copy.list_builds(), 2);
+  EXPECT_EQ(lj.list_builds(), 1);  // the original's lists untouched
+  LennardJones other = lj;
+  std::thread first([&] { lj.add(far, e2); });
+  SystemEvaluation e3(s.size());
+  std::thread second([&] { other.add(far, e3); });
+  first.join();
+  second.join();
+  for (const SystemEvaluation* e : {&e2, &e3}) {
+    EXPECT_EQ(e->energy, e1.energy);
+    for (std::size_t a = 0; a < s.size(); ++a) {
+      EXPECT_EQ(e->force[a], e1.force[a]) << a;
+      EXPECT_EQ(e->torque[a], e1.torque[a]) << a;
+    }
+  }
+}
+
 TEST(LennardJonesPairs, ACopyWithItsListsBuiltGivesTheSameSumsBitForBit) {
   // A pair interaction copied after its lists were built and pruned (its
   // lists in the workspace's bytes): the copy's sums at a moved state, where
   // it uses the copied lists, equal the original's bit for bit.
   const System sys = molecules(64);
   const SystemState s = lattice_state(64, 1.7, 0.4);
-  const LennardJones lj(sys, 1.0, 1.0, 2.5, Parallelism{2});
+  LennardJones lj(sys, 1.0, 1.0, 2.5, Parallelism{2});
   SystemEvaluation e0(s.size());
   lj.add(s, e0);
-  const LennardJones copy = lj;  // NOLINT(performance-unnecessary-copy-initialization): the copy is what is tested
+  LennardJones copy = lj;  // NOLINT(performance-unnecessary-copy-initialization): the copy is what is tested
   SystemState moved = s;
   for (std::size_t a = 0; a < moved.size(); ++a) moved.x[a] += t::random_vector(0.01);
   SystemEvaluation e1(s.size()), e2(s.size());
@@ -602,7 +638,7 @@ TEST(LennardJonesPairs, PrunedListsMissNoPairAlongAWalk) {
   const System sys = molecules(64);
   SystemState s = lattice_state(64, 1.7, 0.4);
   for (const Parallelism par : {Parallelism{1}, Parallelism{3}}) {
-    const LennardJones lj(sys, 1.0, 1.0, 2.5, par);
+    LennardJones lj(sys, 1.0, 1.0, 2.5, par);
     SystemState walk = s;
     for (int k = 0; k < 60; ++k) {
       for (std::size_t a = 0; a < walk.size(); ++a) {
@@ -683,8 +719,8 @@ TEST(LennardJonesTypes, AUniformTableIsTheOneKernelBitForBit) {
   // untyped one's, so forces, torques and energies are equal to the bit.
   const System sys = typed_molecules(64);
   const SystemState s = lattice_state(64, 1.7, 0.0);
-  const lgvi::LennardJonesTypes typed(sys, lgvi::LennardJonesTypesKernel(2, {1, 1, 1, 1}, {1, 1, 1, 1}, 2.5), 0.3);
-  const LennardJones one(sys, 1.0, 1.0, 2.5);
+  lgvi::LennardJonesTypes typed(sys, lgvi::LennardJonesTypesKernel(2, {1, 1, 1, 1}, {1, 1, 1, 1}, 2.5), 0.3);
+  LennardJones one(sys, 1.0, 1.0, 2.5);
   SystemEvaluation a(s.size()), b(s.size());
   typed.add(s, a);
   one.add(s, b);
@@ -703,7 +739,7 @@ TEST(LennardJonesTypes, ForcesTorquesAndEnergyEqualADirectSumWithEachPairsCoeffi
   const System sys = typed_molecules(64);
   const SystemState s = lattice_state(64, 1.8, 0.0);
   const double eps[2][2] = {{1.0, 0.6}, {0.6, 1.7}}, sigma[2][2] = {{1.0, 1.05}, {1.05, 1.2}}, cutoff = 2.7;
-  const lgvi::LennardJonesTypes lj(
+  lgvi::LennardJonesTypes lj(
       sys, lgvi::LennardJonesTypesKernel(2, {1.0, 0.6, 0.6, 1.7}, {1.0, 1.05, 1.05, 1.2}, cutoff), 0.3);
   const lgvi::InteractionSites sites(sys);
   std::vector<V3> pos, arm;
@@ -747,7 +783,7 @@ TEST(LennardJonesTypes, ForcesTorquesAndEnergyEqualADirectSumWithEachPairsCoeffi
 TEST(LennardJonesTypes, ASiteWithoutCoefficientsIsRefused) {
   const System sys = typed_molecules(2);
   try {
-    const lgvi::LennardJonesTypes lj(sys, lgvi::LennardJonesTypesKernel(1, {1.0}, {1.0}, 2.5), 0.3);
+    lgvi::LennardJonesTypes lj(sys, lgvi::LennardJonesTypesKernel(1, {1.0}, {1.0}, 2.5), 0.3);
     FAIL() << "no exception";
   } catch (const lgvi::InvalidInput& e) {
     EXPECT_NE(std::string(e.what()).find("a site of type 2 has no coefficients"), std::string::npos) << e.what();
@@ -783,7 +819,7 @@ TEST(LennardJonesPairs, AListBuildCutShortByANonFiniteStateIsRedone) {
   const System sys(std::vector<RigidBody>(27, sphere));
   const SystemState s = lattice_state(27, 1.5, 0.0);
   for (const int threads : {1, 2}) {
-    const LennardJones lj(sys, 1.0, 1.0, 2.5, Parallelism{threads, 1});
+    LennardJones lj(sys, 1.0, 1.0, 2.5, Parallelism{threads, 1});
     SystemEvaluation first(27), again(27);
     lj.add(s, first);
     SystemState bad = s;
@@ -829,7 +865,7 @@ TEST(LennardJonesPairs, AMoveJustBeyondHalfTheSkinIsSeenWhereThePlacesAreKeptAsF
         s.x[1] = V3(0.25 * side + t::uniform(0.0, 1.0), t::uniform(-1.0, 1.0), t::uniform(-1.0, 1.0));
         s.x[0] += side * V3(static_cast<double>(trial % 7 - 3), 0.0, 0.0);
       }
-      const LennardJones lj(sys, 1.0, 1.0, 2.5);  // skin 0.3, delta = skin/3
+      LennardJones lj(sys, 1.0, 1.0, 2.5);  // skin 0.3, delta = skin/3
       SystemEvaluation e(2);
       lj.add(s, e);
       const std::int64_t builds = lj.list_builds(), prunes = lj.list_prunes();
@@ -1184,7 +1220,7 @@ TEST(WcaPairs, ForceIsMinusTheCentralDifferenceOfTheEnergy) {
   // factor or sign (an O(1) error) fails.
   const RigidBody point(1.0, lgvi::Matrix3<double>::Identity());
   const System sys(std::vector<RigidBody>(2, point));
-  const WeeksChandlerAndersen wca(sys, 0.7, 1.0);
+  WeeksChandlerAndersen wca(sys, 0.7, 1.0);
   const V3 direction = V3(0.48, -0.6, 0.64).normalized();
   int points = 0;
   for (double r = 0.85; r < 1.1225 - 2.5e-3; r += 0.0135, ++points) {
@@ -1262,8 +1298,8 @@ TEST(WcaPairs, EqualsLennardJonesCutAtItsMinimumPlusAShift) {
   const System sys = molecules(64);
   const SystemState s = lattice_state(64, 1.6, 0.0);
   const double eps = 0.8, sigma = 1.0, cutoff = std::pow(2.0, 1.0 / 6.0) * sigma;
-  const WeeksChandlerAndersen wca(sys, eps, sigma);
-  const LennardJones lj(sys, eps, sigma, cutoff);
+  WeeksChandlerAndersen wca(sys, eps, sigma);
+  LennardJones lj(sys, eps, sigma, cutoff);
   SystemEvaluation ew(64), el(64);
   wca.add(s, ew);
   lj.add(s, el);
@@ -1515,7 +1551,7 @@ TEST(AgainstGubas, DidymosOrderTwoPotentialAndEnergyAtTheStart) {
   // the energy, mostly the primary's spin, to 1e-13 of itself).
   const lgvi::app::Scenario sc = lgvi::app::read_scenario(std::string(LGVI_SCENARIO_DIR) + "/didymos-order2.toml");
   std::int64_t evaluations = 0;
-  const auto potential = lgvi::app::scenario_system_potential(sc, nullptr, &evaluations);
+  auto potential = lgvi::app::scenario_system_potential(sc, nullptr, &evaluations);
   SystemEvaluation e(sc.bodies());
   potential.evaluate(sc.initial_state, e);
   EXPECT_NEAR(e.energy, -152360785.5817261, 1e-13 * 152360785.5817261);

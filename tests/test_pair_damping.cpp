@@ -275,7 +275,7 @@ TEST(PairDamping, ListsKeptWhileSitesMoveLessThanHalfTheSkinMissNoPair) {
       // 2.1: |dc| <= 0.022 per stage from the turn.
       spin[a] = t::random_vector(0.003);
     }
-    const PairDamping damping(1.3, 1.2, sys.box());
+    PairDamping damping(1.3, 1.2, sys.box());
     std::vector<V3> force, torque, expected_force, expected_torque;
     for (int stage = 0; stage < 40; ++stage) {
       force.assign(sys.size(), V3::Zero());

@@ -162,7 +162,7 @@ DirectSum direct_lennard_jones(const System& sys, const SystemState& st) {
 /// sums run in another order, so they agree to round-off (each of the ~100
 /// terms of a sum rounded once; the sum may cancel to a fraction of the
 /// largest term: 1e-12 of the sum of magnitudes, as the free-space test).
-void expect_direct_sum(const System& sys, const LennardJones& lj, const SystemState& s, const char* label) {
+void expect_direct_sum(const System& sys, LennardJones& lj, const SystemState& s, const char* label) {
   SystemEvaluation e(s.size());
   lj.add(s, e);
   const DirectSum d = direct_lennard_jones(sys, s);
@@ -182,7 +182,7 @@ TEST(PeriodicPairs, ForcesTorquesAndEnergyEqualADirectSumOverMinimumImages) {
   const Box box(V3(-3.0, 2.0, 0.0), V3(-3.0 + 6.8, 2.0 + 6.8, 6.8), {true, true, false});
   const System sys = triangles(64, box);
   const SystemState s = gas(64, 1.7, box, 0.0);
-  const LennardJones lj(sys, 1.0, 1.0, 2.5);
+  LennardJones lj(sys, 1.0, 1.0, 2.5);
   std::int64_t builds = 0;
   for (const double move : {0.0, 0.05, 0.4}) {
     SystemState moved = s;
@@ -206,7 +206,7 @@ double scaled_energy(const Box& box, const SystemState& s, double e) {
   const System sys = triangles(s.size(), scaled);
   SystemState moved = s;
   for (V3& x : moved.x) x = box.lower() + (1.0 + e) * (x - box.lower());
-  const LennardJones lj(sys, 1.0, 1.0, 2.5);
+  LennardJones lj(sys, 1.0, 1.0, 2.5);
   SystemEvaluation ev(s.size());
   lj.add(moved, ev);
   return ev.energy;
@@ -242,7 +242,7 @@ TEST(PeriodicPairs, TheMolecularVirialIsMinusTheEnergysDerivativeUnderScaling) {
     };
     while (near_cutoff(s))
       for (auto& q : s.q) q = t::random_unit_quaternion();
-    const LennardJones lj(sys, 1.0, 1.0, 2.5);
+    LennardJones lj(sys, 1.0, 1.0, 2.5);
     const double w = lj.virial(s);
     const double e = 1e-6;
     const double derivative = (scaled_energy(box, s, e) - scaled_energy(box, s, -e)) / (2.0 * e);
@@ -272,11 +272,11 @@ TEST(PeriodicPairs, ABodyCrossingAFaceBetweenPruningsGivesTheBitsOfFreshLists) {
   SystemState crossed = s;
   for (std::size_t a = 4; a < s.size(); a += 5) crossed.x[a](0) += 2e-3;  // that layer, across the face
   SystemEvaluation fresh(s.size());
-  const LennardJones built_there(sys, 1.0, 1.0, 2.5);
+  LennardJones built_there(sys, 1.0, 1.0, 2.5);
   built_there.add(crossed, fresh);
   ASSERT_GT(fresh.force[4].norm(), 1e-3);  // the bodies across the face do interact
   for (const int threads : {1, 2}) {
-    const LennardJones lj(sys, 1.0, 1.0, 2.5, Parallelism{threads});
+    LennardJones lj(sys, 1.0, 1.0, 2.5, Parallelism{threads});
     SystemEvaluation before(s.size()), kept(s.size());
     lj.add(s, before);
     const std::int64_t builds = lj.list_builds(), prunes = lj.list_prunes();
@@ -290,7 +290,7 @@ TEST(PeriodicPairs, ABodyCrossingAFaceBetweenPruningsGivesTheBitsOfFreshLists) {
     EXPECT_EQ(kept.energy, fresh.energy) << threads << " threads";
     EXPECT_EQ(lj.virial(crossed), built_there.virial(crossed)) << threads << " threads";
   }
-  const LennardJones lj(sys, 1.0, 1.0, 2.5);
+  LennardJones lj(sys, 1.0, 1.0, 2.5);
   expect_direct_sum(sys, lj, crossed, "crossed");
 }
 
@@ -300,7 +300,7 @@ TEST(PeriodicPairs, AFewCellsPerAxisAndABoxJustOverTwiceTheReach) {
   // cell); and L = 5.6 is refused.
   const Box box(V3::Zero(), V3::Constant(5.7), {true, true, true});
   const System sys = triangles(8, box);
-  const LennardJones lj(sys, 1.0, 1.0, 2.5);
+  LennardJones lj(sys, 1.0, 1.0, 2.5);
   const SystemState s = gas(8, 2.85, box, 0.0);
   expect_direct_sum(sys, lj, s, "8 molecules");
   const System tight = triangles(8, Box(V3::Zero(), V3::Constant(5.6), {true, true, true}));
@@ -315,7 +315,7 @@ TEST(PeriodicPairs, TwoMoleculesAcrossACornerInteractAsInFreeSpace) {
   // an ulp 2e-15, times the force's derivative ~1e3 at r ~ 1.1).
   const Box box(V3::Zero(), V3::Constant(10.0), {true, true, true});
   const System sys = triangles(2, box);
-  const LennardJones lj(sys, 1.0, 1.0, 2.5);
+  LennardJones lj(sys, 1.0, 1.0, 2.5);
   SystemState corner(2);
   corner.q = {t::random_unit_quaternion(), t::random_unit_quaternion()};
   corner.x = {V3(0.3, 0.2, 0.4), V3(9.1, 9.3, 9.2)};
@@ -323,7 +323,7 @@ TEST(PeriodicPairs, TwoMoleculesAcrossACornerInteractAsInFreeSpace) {
   middle.x = {V3(5.3, 5.2, 5.4), V3(4.1, 4.3, 4.2)};  // the separation's minimum image: (-1.2, -0.9, -1.2)
   SystemEvaluation ec(2), em(2);
   lj.add(corner, ec);
-  const LennardJones lj2(sys, 1.0, 1.0, 2.5);
+  LennardJones lj2(sys, 1.0, 1.0, 2.5);
   lj2.add(middle, em);
   ASSERT_GT(std::abs(em.energy), 1e-3);  // they do interact
   EXPECT_NEAR(ec.energy, em.energy, 1e-11 * std::abs(em.energy));
@@ -417,7 +417,7 @@ TEST(PeriodicContact, BallsOverlappingAcrossAFaceAreFound) {
   const System open(bodies, {}, Box(V3::Zero(), V3::Constant(10.0), {false, false, false}));
   SystemState s(2);
   s.x = {V3(0.2, 5.0, 5.0), V3(8.7, 5.0, 5.0)};
-  const lgvi::ContactDetector across(periodic), apart(open);
+  lgvi::ContactDetector across(periodic), apart(open);
   const auto found = across.first(s);
   ASSERT_TRUE(found.has_value());
   EXPECT_NEAR(found->distance, 1.5, 1e-14);

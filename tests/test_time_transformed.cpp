@@ -49,7 +49,7 @@ template <lgvi::SystemPotential P>
 struct Counted {
   P inner;
   std::int64_t* count;
-  void evaluate(const SystemState& s, lgvi::SystemEvaluation& e) const {
+  void evaluate(const SystemState& s, lgvi::SystemEvaluation& e) {
     ++*count;
     inner.evaluate(s, e);
   }

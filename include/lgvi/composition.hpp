@@ -177,6 +177,7 @@ class ComposedStepper {
 
   const SystemEvaluation& evaluation() const { return base_.evaluation(); }
   const auto& potential() const { return base_.potential(); }
+  auto& potential() { return base_.potential(); }
   const SolveReport& last_solve() const { return report_; }
   std::vector<double> internal_state() const { return base_.internal_state(); }
   void resume(SystemState& state, double t, const std::vector<double>& internal) {

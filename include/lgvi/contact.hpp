@@ -112,9 +112,11 @@ struct Contact {
 };
 
 /// Finds the overlapping pairs of a system's bodies at a state (see the top
-/// of this file). It refers to the system, which must outlive it (not a copy
-/// of every body's balls). Not thread-safe: one detector per thread (its
-/// buffers are reused from call to call).
+/// of this file). Its model (interaction.hpp) refers to the system, which
+/// must outlive it (not a copy of every body's balls), with the bodies'
+/// bounding radii and proxies; its workspace is the scan's buffers, reused
+/// from call to call, so a search is a non-const call: one detector per
+/// thread.
 class ContactDetector {
  public:
   ContactDetector() = default;
@@ -136,7 +138,7 @@ class ContactDetector {
 
   /// Every overlapping pair at `s`, in the order of (a, b). The reference
   /// stays valid until the next call.
-  const std::vector<Contact>& find(const SystemState& s) const {
+  const std::vector<Contact>& find(const SystemState& s) {
     scan(s, false);
     return found_;
   }
@@ -144,7 +146,7 @@ class ContactDetector {
   /// The first overlapping pair in the order of (a, b), if any: what find()
   /// would list first, found without looking further (one overlap is enough
   /// to refuse a start).
-  std::optional<Contact> first(const SystemState& s) const {
+  std::optional<Contact> first(const SystemState& s) {
     scan(s, true);
     return found_.empty() ? std::nullopt : std::optional<Contact>(found_.front());
   }
@@ -181,7 +183,7 @@ class ContactDetector {
   /// the coarser ones; the pairs where b's proxy is the finer are gathered
   /// first (cross_). With `first_only`, stops after the first body a that
   /// has a contact.
-  void scan(const SystemState& s, bool first_only) const {
+  void scan(const SystemState& s, bool first_only) {
     const std::size_t n = radius_.size();
     found_.clear();
     pairs_tested_ = 0;
@@ -367,7 +369,7 @@ class ContactDetector {
 
   /// Whether bodies a < b overlap at `s`; if so, their deepest overlap in `c`.
   /// In a periodic box, b is taken at its minimum image about a.
-  bool pair(const SystemState& s, std::size_t a, std::size_t b, Contact& c) const {
+  bool pair(const SystemState& s, std::size_t a, std::size_t b, Contact& c) {
     const Box& box = sys_->box();
     const Vector3<double> xb = box.any_periodic() ? Vector3<double>(s.x[a] + box.minimum_image(s.x[b] - s.x[a])) : s.x[b];
     pieces(s, a, s.x[a], xb, radius_[b], pieces_a_);
@@ -406,20 +408,22 @@ class ContactDetector {
     return any;
   }
 
+  // The model: the system, and per body its bounding radius and proxies.
   const System* sys_ = nullptr;
   std::vector<double> radius_;                ///< each body's bounding radius
   std::vector<Proxy> proxies_;                ///< in the order of the bodies
   std::vector<std::size_t> proxy_begin_;      ///< body a's proxies: [proxy_begin_[a], proxy_begin_[a + 1])
-  mutable std::vector<Vector3<double>> centre_;  ///< of each proxy at the state scanned
-  mutable std::vector<int> level_;               ///< of each proxy
-  mutable std::vector<int> levels_;              ///< the levels in use, coarsest first
-  mutable std::vector<std::array<std::int64_t, 3>> periodic_cells_;  ///< per level: cells along each periodic axis (0: open)
-  mutable std::vector<std::pair<Cell, std::size_t>> cells_;
-  mutable std::vector<std::pair<std::size_t, std::size_t>> cross_;
-  mutable std::vector<std::size_t> candidates_;
-  mutable std::size_t pairs_tested_ = 0;
-  mutable std::vector<Contact> found_;
-  mutable std::vector<Piece> pieces_a_, pieces_b_;
+  // The workspace: what a scan writes.
+  std::vector<Vector3<double>> centre_;  ///< of each proxy at the state scanned
+  std::vector<int> level_;               ///< of each proxy
+  std::vector<int> levels_;              ///< the levels in use, coarsest first
+  std::vector<std::array<std::int64_t, 3>> periodic_cells_;  ///< per level: cells along each periodic axis (0: open)
+  std::vector<std::pair<Cell, std::size_t>> cells_;
+  std::vector<std::pair<std::size_t, std::size_t>> cross_;
+  std::vector<std::size_t> candidates_;
+  std::size_t pairs_tested_ = 0;
+  std::vector<Contact> found_;
+  std::vector<Piece> pieces_a_, pieces_b_;
 };
 
 }  // namespace lgvi

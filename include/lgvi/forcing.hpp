@@ -284,15 +284,16 @@ class ForcingSet {
   }
 
   /// The forcing's wrench on every body at time t and state s (F inertial, M
-  /// body). Const, but a system term keeps its pairs between calls: not to be
-  /// called on one set from two threads at once (a stepper calls it on one).
+  /// body). Not const: a system term writes its workspace (its pairs, kept
+  /// between calls; interaction.hpp), so a set is evaluated by one stepper
+  /// (each has its own copy).
   void evaluate(double t, const SystemState& s, const System& sys, std::vector<Vector3<double>>& force,
-                std::vector<Vector3<double>>& torque) const {
+                std::vector<Vector3<double>>& torque) {
     const std::size_t n = sys.size();
     force.assign(n, Vector3<double>::Zero());
     torque.assign(n, Vector3<double>::Zero());
-    for (const Entry& e : terms_) {
-      if (const auto* pairs = std::get_if<PairDamping>(&e.term)) {
+    for (Entry& e : terms_) {
+      if (auto* pairs = std::get_if<PairDamping>(&e.term)) {
         pairs->add(s, sys, force, torque);
         continue;
       }

@@ -13,6 +13,17 @@
 //    pairs of bodies. Their `add` adds energy, forces and torques to an
 //    evaluation; they act between the interaction sites of different bodies.
 //  * Coupled<E, M>: an external field plus a mutual interaction.
+//
+// Model and workspace (as Pinocchio's Model and Data): a force provider keeps
+// what it is (its parameters, the bodies' sites: the model, immutable after
+// construction; shared by the provider's copies where it holds the bodies)
+// apart from what an evaluation writes (caches, neighbour lists, scratch: the
+// workspace, each copy its own, so that copies may evaluate on different
+// threads at once).
+// Evaluating is therefore a non-const call; it writes the workspace only,
+// and its results depend on the model and the state alone, not on what the
+// workspace held before (a resumed run, whose workspace is new, continues
+// bit for bit).
 #pragma once
 
 #include <lgvi/error.hpp>
@@ -35,22 +46,24 @@
 namespace lgvi {
 
 /// The contract of a system potential: evaluate(state, e) overwrites e with
-/// V and every body's force and torque at `state`.
+/// V and every body's force and torque at `state` (writing its workspace:
+/// the comment at the top of this file).
 template <class I>
-concept SystemPotential = requires(const I& i, const SystemState& s, SystemEvaluation& e) {
+concept SystemPotential = requires(I& i, const SystemState& s, SystemEvaluation& e) {
   { i.evaluate(s, e) };
 };
 
 /// The contract of a mutual interaction: add(state, e) adds its energy,
 /// forces and torques to e (sized for the system).
 template <class M>
-concept MutualInteraction = requires(const M& m, const SystemState& s, SystemEvaluation& e) {
+concept MutualInteraction = requires(M& m, const SystemState& s, SystemEvaluation& e) {
   { m.add(s, e) };
 };
 
 /// A single-body potential applied to each body separately: body a feels
 /// P_a(x_a, q_a), where P_a is built for body a (its balls, its mass). The
-/// energy is summed in body order after the (parallel) per-body loop.
+/// energy is summed in body order after the (parallel) per-body loop. The
+/// model: the bodies' potentials; the workspace: their energies.
 template <Potential P>
 class ExternalField {
  public:
@@ -61,11 +74,12 @@ class ExternalField {
     return ExternalField(std::vector<P>(n, p), par);
   }
 
-  void evaluate(const SystemState& s, SystemEvaluation& e) const {
+  void evaluate(const SystemState& s, SystemEvaluation& e) {
+    const std::vector<P>& per_body = per_body_;
     const std::size_t n = s.size();
     if (e.size() != n) e.reset(n);
     if (n == 1) {  // one body: no loop, no per-body energies to sum
-      const PotentialEvaluation pe = per_body_[0].evaluate(s.x[0], s.q[0]);
+      const PotentialEvaluation pe = per_body[0].evaluate(s.x[0], s.q[0]);
       e.energy = pe.energy;
       e.force[0] = pe.force;
       e.torque[0] = pe.torque;
@@ -84,25 +98,28 @@ class ExternalField {
       e.energy = 0.0;
       return;
     }
-    energies_.resize(n);
+    std::vector<double>& energies = energies_;
+    energies.resize(n);
     parallel_for(n, par_, [&](std::size_t a) {
-      const PotentialEvaluation pe = per_body_[a].evaluate(s.x[a], s.q[a]);
-      energies_[a] = pe.energy;
+      const PotentialEvaluation pe = per_body[a].evaluate(s.x[a], s.q[a]);
+      energies[a] = pe.energy;
       e.force[a] = pe.force;
       e.torque[a] = pe.torque;
     });
     // Body 0's term first (not 0 + V_0): N = 1 gives the single-body value bit for bit.
-    e.energy = energies_[0];
-    for (std::size_t a = 1; a < n; ++a) e.energy += energies_[a];
+    e.energy = energies[0];
+    for (std::size_t a = 1; a < n; ++a) e.energy += energies[a];
   }
 
   const P& body_potential(std::size_t a) const { return per_body_[a]; }
   void set_parallelism(Parallelism par) { par_ = par; }
 
  private:
+  /// The model: each body's potential, held by value (read at every evaluation, so not behind a
+  /// pointer; a copy copies it).
   std::vector<P> per_body_;
   Parallelism par_;
-  mutable std::vector<double> energies_;
+  std::vector<double> energies_;  ///< the workspace: each body's energy, summed in order
 };
 
 /// No mutual interaction (bodies feel only the external field).
@@ -115,12 +132,13 @@ template <SystemPotential E, MutualInteraction M>
 class Coupled {
  public:
   Coupled(E external, M mutual) : external_(std::move(external)), mutual_(std::move(mutual)) {}
-  void evaluate(const SystemState& s, SystemEvaluation& e) const {
+  void evaluate(const SystemState& s, SystemEvaluation& e) {
     external_.evaluate(s, e);
     mutual_.add(s, e);
   }
   const E& external() const { return external_; }
   const M& mutual() const { return mutual_; }
+  M& mutual() { return mutual_; }
 
  private:
   E external_;
@@ -291,8 +309,9 @@ namespace detail {
 /// one body (potential.hpp: step eps^(1/5), times max(1, |x_a|) for
 /// positions). The errors are the largest over the bodies, each relative to
 /// the larger of the two vectors compared (and, in the *_abs_error fields, absolute).
+/// (A copy of the potential: it shares the model and evaluates in a workspace of its own.)
 template <SystemPotential I>
-DerivativeCheck check_system_derivatives(const I& potential, const SystemState& s) {
+DerivativeCheck check_system_derivatives(I potential, const SystemState& s) {
   const double h0 = std::pow(std::numeric_limits<double>::epsilon(), 0.2);
   SystemEvaluation e(s.size()), probe(s.size());
   potential.evaluate(s, e);
@@ -334,8 +353,8 @@ DerivativeCheck check_system_derivatives(const I& potential, const SystemState& 
 /// The same for a mutual interaction alone (no external field).
 template <MutualInteraction M>
   requires(!SystemPotential<M>)
-DerivativeCheck check_system_derivatives(const M& mutual, const SystemState& s) {
-  return check_system_derivatives(Coupled(ExternalField<NoPotential>::uniform(NoPotential{}, s.size()), mutual), s);
+DerivativeCheck check_system_derivatives(M mutual, const SystemState& s) {
+  return check_system_derivatives(Coupled(ExternalField<NoPotential>::uniform(NoPotential{}, s.size()), std::move(mutual)), s);
 }
 
 }  // namespace lgvi

@@ -30,6 +30,7 @@
 #include <lgvi/interaction.hpp>
 
 #include <cmath>
+#include <memory>
 #include <vector>
 
 namespace lgvi {
@@ -45,83 +46,103 @@ inline void require_open_space(const System& sys) {
 }
 }  // namespace detail
 
-/// Mutual gravity between the balls (sites) of different bodies.
+/// Mutual gravity between the balls (sites) of different bodies. The model:
+/// the bodies, their sites and G (shared by copies); the workspace: the
+/// sites' places and the bodies' energies.
 class MutualGravityBalls {
  public:
-  MutualGravityBalls(const System& sys, double G, Parallelism par = {})
-      : sys_(sys), sites_(sys), G_(G), par_(par) {
+  MutualGravityBalls(const System& sys, double G, Parallelism par = {}) : par_(par) {
     if (!(std::isfinite(G) && G > 0.0)) throw InvalidInput("interaction.G: must be a finite number > 0");
     detail::require_open_space(sys);
-    mass_.resize(sites_.size());
-    for (std::size_t i = 0; i < mass_.size(); ++i) mass_[i] = sites_.mass(i);
+    auto model = std::make_shared<Model>(Model{sys, InteractionSites(sys), G, {}});
+    model->mass.resize(model->sites.size());
+    for (std::size_t i = 0; i < model->mass.size(); ++i) model->mass[i] = model->sites.mass(i);
+    model_ = std::move(model);
   }
 
-  void add(const SystemState& s, SystemEvaluation& e) const {
+  void add(const SystemState& s, SystemEvaluation& e) {
     const std::size_t n = s.size();
-    sites_.place(s, par_, position_, arm_);
-    energy_.assign(n, 0.0);
+    const Model& m = *model_;
+    std::vector<Vector3<double>>& position = work_.position;
+    std::vector<Vector3<double>>& arm = work_.arm;
+    std::vector<double>& body_energy = work_.energy;
+    m.sites.place(s, par_, position, arm);
+    body_energy.assign(n, 0.0);
     parallel_for(n, par_, [&](std::size_t a) {
       SiteWrench wrench;  // the pairs' forces at site i, in order of j
       double energy = 0.0;
-      for (std::size_t i = sites_.begin(a); i < sites_.end(a); ++i) {
-        const Vector3<double>& xi = position_[i];
-        const double mi = mass_[i];
+      for (std::size_t i = m.sites.begin(a); i < m.sites.end(a); ++i) {
+        const Vector3<double>& xi = position[i];
+        const double mi = m.mass[i];
         for (std::size_t b = 0; b < n; ++b) {
           if (b == a) continue;
-          for (std::size_t j = sites_.begin(b); j < sites_.end(b); ++j) {
-            const Vector3<double> d = position_[j] - xi;
+          for (std::size_t j = m.sites.begin(b); j < m.sites.end(b); ++j) {
+            const Vector3<double> d = position[j] - xi;
             const double r2 = d.squaredNorm();
             const double inv_r = 1.0 / std::sqrt(r2);
-            const double gmm_inv_r = G_ * (mi * mass_[j]) * inv_r;
-            if (!std::isfinite(gmm_inv_r)) detail::close_approach(sys_, sites_, i, j, std::sqrt(r2));
-            wrench.add(arm_[i], (gmm_inv_r * inv_r * inv_r) * d);  // towards site j
+            const double gmm_inv_r = m.G * (mi * m.mass[j]) * inv_r;
+            if (!std::isfinite(gmm_inv_r)) detail::close_approach(m.sys, m.sites, i, j, std::sqrt(r2));
+            wrench.add(arm[i], (gmm_inv_r * inv_r * inv_r) * d);  // towards site j
             if (b > a) energy -= gmm_inv_r;
           }
         }
       }
       wrench.add_to(s, a, e);
-      energy_[a] = energy;
+      body_energy[a] = energy;
     });
-    for (std::size_t a = 0; a < n; ++a) e.energy += energy_[a];
+    for (std::size_t a = 0; a < n; ++a) e.energy += body_energy[a];
   }
 
-  double G() const { return G_; }
-  const InteractionSites& sites() const { return sites_; }
+  double G() const { return model_->G; }
+  const InteractionSites& sites() const { return model_->sites; }
 
  private:
-  System sys_;
-  InteractionSites sites_;
-  double G_;
+  struct Model {
+    System sys;
+    InteractionSites sites;
+    double G;
+    std::vector<double> mass;  ///< per site (the all-pairs loop reads it per pair; sites keeps it per kind)
+  };
+  struct Workspace {
+    std::vector<Vector3<double>> position, arm;
+    std::vector<double> energy;
+  };
+  std::shared_ptr<const Model> model_;
   Parallelism par_;
-  std::vector<double> mass_;  ///< per site (the all-pairs loop reads it per pair; sites_ keeps it per kind)
-  mutable std::vector<Vector3<double>> position_, arm_;
-  mutable std::vector<double> energy_;
+  Workspace work_;
 };
 
 /// Mutual gravity of bodies as masses with inertia tensors, to second order.
+/// The model: the bodies and G (shared by copies); the workspace: the
+/// inertia tensors in inertial axes and the bodies' energies.
 class MutualGravityInertia {
  public:
-  MutualGravityInertia(const System& sys, double G, Parallelism par = {}) : sys_(sys), G_(G), par_(par) {
+  MutualGravityInertia(const System& sys, double G, Parallelism par = {}) : par_(par) {
     if (!(std::isfinite(G) && G > 0.0)) throw InvalidInput("interaction.G: must be a finite number > 0");
     detail::require_open_space(sys);
+    model_ = std::make_shared<const Model>(Model{sys, G});
   }
 
-  void add(const SystemState& s, SystemEvaluation& e) const {
+  void add(const SystemState& s, SystemEvaluation& e) {
     const std::size_t n = s.size();
-    inertial_.resize(n);
+    const System& sys = model_->sys;
+    const double G = model_->G;
+    std::vector<Matrix3<double>>& inertial = work_.inertial;
+    std::vector<double>& body_energy = work_.energy;
+    inertial.resize(n);
     parallel_for(n, par_, [&](std::size_t a) {
       const Matrix3<double> r = s.q[a].matrix();
-      inertial_[a] = r * sys_.body(a).inertia() * r.transpose();
+      inertial[a] = r * sys.body(a).inertia() * r.transpose();
     });
-    energy_.assign(n, 0.0);
+    body_energy.assign(n, 0.0);
     parallel_for(n, par_, [&](std::size_t a) {
-      const double ma = sys_.body(a).mass();
-      const Matrix3<double>& ja = sys_.body(a).inertia();
+      const double ma = sys.body(a).mass();
+      const Matrix3<double>& ja = sys.body(a).inertia();
       Vector3<double> force = Vector3<double>::Zero(), torque = Vector3<double>::Zero();
       double energy = 0.0;
       for (std::size_t b = 0; b < n; ++b) {
         if (b == a) continue;
-        const double mb = sys_.body(b).mass();
+        const double mb = sys.body(b).mass();
         const Vector3<double> r = s.x[b] - s.x[a];
         const double r2 = r.squaredNorm();
         const double inv_r = 1.0 / std::sqrt(r2);
@@ -129,43 +150,50 @@ class MutualGravityInertia {
         const double inv_r3 = inv_r2 * inv_r;
         const double inv_r5 = inv_r3 * inv_r2;
         // S symmetric in (a, b): the sum of the same two products either way.
-        const Matrix3<double> S = a < b ? Matrix3<double>(mb * inertial_[a] + ma * inertial_[b])
-                                        : Matrix3<double>(ma * inertial_[b] + mb * inertial_[a]);
+        const Matrix3<double> S = a < b ? Matrix3<double>(mb * inertial[a] + ma * inertial[b])
+                                        : Matrix3<double>(ma * inertial[b] + mb * inertial[a]);
         const Vector3<double> sr = S * r;
         const double rsr = r.dot(sr);
         const double trace = S.trace();
-        const double gmm = G_ * (ma * mb);
+        const double gmm = G * (ma * mb);
         if (!std::isfinite(gmm * inv_r3)) close_approach(a, b, std::sqrt(r2));
         // dV/dr, the force on a (towards b for the monopole).
-        force += (gmm * inv_r3 + 1.5 * G_ * trace * inv_r5 - 7.5 * G_ * rsr * inv_r5 * inv_r2) * r +
-                 (3.0 * G_ * inv_r5) * sr;
+        force += (gmm * inv_r3 + 1.5 * G * trace * inv_r5 - 7.5 * G * rsr * inv_r5 * inv_r2) * r +
+                 (3.0 * G * inv_r5) * sr;
         const Vector3<double> u = s.q[a].inverse().act(r * inv_r);
-        torque += (3.0 * G_ * mb * inv_r3) * u.cross(ja * u);
-        if (b > a) energy += -gmm * inv_r - 0.5 * G_ * inv_r3 * (trace - 3.0 * rsr * inv_r2);
+        torque += (3.0 * G * mb * inv_r3) * u.cross(ja * u);
+        if (b > a) energy += -gmm * inv_r - 0.5 * G * inv_r3 * (trace - 3.0 * rsr * inv_r2);
       }
       e.force[a] += force;
       e.torque[a] += torque;
-      energy_[a] = energy;
+      body_energy[a] = energy;
     });
-    for (std::size_t a = 0; a < n; ++a) e.energy += energy_[a];
+    for (std::size_t a = 0; a < n; ++a) e.energy += body_energy[a];
   }
 
-  double G() const { return G_; }
+  double G() const { return model_->G; }
 
  private:
   [[noreturn]] void close_approach(std::size_t a, std::size_t b, double d) const {
-    throw StepFailure("the mutual gravity between body " + std::to_string(a) + " (\"" + sys_.name(a) +
-                          "\") and body " + std::to_string(b) + " (\"" + sys_.name(b) +
+    const System& sys = model_->sys;
+    throw StepFailure("the mutual gravity between body " + std::to_string(a) + " (\"" + sys.name(a) +
+                          "\") and body " + std::to_string(b) + " (\"" + sys.name(b) +
                           "\") is not finite (distance " + std::to_string(d) + "): a collision",
                       "the mass-and-inertia model holds only for bodies well apart; a smaller step resolves close "
                       "approaches better");
   }
 
-  System sys_;
-  double G_;
+  struct Model {
+    System sys;
+    double G;
+  };
+  struct Workspace {
+    std::vector<Matrix3<double>> inertial;
+    std::vector<double> energy;
+  };
+  std::shared_ptr<const Model> model_;
   Parallelism par_;
-  mutable std::vector<Matrix3<double>> inertial_;
-  mutable std::vector<double> energy_;
+  Workspace work_;
 };
 
 }  // namespace lgvi

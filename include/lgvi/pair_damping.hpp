@@ -78,7 +78,7 @@ class PairDamping {
   /// differs from the last call's: the end of a step iterates on the momenta
   /// alone.
   void add(const SystemState& s, const System& sys, std::vector<Vector3<double>>& force,
-           std::vector<Vector3<double>>& torque) const {
+           std::vector<Vector3<double>>& torque) {
     if (&sys != system_ || lists_->sites().bodies() != sys.size()) {
       // Another system (a copy of the forcing given to another stepper): its
       // box must allow the cutoff too, and nothing found for the last holds.
@@ -156,11 +156,11 @@ class PairDamping {
   /// whenever the lists were built, so a run's forces do not depend on its
   /// history (a resumed run continues bit for bit).
   /// StepFailure if a site's position is not finite.
-  void find_pairs(const SystemState& s, const System& sys) const {
+  void find_pairs(const SystemState& s, const System& sys) {
     x_.clear();  // (until the pairs are found: an exception leaves no configuration)
     rotation_.resize(sys.size());
     for (std::size_t a = 0; a < sys.size(); ++a) rotation_[a] = s.q[a].matrix();
-    const NeighbourLists& lists = *lists_;
+    NeighbourLists& lists = *lists_;
     lists.update(s);
     const Box& box = lists.box();
     const bool periodic = box.any_periodic();
@@ -182,19 +182,21 @@ class PairDamping {
     q_ = s.q;
   }
 
+  // The model (interaction.hpp): gamma and r_c, fixed at construction.
   double gamma_ = 0.0;
   double cutoff_ = 0.0;
-  // The system and configuration the pairs were found at, its lists, and the pairs.
-  mutable const System* system_ = nullptr;
-  mutable std::optional<NeighbourLists> lists_;
-  mutable std::int64_t earlier_builds_ = 0;  ///< the lists' builds for systems before this one
-  mutable std::vector<Vector3<double>> x_;
-  mutable std::vector<S3d> q_;
-  mutable std::vector<Matrix3<double>> rotation_;
-  mutable std::vector<Pair> pairs_;
+  // The workspace, which add() writes: the system and configuration the pairs were found at, its lists,
+  // and the pairs.
+  const System* system_ = nullptr;
+  std::optional<NeighbourLists> lists_;
+  std::int64_t earlier_builds_ = 0;  ///< the lists' builds for systems before this one
+  std::vector<Vector3<double>> x_;
+  std::vector<S3d> q_;
+  std::vector<Matrix3<double>> rotation_;
+  std::vector<Pair> pairs_;
   // Scratch.
-  mutable std::vector<Vector3<double>> velocity_;
-  mutable std::vector<Vector3<double>> arm_torque_;
+  std::vector<Vector3<double>> velocity_;
+  std::vector<Vector3<double>> arm_torque_;
 };
 
 }  // namespace lgvi

@@ -166,6 +166,9 @@ class StepperBase {
  public:
   const System& system() const { return system_; }
   const I& potential() const { return potential_; }
+  /// For what the potential computes besides the evaluation (a pair
+  /// interaction's virial), which writes its workspace (interaction.hpp).
+  I& potential() { return potential_; }
   const SystemEvaluation& evaluation() const { return eval_; }
   const SolveReport& last_solve() const { return report_; }
   void set_parallelism(Parallelism par) { par_ = par; }

@@ -635,7 +635,7 @@ void read_bodies(const Reader& r, const toml::table& root, BodyList& bodies, std
 /// deepest overlap of the first pair, by body index and name (an imported
 /// molecule's "mol<ID>").
 void require_no_overlap(const Reader& r, const System& system, const SystemState& s) {
-  const ContactDetector detector(system);
+  ContactDetector detector(system);
   const std::optional<Contact> first = detector.first(s);
   if (!first) return;
   const Contact& c = *first;

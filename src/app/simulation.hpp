@@ -49,14 +49,15 @@ class ScenarioSystemPotential {
   ScenarioSystemPotential(External external, Mutual mutual, std::int64_t* evaluations)
       : external_(std::move(external)), mutual_(std::move(mutual)), evaluations_(evaluations) {}
 
-  void evaluate(const SystemState& s, SystemEvaluation& e) const {
-    std::visit([&](const auto& field) { field.evaluate(s, e); }, external_);
+  void evaluate(const SystemState& s, SystemEvaluation& e) {
+    std::visit([&](auto& field) { field.evaluate(s, e); }, external_);
     mutual_.add(s, e);
     ++*evaluations_;
   }
   /// The mutual interaction's molecular virial at `s` (the pressure's;
-  /// PairInteraction::virial), if it has one.
-  std::optional<double> virial(const SystemState& s) const { return mutual_.virial(s); }
+  /// PairInteraction::virial), if it has one (it updates the interaction's
+  /// lists: a non-const call, as an evaluation).
+  std::optional<double> virial(const SystemState& s) { return mutual_.virial(s); }
   /// No field and no interaction: the free body (for method "exact").
   bool is_free() const {
     return std::holds_alternative<ExternalField<NoPotential>>(external_) &&

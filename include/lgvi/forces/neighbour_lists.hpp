@@ -205,7 +205,9 @@ class ArrayWorkspace {
 /// places the sites at a state and brings the lists up to date for it, then
 /// site i's partners (sites of higher bodies, by increasing index) are
 /// partner(k) for k in [list_begin(i), list_end(i)), and its position is
-/// position(i).
+/// position(i). A workspace over a model (interaction.hpp): what the lists
+/// are of (the sites, the reach, the box: Model) is fixed at construction;
+/// the lists are what update() writes.
 class NeighbourLists {
  public:
   /// A site's index in the lists (4 bytes: the lists are most of a pair
@@ -229,16 +231,16 @@ class NeighbourLists {
   /// [interaction] table): more than max_sites sites, or in a periodic box a
   /// reach not below half its shortest periodic length (InvalidInput).
   NeighbourLists(const System& sys, double cutoff, double skin, Parallelism par, const std::string& owner)
-      : sites_(sys), cutoff_(cutoff), skin_(skin), prune_margin_(prune_fraction * skin_), par_(par),
-        box_(sys.box()) {
-    if (sites_.size() > max_sites)
-      throw InvalidInput(owner + ": " + std::to_string(sites_.size()) +
+      : model_{InteractionSites(sys), cutoff, skin, prune_fraction * skin, par, sys.box()} {
+    const Model& m = model_;
+    if (m.sites.size() > max_sites)
+      throw InvalidInput(owner + ": " + std::to_string(m.sites.size()) +
                          " interaction sites; the neighbour lists index at most " + std::to_string(max_sites) +
                          " (2^31 - 1); split the system");
-    if (box_.any_periodic() && !(2.0 * (cutoff_ + skin_) < box_.shortest_periodic_length()))
-      throw InvalidInput(owner + ".cutoff: the cutoff + skin = " + std::to_string(cutoff_ + skin_) +
+    if (m.box.any_periodic() && !(2.0 * (m.cutoff + m.skin) < m.box.shortest_periodic_length()))
+      throw InvalidInput(owner + ".cutoff: the cutoff + skin = " + std::to_string(m.cutoff + m.skin) +
                          " must be less than half the shortest periodic length of the box (" +
-                         std::to_string(box_.shortest_periodic_length()) +
+                         std::to_string(m.box.shortest_periodic_length()) +
                          "), so that a pair has one image within reach; enlarge the box or shorten the cutoff or skin");
   }
 
@@ -248,28 +250,29 @@ class NeighbourLists {
   /// last pruning (each limit less the rounding of the places kept,
   /// SitePlaces; a move by a whole period along a periodic axis is no move).
   /// StepFailure if a site's position is not finite.
-  Change update(const SystemState& s) const {
+  Change update(const SystemState& s) {
     const std::size_t n = s.size();
     // The sites, and how far each body's moved, per body on the thread that
     // placed it. (The plain distance first; the minimum image only for a site
     // that seems to have moved: a body whose centre crossed a face is placed
     // a period away, which is no move.)
-    const bool have_lists = lists_ready_ && places_.size() == sites_.size();
+    const bool have_lists = lists_ready_ && places_.size() == sites().size();
     // Squared: skin/2 and delta/2, less the rounding of the stored places.
     auto squared_less_slack = [&](double half) {
       const double l = std::max(0.0, half - places_.slack());
       return l * l;
     };
-    const double limit = squared_less_slack(0.5 * skin_), prune_limit = squared_less_slack(0.5 * prune_margin_);
-    const bool periodic = box_.any_periodic();
+    const double limit = squared_less_slack(0.5 * skin());
+    const double prune_limit = squared_less_slack(0.5 * model_.prune_margin);
+    const bool periodic = box().any_periodic();
     auto within_limit = [&](const Vector3<double>& d, double bound) {
       // (False for NaN.)
-      return d.squaredNorm() <= bound || (periodic && box_.minimum_image(d).squaredNorm() <= bound);
+      return d.squaredNorm() <= bound || (periodic && box().minimum_image(d).squaredNorm() <= bound);
     };
     moved_.resize(n);
-    sites_.place_wrapped(s, par_, box_, position_, [&](std::size_t a) {
+    sites().place_wrapped(s, model_.par, box(), position_, [&](std::size_t a) {
       char moved = have_lists ? no_move : beyond_skin;
-      for (std::size_t i = sites_.begin(a); i < sites_.end(a) && moved != beyond_skin; ++i) {
+      for (std::size_t i = sites().begin(a); i < sites().end(a) && moved != beyond_skin; ++i) {
         if (!within_limit(places_.from_built(i, position_[i]), limit)) moved = beyond_skin;
         else if (!within_limit(places_.from_pruned(i, position_[i]), prune_limit)) moved = beyond_margin;
       }
@@ -287,10 +290,10 @@ class NeighbourLists {
     return Change::none;
   }
 
-  const InteractionSites& sites() const { return sites_; }
-  const Box& box() const { return box_; }
-  double cutoff() const { return cutoff_; }
-  double skin() const { return skin_; }
+  const InteractionSites& sites() const { return model_.sites; }
+  const Box& box() const { return model_.box; }
+  double cutoff() const { return model_.cutoff; }
+  double skin() const { return model_.skin; }
   /// Site i's inertial position X_i = x_a + R_a rho_i at the last update
   /// (its arm R_a rho_i: sites().arm()); in a periodic box its image about
   /// its body's centre of mass wrapped into the box (place_wrapped), which
@@ -403,13 +406,14 @@ class NeighbourLists {
   std::size_t within(const Vector3<double>* position, const Vector3<double>& x, const SiteIndex* candidates,
                      std::size_t n, double reach2, Entry* list) const {
     const double xi = x(0), yi = x(1), zi = x(2);
+    const Box& box = this->box();
     std::size_t count = 0;
     for (std::size_t k = 0; k < n; ++k) {
       const SiteIndex j = candidates[k];
       double dx = position[j](0) - xi, dy = position[j](1) - yi, dz = position[j](2) - zi;
       SiteIndex mark = 0;
       if constexpr (Periodic) {
-        [[maybe_unused]] const bool across = box_.reduce_beyond_plain(dx, dy, dz);
+        [[maybe_unused]] const bool across = box.reduce_beyond_plain(dx, dy, dz);
         if constexpr (MarkAcross) mark = across ? across_bit : 0;
       }
       list[count] = j | mark;
@@ -426,8 +430,8 @@ class NeighbourLists {
     for (int k = 0; k < 3; ++k) {
       const std::int64_t dims = dims_[static_cast<std::size_t>(k)];
       std::int64_t v = 0;
-      if (box_.periodic(k)) {  // (origin_(k) is the box's lower face there)
-        v = static_cast<std::int64_t>(box_.fraction(x(k), k) * static_cast<double>(dims));
+      if (box().periodic(k)) {  // (origin_(k) is the box's lower face there)
+        v = static_cast<std::int64_t>(box().fraction(x(k), k) * static_cast<double>(dims));
       } else {
         v = static_cast<std::int64_t>((x(k) - origin_(k)) * inv_cell_(k));
       }
@@ -446,7 +450,7 @@ class NeighbourLists {
   CellRuns cells_between(int k, double from, double to) const {
     CellRuns r;
     const std::int64_t dims = dims_[static_cast<std::size_t>(k)];
-    if (!box_.periodic(k)) {
+    if (!box().periodic(k)) {
       Vector3<double> a = Vector3<double>::Constant(origin_(k)), b = a;
       a(k) = from;
       b(k) = to;
@@ -455,8 +459,9 @@ class NeighbourLists {
     }
     // Unwrapped cell numbers, widened by the rounding of the fractional
     // coordinates (cell_of wraps them before scaling, this does not).
-    const double scale = box_.inverse_periodic_length()(k) * static_cast<double>(dims);
-    const double slack = 1e-12 * (std::abs(from - origin_(k)) + std::abs(to - origin_(k)) + box_.periodic_length()(k));
+    const double scale = box().inverse_periodic_length()(k) * static_cast<double>(dims);
+    const double slack =
+        1e-12 * (std::abs(from - origin_(k)) + std::abs(to - origin_(k)) + box().periodic_length()(k));
     const double u0 = std::floor((from - slack - origin_(k)) * scale), u1 = std::floor((to + slack - origin_(k)) * scale);
     const auto d = static_cast<double>(dims);
     if (!(u1 - u0 + 1.0 < d)) {  // (also where far sites have lost their place in the box to rounding)
@@ -482,14 +487,14 @@ class NeighbourLists {
   /// Sorts the sites into cells of side >= (r_c + skin) / 2, then lists for
   /// every site the sites of higher bodies within r_c + skin, by increasing
   /// index (the outer lists); then prunes them (prune_lists).
-  void build_lists() const { box_.any_periodic() ? build_lists<true>() : build_lists<false>(); }
+  void build_lists() { box().any_periodic() ? build_lists<true>() : build_lists<false>(); }
   template <bool Periodic>
-  void build_lists() const {
+  void build_lists() {
     ++builds_;
     const std::size_t m = position_.size();
     // Memory: the pruned lists are stale from here on, and the cell arrays
     // are needed only until the outer lists are made, so the two share one
-    // buffer (workspace_; they are the largest arrays after the outer
+    // buffer (arrays_; they are the largest arrays after the outer
     // lists). (Until the pruning below completes there are no lists: a
     // build cut short by an exception is redone.)
     lists_ready_ = false;
@@ -504,20 +509,20 @@ class NeighbourLists {
     // The places' origin and extent: until the next build each site stays
     // within skin/2 of its place now, or of an image of it along a periodic
     // axis (there the places are minimum images, within half a period).
-    Vector3<double> extent = 0.5 * (hi - lo) + Vector3<double>::Constant(skin_);
+    Vector3<double> extent = 0.5 * (hi - lo) + Vector3<double>::Constant(skin());
     for (int k = 0; k < 3; ++k)
-      if (box_.periodic(k)) extent(k) = 0.5 * box_.periodic_length()(k);
-    places_.prepare(m, 0.5 * (lo + hi), extent.maxCoeff(), 0.5 * prune_margin_, box_);
-    const double reach = cutoff_ + skin_;
+      if (box().periodic(k)) extent(k) = 0.5 * box().periodic_length()(k);
+    places_.prepare(m, 0.5 * (lo + hi), extent.maxCoeff(), 0.5 * model_.prune_margin, box());
+    const double reach = cutoff() + skin();
     origin_ = lo;
     const double budget = std::max(1.0, std::floor(std::cbrt(2.0 * static_cast<double>(m) + 1.0)));
     std::size_t cells = 1;
     for (int k = 0; k < 3; ++k) {
       // A periodic axis: cells over the box, a whole number of them (each
       // at least reach / cells_per_reach wide), whatever the sites' spread.
-      const bool periodic = box_.periodic(k);
-      if (periodic) origin_(k) = box_.lower()(k);
-      const double extent = periodic ? box_.periodic_length()(k) : hi(k) - lo(k);
+      const bool periodic = box().periodic(k);
+      if (periodic) origin_(k) = box().lower()(k);
+      const double extent = periodic ? box().periodic_length()(k) : hi(k) - lo(k);
       const double count = std::clamp(std::floor(extent * cells_per_reach / reach), 1.0, budget);
       dims_[static_cast<std::size_t>(k)] = static_cast<std::int64_t>(count);
       inv_cell_(k) = count / std::max(extent, reach / cells_per_reach);
@@ -526,17 +531,17 @@ class NeighbourLists {
     // The cells, in the workspace: cell c's sites are sorted[cell_start[c]
     // ... cell_start[c + 1]) (site counts: at most max_sites, as the cells'
     // numbers, fewer than 2 max_sites + 2).
-    using Workspace = detail::ArrayWorkspace;
-    workspace_.begin_arrays(Workspace::bytes_for<SiteIndex>(cells + 1) + Workspace::bytes_for<SiteIndex>(cells) +
-                            3 * Workspace::bytes_for<SiteIndex>(m) + 3 * Workspace::bytes_for<double>(m));
-    SiteIndex* const cell_start = workspace_.array<SiteIndex>(cells + 1);
-    SiteIndex* const cell_fill = workspace_.array<SiteIndex>(cells);
-    SiteIndex* const cell_index = workspace_.array<SiteIndex>(m);
-    SiteIndex* const sorted = workspace_.array<SiteIndex>(m);
-    double* const cell_x = workspace_.array<double>(m);  // the sites' positions in cell order
-    double* const cell_y = workspace_.array<double>(m);
-    double* const cell_z = workspace_.array<double>(m);
-    SiteIndex* const cell_body = workspace_.array<SiteIndex>(m);  // and their bodies
+    using Arrays = detail::ArrayWorkspace;
+    arrays_.begin_arrays(Arrays::bytes_for<SiteIndex>(cells + 1) + Arrays::bytes_for<SiteIndex>(cells) +
+                            3 * Arrays::bytes_for<SiteIndex>(m) + 3 * Arrays::bytes_for<double>(m));
+    SiteIndex* const cell_start = arrays_.array<SiteIndex>(cells + 1);
+    SiteIndex* const cell_fill = arrays_.array<SiteIndex>(cells);
+    SiteIndex* const cell_index = arrays_.array<SiteIndex>(m);
+    SiteIndex* const sorted = arrays_.array<SiteIndex>(m);
+    double* const cell_x = arrays_.array<double>(m);  // the sites' positions in cell order
+    double* const cell_y = arrays_.array<double>(m);
+    double* const cell_z = arrays_.array<double>(m);
+    SiteIndex* const cell_body = arrays_.array<SiteIndex>(m);  // and their bodies
     std::fill(cell_start, cell_start + cells + 1, SiteIndex{0});
     for (std::size_t i = 0; i < m; ++i) {
       const std::array<std::int64_t, 3> c = cell_of(position_[i]);
@@ -553,7 +558,7 @@ class NeighbourLists {
       cell_x[k] = x(0);
       cell_y[k] = x(1);
       cell_z[k] = x(2);
-      cell_body[k] = static_cast<SiteIndex>(sites_.body_of(sorted[k]));
+      cell_body[k] = static_cast<SiteIndex>(sites().body_of(sorted[k]));
     }
     // The lists, one body after the other. Each site's list is its own: the
     // sites of higher bodies within r_c + skin, by index. Per body (per site
@@ -568,25 +573,25 @@ class NeighbourLists {
     // builds them: the bodies are cut into fixed chunks, each chunk's lists
     // built on some thread into the chunk's buffer (where they stay: the
     // outer lists, outer_lists_).
-    const std::size_t n = sites_.bodies();
+    const std::size_t n = sites().bodies();
     const double reach2 = reach * reach;
     const std::size_t chunks = std::min<std::size_t>(n, list_chunks);
     outer_lists_.resize(chunks);
     outer_end_.resize(m);
     chunk_entries_.assign(chunks + 1, 0);
-    parallel_for(chunks, par_, [&](std::size_t chunk) {
+    parallel_for(chunks, model_.par, [&](std::size_t chunk) {
       std::vector<std::uint8_t>& out = outer_lists_[chunk];
       std::size_t used = 0, entries = 0;  // out's bytes in use (out only grows: no zero fill per site), entries
       // Where the chunk's sites are now (the skin's reference).
-      for (std::size_t i = sites_.begin(chunk * n / chunks); i < sites_.begin((chunk + 1) * n / chunks); ++i)
+      for (std::size_t i = sites().begin(chunk * n / chunks); i < sites().begin((chunk + 1) * n / chunks); ++i)
         places_.store_built(i, position_[i]);
       thread_local std::vector<SiteIndex> near, found;
       for (std::size_t a = chunk * n / chunks; a < (chunk + 1) * n / chunks; ++a) {
         // A body of many sites (a wall, a long chain) goes site by site: its
         // box would hold candidates for all of them, each site scanning all.
-        const std::size_t group = sites_.end(a) - sites_.begin(a) <= group_sites ? group_sites : 1;
-        for (std::size_t g0 = sites_.begin(a); g0 < sites_.end(a); g0 += group) {
-          const std::size_t g1 = std::min(g0 + group, sites_.end(a));
+        const std::size_t group = sites().end(a) - sites().begin(a) <= group_sites ? group_sites : 1;
+        for (std::size_t g0 = sites().begin(a); g0 < sites().end(a); g0 += group) {
+          const std::size_t g1 = std::min(g0 + group, sites().end(a));
           Vector3<double> lo = position_[g0], hi = lo;
           for (std::size_t i = g0 + 1; i < g1; ++i) {
             lo = lo.cwiseMin(position_[i]);
@@ -617,7 +622,7 @@ class NeighbourLists {
                     // image's is taken only across a period).
                     for (std::size_t k = run_first; k < run_end; ++k) {
                       double dx = cell_x[k] - cx, dy = cell_y[k] - cy, dz = cell_z[k] - cz;
-                      if constexpr (Periodic) box_.reduce_beyond_plain(dx, dy, dz);
+                      if constexpr (Periodic) box().reduce_beyond_plain(dx, dy, dz);
                       list[kept] = sorted[k];
                       kept += static_cast<std::size_t>((dx * dx + dy * dy + dz * dz < around2) & (cell_body[k] > a));
                     }
@@ -666,30 +671,30 @@ class NeighbourLists {
                         "shorten the cutoff or skin, or split the system");
     // The cells are done with: the pruned lists in their place, with room
     // for as many entries as the outer lists (prune_lists).
-    workspace_.begin_arrays(Workspace::bytes_for<Entry>(chunk_entries_[chunks]));
-    workspace_.array<Entry>(chunk_entries_[chunks]);
+    arrays_.begin_arrays(Arrays::bytes_for<Entry>(chunk_entries_[chunks]));
+    arrays_.array<Entry>(chunk_entries_[chunks]);
     prune_lists<Periodic>();
   }
 
-  /// The outer lists' entries within r_c + prune_margin_ now, per site in
+  /// The outer lists' entries within r_c + delta (the pruning margin) now, per site in
   /// the same order: the lists the users read (entries(), list_start_).
-  void prune_lists() const { box_.any_periodic() ? prune_lists<true>() : prune_lists<false>(); }
+  void prune_lists() { box().any_periodic() ? prune_lists<true>() : prune_lists<false>(); }
   template <bool Periodic>
-  void prune_lists() const {
+  void prune_lists() {
     ++prunes_;
     lists_ready_ = false;
-    const std::size_t n = sites_.bodies(), m = position_.size();
+    const std::size_t n = sites().bodies(), m = position_.size();
     // Generous by a relative 1e-9, as the build's filter: no pair within the
     // margin is lost to the rounding of r^2.
-    const double reach = (cutoff_ + prune_margin_) * (1.0 + 1e-9), reach2 = reach * reach;
+    const double reach = (cutoff() + model_.prune_margin) * (1.0 + 1e-9), reach2 = reach * reach;
     const std::size_t chunks = std::min<std::size_t>(n, list_chunks);
     chunk_used_.resize(chunks);
     list_start_.assign(m + 1, 0);
     // Each chunk's pruned lists first where its outer lists' entries would
     // be in one array (entries()[chunk_entries_[chunk] ...), then moved
     // down in chunk order to follow the previous chunk's.
-    parallel_for(chunks, par_, [&](std::size_t chunk) {
-      const std::size_t i0 = sites_.begin(chunk * n / chunks), i1 = sites_.begin((chunk + 1) * n / chunks);
+    parallel_for(chunks, model_.par, [&](std::size_t chunk) {
+      const std::size_t i0 = sites().begin(chunk * n / chunks), i1 = sites().begin((chunk + 1) * n / chunks);
       for (std::size_t i = i0; i < i1; ++i) places_.store_pruned(i, position_[i]);  // the margin's reference
       const Vector3<double>* const position = position_.data();
       // Site i's outer list: outer[outer_end_[i - 1] ... outer_end_[i]).
@@ -712,7 +717,7 @@ class NeighbourLists {
     });
     for (std::size_t i = 0; i < m; ++i) list_start_[i + 1] += list_start_[i];
     for (std::size_t chunk = 0; chunk < chunks; ++chunk) {  // (to lower or equal offsets: in order, nothing unread is overwritten)
-      const std::size_t i0 = sites_.begin(chunk * n / chunks);
+      const std::size_t i0 = sites().begin(chunk * n / chunks);
       if (list_start_[i0] == chunk_entries_[chunk]) continue;  // (in place already)
       Entry* const from = entries() + chunk_entries_[chunk];
       std::copy(from, from + chunk_used_[chunk], entries() + list_start_[i0]);
@@ -720,14 +725,22 @@ class NeighbourLists {
     lists_ready_ = true;
   }
 
-  InteractionSites sites_;
-  double cutoff_, skin_, prune_margin_;
-  Parallelism par_;
-  Box box_;  ///< the system's: separations are minimum images along its periodic axes
-  mutable std::vector<Vector3<double>> position_;
-  mutable std::vector<char> moved_;  ///< per body: how far its sites moved (no_move ...)
-  mutable Vector3<double> origin_ = Vector3<double>::Zero(), inv_cell_ = Vector3<double>::Ones();
-  mutable std::array<std::int64_t, 3> dims_{1, 1, 1};
+  /// What the lists are of, written by the constructor only: the sites, the
+  /// reach (r_c + skin), the pruning margin delta, the threads and the box.
+  /// Held by value, not behind a pointer (the list build and pruning read it
+  /// in their loops), and not const (so that the lists move). Everything
+  /// below is what update() writes.
+  struct Model {
+    InteractionSites sites;
+    double cutoff, skin, prune_margin;
+    Parallelism par;
+    Box box;  ///< the system's: separations are minimum images along its periodic axes
+  };
+  Model model_;
+  std::vector<Vector3<double>> position_;
+  std::vector<char> moved_;  ///< per body: how far its sites moved (no_move ...)
+  Vector3<double> origin_ = Vector3<double>::Zero(), inv_cell_ = Vector3<double>::Ones();
+  std::array<std::int64_t, 3> dims_{1, 1, 1};
   /// The pruned lists hold the pairs within r_c + delta, delta =
   /// prune_fraction * skin (any fraction in (0, 1] gives the same results;
   /// this one was the fastest measured, docs/tuning.md).
@@ -745,16 +758,16 @@ class NeighbourLists {
   static constexpr std::size_t group_sites = 16;
   /// An offset into the lists (4 bytes: checked at each build).
   using ListOffset = std::uint32_t;
-  mutable std::vector<ListOffset> list_start_;
+  std::vector<ListOffset> list_start_;
   /// A build's cell arrays, then the pruned lists: site i's entries
   /// (partner and across_bit) entries()[list_start_[i] ... list_start_[i +
   /// 1]) (room for as many entries as the outer lists have, as it holds
   /// each chunk's while they are pruned).
-  mutable detail::ArrayWorkspace workspace_;
-  Entry* entries() const { return workspace_.first<Entry>(); }
-  mutable std::vector<std::size_t> chunk_used_;  ///< per chunk: its list's entries in use
+  detail::ArrayWorkspace arrays_;
+  Entry* entries() const { return arrays_.first<Entry>(); }
+  std::vector<std::size_t> chunk_used_;  ///< per chunk: its list's entries in use
   /// Per site: where it was at the last build and at the last pruning.
-  mutable SitePlaces places_;
+  SitePlaces places_;
   /// The outer lists: per site i, the sites of higher bodies within r_c +
   /// skin at the last build, by index, coded (detail::encode_partners) in its chunk
   /// c's buffer: outer_lists_[c][outer_end_[i - 1] ... outer_end_[i]) (from
@@ -762,11 +775,11 @@ class NeighbourLists {
   /// pruning reads them, chunk by chunk); chunk_entries_[c]: the chunk's
   /// first entry's place in the lists, as many entries before it (the pruned
   /// lists' room). entries() and list_start_ are their pruned form.
-  mutable std::vector<std::uint32_t> outer_end_;
-  mutable std::vector<std::vector<std::uint8_t>> outer_lists_;
-  mutable std::vector<std::size_t> chunk_entries_;
-  mutable std::int64_t builds_ = 0, prunes_ = 0;
-  mutable bool lists_ready_ = false;  ///< the lists are whole (a build and its pruning completed)
+  std::vector<std::uint32_t> outer_end_;
+  std::vector<std::vector<std::uint8_t>> outer_lists_;
+  std::vector<std::size_t> chunk_entries_;
+  std::int64_t builds_ = 0, prunes_ = 0;
+  bool lists_ready_ = false;  ///< the lists are whole (a build and its pruning completed)
   /// moved_: how far a body's sites moved.
   static constexpr char no_move = 0, beyond_margin = 1, beyond_skin = 2;
 };

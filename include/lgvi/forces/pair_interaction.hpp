@@ -64,6 +64,7 @@
 #include <concepts>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -148,14 +149,18 @@ bool pair_terms(std::size_t count, const Kernel& kernel, const double* __restric
 }  // namespace detail
 
 /// A pair interaction over `Kernel` between the sites of different bodies
-/// (the comment at the top of this file): a MutualInteraction.
+/// (the comment at the top of this file): a MutualInteraction, its model
+/// (the bodies, the kernel) shared by copies, its workspace (the neighbour
+/// lists, the pass's arrays) each copy's own (interaction.hpp).
 template <PairKernel Kernel>
 class PairInteraction {
  public:
   /// `skin`: the Verlet lists hold pairs within cutoff + skin (>= 0; LAMMPS's
   /// default is 0.3 sigma for Lennard-Jones).
   PairInteraction(const System& sys, const Kernel& kernel, Parallelism par, double skin)
-      : sys_(sys), kernel_(kernel), lists_(sys, kernel.cutoff(), skin, par, "interaction"), par_(par) {
+      : model_(std::make_shared<const Model>(Model{sys, kernel})),
+        par_(par),
+        lists_(sys, kernel.cutoff(), skin, par, "interaction") {
     if constexpr (TypedPairKernel<Kernel>) {
       for (std::size_t i = 0; i < sites().size(); ++i)
         if (sites().type(i) >= kernel.types())
@@ -165,7 +170,7 @@ class PairInteraction {
     }
   }
 
-  void add(const SystemState& s, SystemEvaluation& e) const {
+  void add(const SystemState& s, SystemEvaluation& e) {
     prepare(s);
     const std::size_t n = s.size();
     energy_.assign(n, 0.0);
@@ -188,7 +193,7 @@ class PairInteraction {
   /// energy and the sites' arms). Summed per body in list order and then in
   /// body order on this thread, so it does not depend on the thread count.
   /// Costs about one serial evaluation (the runs call it per written frame).
-  double virial(const SystemState& s) const {
+  double virial(const SystemState& s) {
     prepare(s);
     PassScratch scratch;
     double total = 0.0;
@@ -224,7 +229,7 @@ class PairInteraction {
   std::int64_t list_builds() const { return lists_.builds(); }
   std::int64_t list_prunes() const { return lists_.prunes(); }
 
-  const Kernel& kernel() const { return kernel_; }
+  const Kernel& kernel() const { return model_->kernel; }
   double cutoff() const { return lists_.cutoff(); }
   double skin() const { return lists_.skin(); }
 
@@ -233,7 +238,7 @@ class PairInteraction {
 
   /// Places the sites of `s` and brings the lists, and the threads' share
   /// of them, up to date for it.
-  void prepare(const SystemState& s) const {
+  void prepare(const SystemState& s) {
     const NeighbourLists::Change change = lists_.update(s);
     if (change == NeighbourLists::Change::built || !work_ready_) split_work(true);
     else if (change == NeighbourLists::Change::pruned) split_work(false);
@@ -330,7 +335,7 @@ class PairInteraction {
         separations(xi, k0, k1, std::integral_constant<Separation, How>{});
       }
       if constexpr (TypedPairKernel<Kernel>) {
-        const std::uint32_t row = kernel_.types() * sites().type(i);
+        const std::uint32_t row = model_->kernel.types() * sites().type(i);
         for (std::size_t k = lists_.list_begin(i); k < lists_.list_end(i); ++k)
           scratch.pair[k - first] = row + sites().type(lists_.partner(k));
       }
@@ -347,7 +352,7 @@ class PairInteraction {
   template <class Buffers>
   bool pair_terms(std::size_t a, std::size_t b, Buffers& scratch, double* fx, double* fy, double* fz) const {
     const std::size_t count = gather(a, b, scratch);
-    return detail::pair_terms(count, kernel_, scratch.dx.data(), scratch.dy.data(), scratch.dz.data(),
+    return detail::pair_terms(count, model_->kernel, scratch.dx.data(), scratch.dy.data(), scratch.dz.data(),
                               scratch.pair.data(), fx, fy, fz, scratch.energy.data());
   }
 
@@ -355,7 +360,7 @@ class PairInteraction {
   /// their energies u (entry k - first, first the body's first entry).
   /// Beyond r_c a pair's energy is 0 and adds nothing: x + 0 = x (no sum here
   /// is ever -0).
-  void sum_body_energy(std::size_t a, const double* u) const {
+  void sum_body_energy(std::size_t a, const double* u) {
     const std::size_t count = lists_.list_begin(sites().end(a)) - lists_.list_begin(sites().begin(a));
     double energy = 0.0;
     for (std::size_t q = 0; q < count; ++q) energy += u[q];
@@ -376,7 +381,7 @@ class PairInteraction {
         if (!(std::isfinite(scratch.fx[k - first]) && std::isfinite(scratch.fy[k - first]) &&
               std::isfinite(scratch.fz[k - first]))) {
           const std::size_t j = lists_.partner(k);
-          detail::close_approach(sys_, sites(), i, j,
+          detail::close_approach(model_->sys, sites(), i, j,
                                  lists_.box().minimum_image(lists_.position(j) - lists_.position(i)).norm());
         }
   }
@@ -415,7 +420,7 @@ class PairInteraction {
   /// So results are bit-identical on any number of threads. Bodies numbered
   /// in space (a lattice) cross little; in the worst case, every body, this
   /// is two passes: all terms, then the sums.
-  void ranged_pass(const SystemState& s, SystemEvaluation& e) const {
+  void ranged_pass(const SystemState& s, SystemEvaluation& e) {
     const std::size_t m = sites().size();
     site_force_.resize(4 * m);
     double* const site_force = site_force_.data();
@@ -529,9 +534,9 @@ class PairInteraction {
   /// depend on it), after the lists changed: the threads' ranges of bodies
   /// (`new_ranges`: split anew, at a build; else kept) and the pairs that
   /// cross between them (ranged_pass).
-  void split_work(bool new_ranges) const {
+  void split_work(bool new_ranges) {
     work_ready_ = false;
-    const std::size_t n = sys_.size(), m = sites().size();
+    const std::size_t n = model_->sys.size(), m = sites().size();
     // The bodies into consecutive ranges of about equal pairs
     // (a gas that clusters makes halves by count uneven), the bodies with
     // pairs that cross into a higher range, and the crossing pairs' terms
@@ -655,17 +660,23 @@ class PairInteraction {
     work_ready_ = true;
   }
 
-  System sys_;
-  Kernel kernel_;
-  NeighbourLists lists_;
+  /// The model: the bodies and the kernel, fixed at construction and shared
+  /// by copies. Everything below but the threads is the workspace, each
+  /// copy its own: the lists, and what an evaluation writes.
+  struct Model {
+    System sys;
+    Kernel kernel;
+  };
+  std::shared_ptr<const Model> model_;
   Parallelism par_;
-  mutable std::vector<double> energy_;
-  mutable std::vector<char> finite_;  ///< per body: its pairs' forces are finite
+  NeighbourLists lists_;
+  std::vector<double> energy_;
+  std::vector<char> finite_;  ///< per body: its pairs' forces are finite
   /// ranged_pass: each site's running force sum (x, y, z and a pad: one
   /// cache line holds two sites, a partner's three components are one access).
-  mutable std::vector<double> site_force_;
+  std::vector<double> site_force_;
   /// Range t: bodies [range_bounds_[t], range_bounds_[t + 1]); range_ids_ = 0, 1, ..., T.
-  mutable std::vector<std::size_t> range_bounds_, range_ids_;
+  std::vector<std::size_t> range_bounds_, range_ids_;
   /// An offset into the crossing arrays: they hold list entries, fewer than
   /// 2^32 (the lists' own offsets are 4 bytes, checked at each build).
   using CrossingOffset = std::uint32_t;
@@ -676,17 +687,17 @@ class PairInteraction {
   /// The bodies with pairs into a higher range, in order; per body, where
   /// its list entries' terms start in the crossing arrays (or no_crossing);
   /// the split of those bodies between threads.
-  mutable std::vector<std::size_t> crossing_bodies_, crossing_ranges_;
-  mutable std::vector<CrossingOffset> crossing_first_;
-  mutable std::vector<std::vector<std::size_t>> range_crossing_;  ///< find_crossing's, per range
-  mutable std::vector<double> crossing_fx_, crossing_fy_, crossing_fz_;  ///< per entry: the force on its list's site
+  std::vector<std::size_t> crossing_bodies_, crossing_ranges_;
+  std::vector<CrossingOffset> crossing_first_;
+  std::vector<std::vector<std::size_t>> range_crossing_;  ///< find_crossing's, per range
+  std::vector<double> crossing_fx_, crossing_fy_, crossing_fz_;  ///< per entry: the force on its list's site
   /// The crossing bodies in batches [first, end) of consecutive bodies.
-  mutable std::vector<std::pair<std::size_t, std::size_t>> crossing_batches_;
+  std::vector<std::pair<std::size_t, std::size_t>> crossing_batches_;
   /// Site j's crossing pairs: incoming_pair_[incoming_start_[j] ...
   /// incoming_start_[j + 1]) index the crossing arrays, by increasing lower
   /// site (both empty where no pair crosses).
-  mutable std::vector<CrossingOffset> incoming_start_, incoming_pair_;
-  mutable bool work_ready_ = false;  ///< the ranges and crossing pairs are those of the current lists
+  std::vector<CrossingOffset> incoming_start_, incoming_pair_;
+  bool work_ready_ = false;  ///< the ranges and crossing pairs are those of the current lists
 };
 
 }  // namespace lgvi

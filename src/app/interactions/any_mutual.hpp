@@ -12,8 +12,9 @@
 namespace lgvi::app {
 
 /// A mutual interaction of any type (a MutualInteraction), held by value:
-/// copies are deep (each copy has its own caches, e.g. neighbour lists), so
-/// copies may run on different threads. Empty: no interaction.
+/// copies are deep, as the held interaction's own (each has its own
+/// workspace, e.g. neighbour lists, and shares the model: interaction.hpp),
+/// so copies may run on different threads. Empty: no interaction.
 class AnyMutualInteraction {
  public:
   AnyMutualInteraction() = default;
@@ -29,13 +30,13 @@ class AnyMutualInteraction {
   AnyMutualInteraction& operator=(AnyMutualInteraction&&) noexcept = default;
   ~AnyMutualInteraction() = default;
 
-  void add(const SystemState& s, SystemEvaluation& e) const {
+  void add(const SystemState& s, SystemEvaluation& e) {
     if (held_) held_->add(s, e);
   }
   bool empty() const { return !held_; }
   /// The held interaction's molecular virial at `s` (PairInteraction::virial),
   /// if it has one: nullopt for none, or one without (long-range gravity).
-  std::optional<double> virial(const SystemState& s) const { return held_ ? held_->virial(s) : std::nullopt; }
+  std::optional<double> virial(const SystemState& s) { return held_ ? held_->virial(s) : std::nullopt; }
   /// The held interaction if it is an M, else null.
   template <class M>
   const M* get() const {
@@ -46,15 +47,15 @@ class AnyMutualInteraction {
  private:
   struct Concept {
     virtual ~Concept() = default;
-    virtual void add(const SystemState& s, SystemEvaluation& e) const = 0;
-    virtual std::optional<double> virial(const SystemState& s) const = 0;
+    virtual void add(const SystemState& s, SystemEvaluation& e) = 0;
+    virtual std::optional<double> virial(const SystemState& s) = 0;
     virtual std::unique_ptr<Concept> clone() const = 0;
   };
   template <class M>
   struct Model final : Concept {
     explicit Model(M held) : m(std::move(held)) {}
-    void add(const SystemState& s, SystemEvaluation& e) const override { m.add(s, e); }
-    std::optional<double> virial(const SystemState& s) const override {
+    void add(const SystemState& s, SystemEvaluation& e) override { m.add(s, e); }
+    std::optional<double> virial(const SystemState& s) override {
       if constexpr (requires { m.virial(s); })
         return m.virial(s);
       else
