@@ -22,12 +22,12 @@
 
 namespace {
 
-using lgvi::app::BodyShape;
-using lgvi::app::open_trajectory;
-using lgvi::app::SinkPosition;
-using lgvi::app::TrajectoryFormat;
-using lgvi::app::TrajectoryLayout;
-using lgvi::app::TrajectorySink;
+using lgvi::io::BodyShape;
+using lgvi::io::open_trajectory;
+using lgvi::io::SinkPosition;
+using lgvi::io::TrajectoryFormat;
+using lgvi::io::TrajectoryLayout;
+using lgvi::io::TrajectorySink;
 namespace fs = std::filesystem;
 
 // The one export that writes a file per step (io/formats/vtk.cpp).
@@ -37,7 +37,7 @@ const TrajectoryFormat Vtk = TrajectoryFormat::named("vtk");
 /// each one passes the tests below.
 std::vector<TrajectoryFormat> export_formats() {
   std::vector<TrajectoryFormat> out;
-  for (const lgvi::app::FormatDescriptor* d : lgvi::app::trajectory_formats())
+  for (const lgvi::io::FormatDescriptor* d : lgvi::io::trajectory_formats())
     if (!d->holds_columns) out.push_back(TrajectoryFormat::named(d->name));
   return out;
 }
@@ -62,11 +62,11 @@ TrajectoryLayout two_bodies() {
 /// Row r of the long layout: body r % 2 at step r / 2, a unit quaternion,
 /// values that differ in every row (`offset` makes another run's rows).
 void write_rows(TrajectorySink& sink, std::int64_t begin, std::int64_t end, double offset = 0.0) {
-  double row[lgvi::app::bodies_trajectory_columns] = {};
+  double row[lgvi::io::bodies_trajectory_columns] = {};
   for (std::int64_t r = begin; r < end; ++r) {
     const std::int64_t step = r / 2;
     const double k = static_cast<double>(step) + offset;
-    for (int c = 0; c < lgvi::app::bodies_trajectory_columns; ++c) row[c] = 0.001 * k * (c + 1) + 0.1 / (c + 1);
+    for (int c = 0; c < lgvi::io::bodies_trajectory_columns; ++c) row[c] = 0.001 * k * (c + 1) + 0.1 / (c + 1);
     row[0] = 0.01 * k;                       // t
     row[1] = static_cast<double>(r % 2);     // body
     const double angle = 0.05 * k + static_cast<double>(r % 2);
@@ -99,7 +99,7 @@ class ExportFormatTest : public ::testing::TestWithParam<TrajectoryFormat> {
     std::error_code ec;
     fs::remove_all(dir_, ec);
   }
-  fs::path file(const char* sub) const { return dir_ / sub / lgvi::app::trajectory_file_name(GetParam()); }
+  fs::path file(const char* sub) const { return dir_ / sub / lgvi::io::trajectory_file_name(GetParam()); }
 
   /// Every file of the export in folder `sub`, by name relative to it.
   std::map<std::string, std::string> contents(const char* sub) const {
@@ -182,7 +182,7 @@ TEST_P(ExportFormatTest, ShapesMustMatchTheBodies) {
 }
 
 TEST_P(ExportFormatTest, UnwritablePathThrowsNamingIt) {
-  const std::string bad = "/proc/lgvi-no-such-folder/" + std::string(lgvi::app::trajectory_file_name(GetParam()));
+  const std::string bad = "/proc/lgvi-no-such-folder/" + std::string(lgvi::io::trajectory_file_name(GetParam()));
   try {
     open_trajectory(GetParam(), bad, two_bodies());
     FAIL() << "no exception for " << bad;
@@ -193,7 +193,7 @@ TEST_P(ExportFormatTest, UnwritablePathThrowsNamingIt) {
 
 INSTANTIATE_TEST_SUITE_P(Formats, ExportFormatTest, ::testing::ValuesIn(export_formats()),
                          [](const ::testing::TestParamInfo<TrajectoryFormat>& info) {
-                           std::string name = lgvi::app::to_string(info.param);  // xyz, vtk, lammps_dump
+                           std::string name = lgvi::io::to_string(info.param);  // xyz, vtk, lammps_dump
                            std::replace(name.begin(), name.end(), '-', '_');
                            return name;
                          });
@@ -203,7 +203,7 @@ TEST(ExportFormat, SitePositionIsXPlusRRho) {
   const double x[3] = {1.0, 2.0, 3.0};
   const double s = std::sqrt(0.5);
   const double q[4] = {s, 0.0, 0.0, s};
-  const auto p = lgvi::app::site_position(x, q, {2.0, 0.0, 0.0});
+  const auto p = lgvi::io::site_position(x, q, {2.0, 0.0, 0.0});
   // R is formed from s^2 = 0.5 (1 ulp from sqrt(0.5)^2): within 4 ulp of 2.
   EXPECT_NEAR(p[0], 1.0, 1e-15);
   EXPECT_NEAR(p[1], 4.0, 4e-15);

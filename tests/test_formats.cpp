@@ -35,17 +35,17 @@
 
 namespace {
 
-using lgvi::app::open_trajectory;
-using lgvi::app::SinkPosition;
-using lgvi::app::TrajectoryFormat;
-using lgvi::app::TrajectorySink;
+using lgvi::io::open_trajectory;
+using lgvi::io::SinkPosition;
+using lgvi::io::TrajectoryFormat;
+using lgvi::io::TrajectorySink;
 namespace fs = std::filesystem;
 
 // The formats by their registered names (io/formats/registry.cpp).
 const TrajectoryFormat Csv = TrajectoryFormat::named("csv"), Npz = TrajectoryFormat::named("npz"),
                        Hdf5 = TrajectoryFormat::named("hdf5");
 
-constexpr int columns = lgvi::app::trajectory_columns;
+constexpr int columns = lgvi::io::trajectory_columns;
 
 // ---- sample data ------------------------------------------------------------
 
@@ -84,7 +84,7 @@ const std::string summary_text = "{\n  \"completed\": true,\n  \"steps\": 10007,
 
 std::vector<std::string> header_names() {
   std::vector<std::string> names;
-  std::stringstream ss(lgvi::app::trajectory_header);
+  std::stringstream ss(lgvi::io::trajectory_header);
   for (std::string n; std::getline(ss, n, ',');) names.push_back(n);
   return names;
 }
@@ -466,7 +466,7 @@ Trajectory read_back(TrajectoryFormat f, const std::string& path) {
 
 /// "Csv", "Npz", "Hdf5": the test names' suffixes.
 std::string format_name(TrajectoryFormat f) {
-  std::string name = lgvi::app::to_string(f);
+  std::string name = lgvi::io::to_string(f);
   name[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(name[0])));
   return name;
 }
@@ -491,7 +491,7 @@ bool bitwise_equal(const std::vector<double>& a, const std::vector<double>& b) {
 
 class TrajectoryFormatTest : public ::testing::TestWithParam<TrajectoryFormat> {
  protected:
-  std::string path() const { return dir_.file(lgvi::app::trajectory_file_name(GetParam())); }
+  std::string path() const { return dir_.file(lgvi::io::trajectory_file_name(GetParam())); }
   bool stores_texts() const { return GetParam() != Csv; }
 
   /// Writes rows [0, rows) without interruption and closes.
@@ -544,7 +544,7 @@ TEST_P(TrajectoryFormatTest, EmptyTrajectoryIsValid) {
 
 TEST_P(TrajectoryFormatTest, ResumeAfterCrashGivesTheUninterruptedResult) {
   const std::int64_t rows = 10007, synced = 5000;
-  const std::string reference = dir_.file("reference_" + std::string(lgvi::app::trajectory_file_name(GetParam())));
+  const std::string reference = dir_.file("reference_" + std::string(lgvi::io::trajectory_file_name(GetParam())));
   write_reference(reference, rows);
 
   SinkPosition position;
@@ -572,7 +572,7 @@ TEST_P(TrajectoryFormatTest, ResumeAfterCloseGivesTheUninterruptedResult) {
   // A run resumed from a checkpoint taken before its trajectory was closed
   // (e.g. a completed run re-run from its last checkpoint).
   const std::int64_t rows = 9001, synced = 4097;
-  const std::string reference = dir_.file("reference_" + std::string(lgvi::app::trajectory_file_name(GetParam())));
+  const std::string reference = dir_.file("reference_" + std::string(lgvi::io::trajectory_file_name(GetParam())));
   write_reference(reference, rows);
 
   SinkPosition position;
@@ -607,7 +607,7 @@ TEST_P(TrajectoryFormatTest, SyncTwiceAndResumeAtTheStart) {
 }
 
 TEST_P(TrajectoryFormatTest, UnwritablePathThrowsNamingIt) {
-  const std::string bad = dir_.file("no-such-folder/" + std::string(lgvi::app::trajectory_file_name(GetParam())));
+  const std::string bad = dir_.file("no-such-folder/" + std::string(lgvi::io::trajectory_file_name(GetParam())));
   try {
     open_trajectory(GetParam(), bad);
     FAIL() << "no exception for " << bad;
@@ -788,7 +788,7 @@ TEST(FormatSamples, Write) {
       {"csv", Csv}, {"npz", Npz}, {"h5", Hdf5}};
   for (const auto& [name, format] : all) {
     if (("," + formats + ",").find(std::string(",") + name + ",") == std::string::npos) continue;
-    auto sink = open_trajectory(format, (fs::path(dir) / lgvi::app::trajectory_file_name(format)).string());
+    auto sink = open_trajectory(format, (fs::path(dir) / lgvi::io::trajectory_file_name(format)).string());
     write_rows(*sink, 0, rows);
     sink->close(scenario_text, summary_text);
   }

@@ -23,8 +23,8 @@
 
 namespace {
 
-using lgvi::app::write_inline_toml;
-using lgvi::app::write_toml;
+using lgvi::io::write_inline_toml;
+using lgvi::io::write_toml;
 
 std::string toml_formatter_text(const toml::table& t) {
   std::ostringstream os;

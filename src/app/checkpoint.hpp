@@ -18,6 +18,10 @@
 
 namespace lgvi::app {
 
+// The application is built on the I/O layer (src/io, namespace lgvi::io, below it:
+// io names nothing of app, tests/check_library_layers.py) and names its types unqualified.
+using namespace lgvi::io;
+
 /// A contact episode of two bodies a < b: the steps first_k..last_k, one
 /// after the other, at which they overlap (contact.hpp), and the deepest
 /// overlap over them.

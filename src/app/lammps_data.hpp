@@ -25,6 +25,10 @@
 
 namespace lgvi::app {
 
+// The application is built on the I/O layer (src/io, namespace lgvi::io, below it:
+// io names nothing of app, tests/check_library_layers.py) and names its types unqualified.
+using namespace lgvi::io;
+
 /// The bodies of a LAMMPS data file: one per molecule, in increasing
 /// molecule ID, then one per atom of molecule ID 0, in increasing atom ID.
 /// Identical molecules share a kind (as the bodies of a [[bodies]] block do):

@@ -26,6 +26,10 @@
 
 namespace lgvi::app {
 
+// The application is built on the I/O layer (src/io, namespace lgvi::io, below it:
+// io names nothing of app, tests/check_library_layers.py) and names its types unqualified.
+using namespace lgvi::io;
+
 enum class PotentialKind { None, Central, Uniform, HeavyTop };
 
 struct PotentialSpec {

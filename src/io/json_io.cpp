@@ -6,7 +6,7 @@
 
 #include <algorithm>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 namespace {
 
@@ -158,4 +158,4 @@ Json parse_json_file_stream(std::istream& in, const std::string& file, const Jso
   return parsed_or_one_line(file, [&] { return Json::parse(in, keep); });
 }
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

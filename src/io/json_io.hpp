@@ -11,7 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 /// A JSON document; objects keep the order their keys were added in.
 using Json = nlohmann::ordered_json;
@@ -61,4 +61,4 @@ Json parse_json_file_text(const std::string& text, const std::string& file);
 /// callback (return false to drop an element as soon as it is parsed).
 Json parse_json_file_stream(std::istream& in, const std::string& file, const Json::parser_callback_t& keep);
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

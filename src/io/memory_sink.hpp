@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 class MemorySink final : public TrajectorySink {
  public:
@@ -52,4 +52,4 @@ class MemorySink final : public TrajectorySink {
   std::string scenario_, summary_;
 };
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

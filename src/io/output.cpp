@@ -9,7 +9,7 @@
 #include <filesystem>
 #include <stdexcept>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 std::string json_number(double v) {
   if (!std::isfinite(v)) return "null";  // JSON has no NaN/inf
@@ -41,4 +41,4 @@ void write_file_atomically(const std::string& path, const std::function<bool(std
   if (ec) throw std::runtime_error("renaming " + tmp + " to " + path + " failed: " + ec.message());
 }
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

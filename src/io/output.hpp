@@ -6,7 +6,7 @@
 #include <functional>
 #include <string>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 /// A number as lgvi writes it in JSON and CSV files: 17 significant digits
 /// (%.17g, enough to read back the same double), "null" for NaN and inf
@@ -22,4 +22,4 @@ void write_file_atomically(const std::string& path, const std::string& text);
 /// false on a write error.
 void write_file_atomically(const std::string& path, const std::function<bool(std::FILE*)>& write);
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

@@ -1,6 +1,6 @@
 #include "io/toml_reader.hpp"
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 std::string printable(std::string_view text) {
   std::string o;
@@ -13,4 +13,4 @@ std::string printable(std::string_view text) {
   return o;
 }
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

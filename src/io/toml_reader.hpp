@@ -19,7 +19,7 @@
 #include <string_view>
 #include <vector>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 /// User text echoed in a message, with control characters escaped so that
 /// every message stays one line.
@@ -167,4 +167,4 @@ class TomlReader {
   std::string file_;
 };
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

@@ -11,7 +11,7 @@
 #include <string_view>
 #include <vector>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 namespace {
 
@@ -404,4 +404,4 @@ std::string write_inline_toml(const toml::table& table) {
   return os.str();
 }
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

@@ -21,7 +21,7 @@
 
 #include <toml++/toml.h>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 /// The document as TOML text: top-level keys, then [tables], then [[arrays
 /// of tables]], laid out like toml::toml_formatter's default flags.
@@ -31,4 +31,4 @@ std::string write_toml(const toml::table& document);
 /// table of the user's input).
 std::string write_inline_toml(const toml::table& table);
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

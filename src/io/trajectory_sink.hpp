@@ -15,7 +15,7 @@
 #include <utility>
 #include <vector>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 /// The trajectory's columns of the single-body layout, in order, in every format.
 inline constexpr const char* trajectory_header =
@@ -151,4 +151,4 @@ class TrajectorySink {
   virtual bool stores_summary() const { return false; }
 };
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

@@ -13,7 +13,7 @@
 #include <thread>
 #include <vector>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 namespace {
 
@@ -147,4 +147,4 @@ extern const FormatDescriptor csv_format;  // listed in formats/registry.cpp
 const FormatDescriptor csv_format{
     .name = "csv", .file_name = "trajectory.csv", .holds_columns = true, .open = open_csv};
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

@@ -11,7 +11,7 @@
 #include <string_view>
 #include <vector>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 struct FormatDescriptor;  // formats/registry.hpp
 
@@ -58,4 +58,4 @@ struct FileIds {
   bool empty() const { return molecule.empty(); }
 };
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

@@ -40,7 +40,7 @@
 #include <utility>
 #include <vector>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 namespace {
 
@@ -326,4 +326,4 @@ void write_hdf5_table(const std::string& path, const ColumnTable& table) {
 extern const FormatDescriptor hdf5_format;  // listed in formats/registry.cpp
 const FormatDescriptor hdf5_format{.name = "hdf5", .file_name = "trajectory.h5", .holds_columns = true, .open = open_hdf5, .write_table = write_hdf5_table, .table_file_name = "members.h5"};
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

@@ -37,7 +37,7 @@
 #include <string>
 #include <vector>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 namespace {
 
@@ -116,4 +116,4 @@ const FormatDescriptor lammps_dump_format{
     .name = "lammps-dump", .file_name = "trajectory.lammpstrj", .holds_columns = false, .writes_file_ids = true,
     .open = open_lammps_dump};
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <stdexcept>
 
-namespace lgvi::app::npy {
+namespace lgvi::io::npy {
 
 using zip::put16;
 using zip::put32;
@@ -88,4 +88,4 @@ std::string npy_unicode(const std::vector<std::string>& strings, bool scalar) {
   return out;
 }
 
-}  // namespace lgvi::app::npy
+}  // namespace lgvi::io::npy

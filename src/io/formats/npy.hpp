@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-namespace lgvi::app::npy {
+namespace lgvi::io::npy {
 
 /// Bytes reserved for the trajectory's .npy header, so that the number of
 /// rows can be patched in place at close (room for any int64) and the data
@@ -32,4 +32,4 @@ std::vector<std::uint32_t> code_points(const std::string& s);
 /// `scalar`, else shape (strings.size(),).
 std::string npy_unicode(const std::vector<std::string>& strings, bool scalar);
 
-}  // namespace lgvi::app::npy
+}  // namespace lgvi::io::npy

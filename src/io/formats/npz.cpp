@@ -58,7 +58,7 @@
 #include <string>
 #include <vector>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 namespace {
 using namespace zip;
@@ -337,4 +337,4 @@ void write_npz_table(const std::string& path, const ColumnTable& table) {
 extern const FormatDescriptor npz_format;  // listed in formats/registry.cpp
 const FormatDescriptor npz_format{.name = "npz", .file_name = "trajectory.npz", .holds_columns = true, .open = open_npz, .write_table = write_npz_table, .table_file_name = "members.npz"};
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

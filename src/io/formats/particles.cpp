@@ -12,7 +12,7 @@
 #include <map>
 #include <stdexcept>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 std::vector<BodyShape> body_shapes(const System& system) {
   std::vector<BodyShape> shapes;
@@ -194,4 +194,4 @@ void ParticleTextFile::close(const std::string&, const std::string&) {
   if (rc != 0) throw std::runtime_error("closing " + path_ + " failed: " + std::strerror(errno));
 }
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

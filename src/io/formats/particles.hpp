@@ -16,7 +16,7 @@ namespace lgvi {
 class System;
 }
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 /// The shapes of a system's bodies, for TrajectoryLayout::shapes: a body
 /// made of balls has one site per ball (body-frame centre about the centre of
@@ -143,4 +143,4 @@ class ParticleTextFile : public TrajectorySink {
 /// them: every double round-trips exactly).
 void append_number(std::string& text, double v);
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

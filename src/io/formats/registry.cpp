@@ -13,7 +13,7 @@
 #include <filesystem>
 #include <stdexcept>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 extern const FormatDescriptor csv_format, npz_format, hdf5_format, xyz_format, vtk_format, lammps_dump_format;
 
@@ -60,4 +60,4 @@ std::FILE* open_appendable_file(const std::string& path, const SinkPosition* res
   return file;
 }
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

@@ -18,7 +18,7 @@
 #include <string_view>
 #include <vector>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 /// A table of named columns of equal length, each of numbers (float64),
 /// integers (int64) or strings: the ensemble's members table.
@@ -88,4 +88,4 @@ inline std::unique_ptr<TrajectorySink> open_trajectory(TrajectoryFormat format, 
 /// shorter than `resume->bytes`.
 std::FILE* open_appendable_file(const std::string& path, const SinkPosition* resume);
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

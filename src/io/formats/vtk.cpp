@@ -25,7 +25,7 @@
 #include <filesystem>
 #include <stdexcept>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 namespace {
 
@@ -196,4 +196,4 @@ std::unique_ptr<TrajectorySink> open_vtk(const std::string& path, const Trajecto
 extern const FormatDescriptor vtk_format;  // listed in formats/registry.cpp
 const FormatDescriptor vtk_format{.name = "vtk", .file_name = "trajectory.pvd", .holds_columns = false, .open = open_vtk};
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

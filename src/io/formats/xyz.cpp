@@ -29,7 +29,7 @@
 #include <string>
 #include <vector>
 
-namespace lgvi::app {
+namespace lgvi::io {
 
 namespace {
 
@@ -106,4 +106,4 @@ std::unique_ptr<TrajectorySink> open_xyz(const std::string& path, const Trajecto
 extern const FormatDescriptor xyz_format;  // listed in formats/registry.cpp
 const FormatDescriptor xyz_format{.name = "xyz", .file_name = "trajectory.xyz", .holds_columns = false, .open = open_xyz};
 
-}  // namespace lgvi::app
+}  // namespace lgvi::io

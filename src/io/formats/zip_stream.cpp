@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <limits>
 
-namespace lgvi::app::zip {
+namespace lgvi::io::zip {
 
 namespace {
 /// The fields the local and the central header share, from "version needed
@@ -116,4 +116,4 @@ std::uint32_t crc32_combine(std::uint32_t crc_a, std::uint32_t crc_b, std::uint6
   return static_cast<std::uint32_t>(::crc32_combine64(crc_a, crc_b, static_cast<z_off64_t>(length_b)));
 }
 
-}  // namespace lgvi::app::zip
+}  // namespace lgvi::io::zip

@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <string>
 
-namespace lgvi::app::zip {
+namespace lgvi::io::zip {
 
 inline void put16(std::string& s, std::uint32_t v) {
   s.push_back(static_cast<char>(v & 0xFFu));
@@ -57,4 +57,4 @@ std::uint32_t crc32_of(const std::string& s);
 /// of data whose CRC was computed as the rows arrived, without reading them again.
 std::uint32_t crc32_combine(std::uint32_t crc_a, std::uint32_t crc_b, std::uint64_t length_b);
 
-}  // namespace lgvi::app::zip
+}  // namespace lgvi::io::zip
