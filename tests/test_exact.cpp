@@ -464,16 +464,17 @@ TEST(ExactPrecession, RateBoundsForBothFamilies) {
 // --- The stepper ------------------------------------------------------------------
 
 TEST(ExactStepper, SatisfiesStepperAndMatchesAt) {
-  static_assert(Stepper<ExactFreeBodyStepper<NoPotential>>);
+  using Exact = SingleBody<ExactFreeBodyStepper, NoPotential>;
+  static_assert(SystemStepper<Exact>);
   const RigidBody body(2.0, kJ123);
   RigidBodyState s0 = state_with_momentum(Vector3<double>(0.6, -0.5, 0.9), kQ0);
   s0.x = Vector3<double>(1, 2, 3);
   s0.p = Vector3<double>(0.2, -0.4, 0.6);
-  ExactFreeBodyStepper<NoPotential> stepper(body, NoPotential{}, 0.01);
+  Exact stepper(body, NoPotential{});
   const ExactFreeRigidBody exact(body, s0);
-  RigidBodyState s = s0;
+  SystemState s(s0);
   std::vector<RigidBodyState> seen;
-  integrate_n_steps(stepper, s, 0.0, 1000, [&](const StepInfo& info) { seen.push_back(info.state); });
+  integrate_n_steps(stepper, s, 0.0, 0.01, 1000, [&](const SystemStepInfo& info) { seen.push_back(info.state.body(0)); });
   ASSERT_EQ(seen.size(), 1001u);
   for (int k = 0; k <= 1000; k += 100) {
     // Bit-identical: step k is at(k h) from the initial state, not accumulated.
@@ -493,34 +494,45 @@ TEST(ExactStepper, SatisfiesStepperAndMatchesAt) {
 TEST(ExactStepper, ResumeIsBitIdentical) {
   const RigidBody body(1.0, kJ123);
   const RigidBodyState s0 = state_with_momentum(Vector3<double>(1, 0.3, 0.2), kQ0);
-  ExactFreeBodyStepper<NoPotential> a(body, NoPotential{}, 0.05);
-  RigidBodyState sa = s0;
-  a.initialize(sa);
-  for (int k = 0; k < 40; ++k) a.step(sa);
+  using Exact = SingleBody<ExactFreeBodyStepper, NoPotential>;
+  const double h = 0.05;
+  Exact a(body, NoPotential{});
+  SystemState sa(s0);
+  a.initialize(sa, 0.0);
+  for (int k = 0; k < 40; ++k) a.step(sa, k * h, h);
   const std::vector<double> saved = a.internal_state();
-  const RigidBodyState at40 = sa;
-  for (int k = 0; k < 40; ++k) a.step(sa);
-  ExactFreeBodyStepper<NoPotential> b(body, NoPotential{}, 0.05);
-  RigidBodyState sb = at40;
-  b.resume(sb, saved);
-  for (int k = 0; k < 40; ++k) b.step(sb);
-  EXPECT_EQ(sa.q.scalar_first(), sb.q.scalar_first());
-  EXPECT_EQ(sa.w, sb.w);
+  const SystemState at40 = sa;
+  for (int k = 40; k < 80; ++k) a.step(sa, k * h, h);
+  Exact b(body, NoPotential{});
+  SystemState sb = at40;
+  b.resume(sb, 40 * h, saved);
+  for (int k = 40; k < 80; ++k) b.step(sb, k * h, h);
+  EXPECT_EQ(sa.q[0].scalar_first(), sb.q[0].scalar_first());
+  EXPECT_EQ(sa.w[0], sb.w[0]);
   // Resuming from {k} alone continues the same flow from the given state.
-  ExactFreeBodyStepper<NoPotential> c(body, NoPotential{}, 0.05);
-  RigidBodyState sc = at40;
-  c.resume(sc, {40.0});
-  for (int k = 0; k < 40; ++k) c.step(sc);
-  EXPECT_MAT_NEAR(aligned(sc.q, sa.q), sa.q.scalar_first(), 1e-13);
-  EXPECT_MAT_NEAR(sc.w, sa.w, 1e-13);
+  Exact c(body, NoPotential{});
+  SystemState sc = at40;
+  c.resume(sc, 40 * h, {40.0});
+  for (int k = 40; k < 80; ++k) c.step(sc, k * h, h);
+  EXPECT_MAT_NEAR(aligned(sc.q[0], sa.q[0]), sa.q[0].scalar_first(), 1e-13);
+  EXPECT_MAT_NEAR(sc.w[0], sa.w[0], 1e-13);
   EXPECT_EQ(c.internal_state()[0], 80.0);
 }
 
 TEST(ExactStepper, RejectsPotentialsAndBadSteps) {
   const RigidBody body(1.0, kJ123);
-  EXPECT_THROW(ExactFreeBodyStepper<UniformGravity>(body, UniformGravity(body, Vector3<double>(0, 0, -9.81)), 0.1),
+  EXPECT_THROW((SingleBody<ExactFreeBodyStepper, UniformGravity>(body, UniformGravity(body, Vector3<double>(0, 0, -9.81)))),
                InvalidInput);
-  EXPECT_THROW(ExactFreeBodyStepper<NoPotential>(body, NoPotential{}, 0.0), InvalidInput);
+  SingleBody<ExactFreeBodyStepper, NoPotential> exact(body, NoPotential{});
+  SystemState s(state_with_momentum(Vector3<double>(1, 0.3, 0.2), kQ0));
+  exact.initialize(s, 0.0);
+  EXPECT_THROW(exact.step(s, 0.0, 0.0), InvalidInput);  // the flow is built at the first step, with its h
+  exact.initialize(s, 0.0);
+  exact.step(s, 0.0, 0.1);
+  EXPECT_THROW(exact.step(s, 0.1, 0.05), InvalidInput);  // sampled at multiples of one step size
+  EXPECT_THROW(ExactFreeBodyStepper<ExternalField<NoPotential>>(System(std::vector<RigidBody>(2, body)),
+                                                               ExternalField<NoPotential>::uniform(NoPotential{}, 2)),
+               InvalidInput);  // one body only
 }
 
 }  // namespace

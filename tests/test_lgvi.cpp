@@ -32,8 +32,8 @@ RigidBodyState run_paper(double h, std::int64_t n, lgvi::SolverKind kind = lgvi:
   const RigidBody body = lgvi::paper::three_ball_body();
   lgvi::SolverOptions opt;
   opt.kind = kind;
-  Integrator<CentralGravity> integ(body, CentralGravity(body, 1.0), h, opt);
-  return run(integ, s0, n);
+  lgvi::SingleBody<Integrator, CentralGravity> integ(body, CentralGravity(body, 1.0), opt);
+  return run(integ, s0, h, n);
 }
 
 // ---------------------------------------------------------------- convergence
@@ -85,11 +85,11 @@ TEST(ExactSolution, SpinAboutAPrincipalAxisAdvancesByArcsinPerStep) {
   // 2 theta = asin(h Omega) (exactly, against h Omega for the continuous flow).
   const RigidBody body(2.0, M3(V3(1.0, 2.0, 3.0).asDiagonal()));
   const double h = 0.1, omega = 5.0;
-  lgvi::LieGroupVariationalIntegrator<lgvi::NoPotential> integ(body, {}, h);
+  lgvi::SingleBody<lgvi::LieGroupVariationalIntegrator, lgvi::NoPotential> integ(body, {});
   RigidBodyState s;
   s.w = 2.0 * body.inertia() * V3(0, 0, omega);
   const std::int64_t n = 1000;
-  s = run(integ, s, n);
+  s = run(integ, s, h, n);
   const double angle = static_cast<double>(n) * std::asin(h * omega);
   // Rounding accumulates over n steps like n eps in the angle.
   EXPECT_MAT_NEAR(s.q.scalar_first(), S3d::exp(V3(0, 0, angle / 2)).scalar_first(), 4 * n * eps);
@@ -102,8 +102,8 @@ LongRun long_run(lgvi::SolverKind kind) {
   const RigidBody body = lgvi::paper::three_ball_body();
   lgvi::SolverOptions opt;
   opt.kind = kind;
-  lgvi::LieGroupVariationalIntegrator<CentralGravity> integ(body, CentralGravity(body, 1.0), 0.01, opt);
-  return lgvi::test::paper_orbit_long_run(integ, 100000, [](const lgvi::StepInfo&) {});
+  lgvi::SingleBody<lgvi::LieGroupVariationalIntegrator, CentralGravity> integ(body, CentralGravity(body, 1.0), opt);
+  return lgvi::test::paper_orbit_long_run(integ, 0.01, 100000, [](const lgvi::SystemStepInfo&) {});
 }
 
 class PaperOrbit : public ::testing::TestWithParam<lgvi::SolverKind> {};
@@ -137,8 +137,8 @@ TEST(LagrangianForm, InvariantsOver1e5Steps) {
   // recomputed from the attitudes rounded at the size of x and q each step,
   // 1/h times that in the implied velocities: 1.5e-10 here.
   const RigidBody body = lgvi::paper::three_ball_body();
-  lgvi::LagrangianLieGroupVariationalIntegrator<CentralGravity> integ(body, CentralGravity(body, 1.0), 0.01);
-  const LongRun r = lgvi::test::paper_orbit_long_run(integ, 100000, [](const lgvi::StepInfo&) {});
+  lgvi::SingleBody<lgvi::LagrangianLieGroupVariationalIntegrator, CentralGravity> integ(body, CentralGravity(body, 1.0));
+  const LongRun r = lgvi::test::paper_orbit_long_run(integ, 0.01, 100000, [](const lgvi::SystemStepInfo&) {});
   std::printf("[ lgvi     ] lagrangian: max rel |dL| %.3e, max ||q|-1| %.3e, max |dE| first tenth %.3e, last tenth %.3e\n",
               r.max_relative_momentum_error, r.max_quat_error, r.first_tenth_energy, r.last_tenth_energy);
   EXPECT_LE(r.max_relative_momentum_error, 1e-12);
@@ -153,27 +153,29 @@ struct LagrangianCheckpoint {
   RigidBodyState saved, continued;
   std::vector<double> internal;
 };
-using LagrangianOnTheOrbit = lgvi::LagrangianLieGroupVariationalIntegrator<CentralGravity>;
+using LagrangianOnTheOrbit = lgvi::SingleBody<lgvi::LagrangianLieGroupVariationalIntegrator, CentralGravity>;
 constexpr double lagrangian_h = 0.01;
 
 LagrangianCheckpoint lagrangian_checkpoint() {
   const RigidBody body = lgvi::paper::three_ball_body();
-  LagrangianOnTheOrbit a(body, CentralGravity(body, 1.0), lagrangian_h);
+  LagrangianOnTheOrbit a(body, CentralGravity(body, 1.0));
   LagrangianCheckpoint c;
-  c.continued = run(a, lgvi::paper::orbit_initial_state(), 300);
-  c.saved = c.continued;
+  c.saved = run(a, lgvi::paper::orbit_initial_state(), lagrangian_h, 300);
   c.internal = a.internal_state();
-  for (int k = 0; k < 300; ++k) a.step(c.continued);
+  lgvi::SystemState s(c.saved);
+  for (int k = 300; k < 600; ++k) a.step(s, k * lagrangian_h, lagrangian_h);
+  c.continued = s.body(0);
   return c;
 }
 
 /// A fresh stepper resumed at `saved` with `internal`, 300 steps on.
 RigidBodyState resume_lagrangian(RigidBodyState saved, const std::vector<double>& internal) {
   const RigidBody body = lgvi::paper::three_ball_body();
-  LagrangianOnTheOrbit b(body, CentralGravity(body, 1.0), lagrangian_h);
-  b.resume(saved, internal);
-  for (int k = 0; k < 300; ++k) b.step(saved);
-  return saved;
+  LagrangianOnTheOrbit b(body, CentralGravity(body, 1.0));
+  lgvi::SystemState s(saved);
+  b.resume(s, 300 * lagrangian_h, internal);
+  for (int k = 300; k < 600; ++k) b.step(s, k * lagrangian_h, lagrangian_h);
+  return s.body(0);
 }
 
 TEST(LagrangianForm, ResumeIsBitIdentical) {
@@ -247,18 +249,20 @@ TEST(Equivalence, RotatedFormOfW1EqualsThePapersFormula) {
   const RigidBody body = lgvi::paper::three_ball_body();
   const CentralGravity pot(body, 1.0);
   const double h = 0.01;
-  lgvi::LieGroupVariationalIntegrator<CentralGravity> integ(body, pot, h);
-  RigidBodyState s = lgvi::paper::orbit_initial_state();
-  s.q = lgvi::test::random_unit_quaternion();
-  const RigidBodyState s0 = s;
-  integ.initialize(s);
-  integ.step(s);
+  lgvi::SingleBody<lgvi::LieGroupVariationalIntegrator, CentralGravity> integ(body, pot);
+  RigidBodyState s0 = lgvi::paper::orbit_initial_state();
+  s0.q = lgvi::test::random_unit_quaternion();
+  lgvi::SystemState state(s0);
+  integ.initialize(state, 0.0);
+  integ.step(state, 0.0, h);
+  const RigidBodyState s = state.body(0);
+  const lgvi::PotentialEvaluation e1 = integ.evaluation().body(0);
   const Eigen::Quaterniond f = s0.q.quaternion().conjugate() * s.q.quaternion();
-  const V3 w1_paper = (4 / h) * lgvi::G(f) * body.inertia() * f.vec() - (h / 2) * lgvi::seed_torque_term(integ.evaluation().torque);
+  const V3 w1_paper = (4 / h) * lgvi::G(f) * body.inertia() * f.vec() - (h / 2) * lgvi::seed_torque_term(e1.torque);
   // Equal on the solution; the literal form's (4/h) amplifies the rounding of f.
   EXPECT_MAT_NEAR(s.w, w1_paper, 4 / h * 16 * eps * body.inertia().norm());
   // And p1 against m (x1 - x0)/h + (h/2) F1 (cancellation: |x|/|dx| ~ 2.4e3).
-  const V3 p1_paper = body.mass() * (s.x - s0.x) / h + (h / 2) * integ.evaluation().force;
+  const V3 p1_paper = body.mass() * (s.x - s0.x) / h + (h / 2) * e1.force;
   EXPECT_MAT_NEAR(s.p, p1_paper, 4096 * eps);
 }
 
@@ -294,12 +298,13 @@ TEST(Projection, LiftAndProjectAreInverse) {
 
 TEST(Failure, RotationReachingPiStopsTheRunAtThatStep) {
   const RigidBody body(1.0, M3(V3(1.0, 2.0, 3.0).asDiagonal()));
-  lgvi::LieGroupVariationalIntegrator<lgvi::NoPotential> integ(body, {}, 0.01);
-  RigidBodyState s;
-  s.w = 2.0 * body.inertia() * V3(400.0, 0, 0);  // |Omega| h = 4 rad > pi
+  lgvi::SingleBody<lgvi::LieGroupVariationalIntegrator, lgvi::NoPotential> integ(body, {});
+  RigidBodyState b;
+  b.w = 2.0 * body.inertia() * V3(400.0, 0, 0);  // |Omega| h = 4 rad > pi
+  lgvi::SystemState s(b);
   std::int64_t observed = -1;
   try {
-    lgvi::integrate_n_steps(integ, s, 0.0, 10, [&](const lgvi::StepInfo& i) { observed = i.k; });
+    lgvi::integrate_n_steps(integ, s, 0.0, 0.01, 10, [&](const lgvi::SystemStepInfo& i) { observed = i.k; });
     FAIL() << "expected an IntegrationFailure";
   } catch (const lgvi::IntegrationFailure& e) {
     EXPECT_EQ(e.step(), 0);
@@ -310,15 +315,18 @@ TEST(Failure, RotationReachingPiStopsTheRunAtThatStep) {
 
 TEST(Failure, BodyAtTheCentreOfTheFieldIsNonFinite) {
   const RigidBody point(1.0, M3::Identity());
-  lgvi::LieGroupVariationalIntegrator<CentralGravity> integ(point, CentralGravity(point, 1.0), 0.01);
+  lgvi::SingleBody<lgvi::LieGroupVariationalIntegrator, CentralGravity> integ(point, CentralGravity(point, 1.0));
   RigidBodyState s;  // x = 0: V = -inf
-  EXPECT_THROW(run(integ, s, 1), lgvi::IntegrationFailure);
+  EXPECT_THROW(run(integ, s, 0.01, 1), lgvi::IntegrationFailure);
 }
 
 TEST(Failure, InvalidStepIsRejected) {
   const RigidBody point(1.0, M3::Identity());
-  EXPECT_THROW(lgvi::LieGroupVariationalIntegrator<lgvi::NoPotential>(point, {}, 0.0), lgvi::InvalidInput);
-  EXPECT_THROW(lgvi::LieGroupVariationalIntegrator<lgvi::NoPotential>(point, {}, std::nan("")), lgvi::InvalidInput);
+  // The step size comes with each call: the run loop refuses a bad one before any step.
+  lgvi::SingleBody<lgvi::LieGroupVariationalIntegrator, lgvi::NoPotential> integ(point, {});
+  EXPECT_THROW(run(integ, RigidBodyState{}, 0.0, 1), lgvi::InvalidInput);
+  EXPECT_THROW(run(integ, RigidBodyState{}, -0.01, 1), lgvi::InvalidInput);
+  EXPECT_THROW(run(integ, RigidBodyState{}, std::nan(""), 1), lgvi::InvalidInput);
 }
 
 }  // namespace
@@ -335,12 +343,12 @@ TEST(Cost, OnePotentialEvaluationPerStep) {
     ++calls;
     return gravity.evaluate(x, q);
   });
-  lgvi::LieGroupVariationalIntegrator<lgvi::CallablePotential> ham(body, counting, 0.01);
-  run(ham, lgvi::paper::orbit_initial_state(), 500);
+  lgvi::SingleBody<lgvi::LieGroupVariationalIntegrator, lgvi::CallablePotential> ham(body, counting);
+  run(ham, lgvi::paper::orbit_initial_state(), 0.01, 500);
   EXPECT_EQ(calls, 501);
   calls = 0;
-  lgvi::LagrangianLieGroupVariationalIntegrator<lgvi::CallablePotential> lag(body, counting, 0.01);
-  run(lag, lgvi::paper::orbit_initial_state(), 500);
+  lgvi::SingleBody<lgvi::LagrangianLieGroupVariationalIntegrator, lgvi::CallablePotential> lag(body, counting);
+  run(lag, lgvi::paper::orbit_initial_state(), 0.01, 500);
   EXPECT_EQ(calls, 501);
 }
 
@@ -353,15 +361,16 @@ TEST(HeavyTop, VerticalAngularMomentumIsConservedToRoundOff) {
   // conserves L . g/|g| (the full L changes under gravity's torque).
   const RigidBody body(1.0, M3(V3(0.35, 0.35, 0.05).asDiagonal()));
   const lgvi::HeavyTop top(body, V3(0, 0, -9.81), V3(0, 0, 0.5));
-  lgvi::LieGroupVariationalIntegrator<lgvi::HeavyTop> integ(body, top, 0.001);
-  RigidBodyState s;
-  s.q = S3d::exp(V3(0.15, 0, 0));
-  s.w = 2.0 * body.inertia() * V3(0, 0, 50);
-  const double lz0 = lgvi::angular_momentum(s).z(), scale = lgvi::angular_momentum(s).norm();
+  lgvi::SingleBody<lgvi::LieGroupVariationalIntegrator, lgvi::HeavyTop> integ(body, top);
+  RigidBodyState b;
+  b.q = S3d::exp(V3(0.15, 0, 0));
+  b.w = 2.0 * body.inertia() * V3(0, 0, 50);
+  const double lz0 = lgvi::angular_momentum(b).z(), scale = lgvi::angular_momentum(b).norm();
   double max_dlz = 0, max_dl = 0, e0 = 0, max_de = 0;
-  lgvi::integrate_n_steps(integ, s, 0.0, 20000, [&](const lgvi::StepInfo& i) {
-    const V3 l = lgvi::angular_momentum(i.state);
-    const double e = lgvi::total_energy(i.state, body, i.evaluation);
+  lgvi::SystemState s(b);
+  lgvi::integrate_n_steps(integ, s, 0.0, 0.001, 20000, [&](const lgvi::SystemStepInfo& i) {
+    const V3 l = lgvi::angular_momentum(i.state.body(0));
+    const double e = lgvi::total_energy(i.state.body(0), body, i.evaluation.body(0));
     if (i.k == 0) e0 = e;
     max_dlz = std::max(max_dlz, std::abs(l.z() - lz0));
     max_dl = std::max(max_dl, std::abs(l.norm() - scale));

@@ -110,8 +110,8 @@ TEST(LinearBodies, FreeRotationIsTheExactDiscreteFlow) {
   const Rotor r;
   const double h = 0.05;
   const std::int64_t n = 2000;
-  lgvi::LieGroupVariationalIntegrator<lgvi::NoPotential> integ(r.body, {}, h);
-  const RigidBodyState s = lgvi::test::run(integ, r.start, n);
+  lgvi::SingleBody<lgvi::LieGroupVariationalIntegrator, lgvi::NoPotential> integ(r.body, {});
+  const RigidBodyState s = lgvi::test::run(integ, r.start, h, n);
   EXPECT_MAT_NEAR(r.axis(s), r.turned(static_cast<double>(n) * std::asin(h * r.omega)), 4 * n * eps);
   EXPECT_MAT_NEAR(s.w, r.start.w, 16 * eps * r.start.w.norm());
   EXPECT_LE(std::abs(s.w.dot(r.body.linear_axis())), 4 * eps * s.w.norm());
@@ -119,8 +119,8 @@ TEST(LinearBodies, FreeRotationIsTheExactDiscreteFlow) {
   EXPECT_MAT_NEAR(s.x, (r.start.x + static_cast<double>(n) * h * r.start.p / r.body.mass()).eval(), 4 * n * eps);
   // The position-position form is the same discrete flow: the same axis to
   // the rounding of the two ways of computing it.
-  lgvi::LagrangianLieGroupVariationalIntegrator<lgvi::NoPotential> lagrangian(r.body, {}, h);
-  const RigidBodyState sl = lgvi::test::run(lagrangian, r.start, n);
+  lgvi::SingleBody<lgvi::LagrangianLieGroupVariationalIntegrator, lgvi::NoPotential> lagrangian(r.body, {});
+  const RigidBodyState sl = lgvi::test::run(lagrangian, r.start, h, n);
   EXPECT_MAT_NEAR(r.axis(sl), r.axis(s), 8 * n * eps);
   // (Its w is formed from f each step, not rotated: a random walk of n
   // roundings across the axis, ~sqrt(n) eps.)
@@ -138,8 +138,8 @@ TEST(LinearBodies, FreeRotationConvergesAtSecondOrderToTheExactFlow) {
   std::vector<double> err;
   for (const double h : {0.05, 0.025, 0.0125}) {
     const auto n = static_cast<std::int64_t>(std::lround(t_end / h));
-    lgvi::LieGroupVariationalIntegrator<lgvi::NoPotential> integ(r.body, {}, h);
-    const RigidBodyState s = lgvi::test::run(integ, r.start, n);
+    lgvi::SingleBody<lgvi::LieGroupVariationalIntegrator, lgvi::NoPotential> integ(r.body, {});
+    const RigidBodyState s = lgvi::test::run(integ, r.start, h, n);
     err.push_back((r.axis(s) - r.turned(r.omega * t_end)).norm());
     const double phase = static_cast<double>(n) * std::asin(h * r.omega) - r.omega * t_end;
     EXPECT_NEAR(err.back(), 2.0 * std::sin(0.5 * phase), 4 * static_cast<double>(n) * eps) << "h " << h;
@@ -161,17 +161,17 @@ TEST(LinearBodies, ATorqueAlongTheAxisDoesNothingInEitherForm) {
   RigidBodyState start;
   start.q = S3d::exp(V3(0.3, -0.5, 0.2));
   start.w = body.admissible_momentum(2.0 * body.inertia() * V3(1.0, -2.0, 0.5));
-  auto axis_at = [&](auto& integ, std::int64_t n) {
-    return lgvi::test::run(integ, start, n).q.act(body.linear_axis()).eval();
+  auto axis_at = [&](auto& integ, double h, std::int64_t n) {
+    return lgvi::test::run(integ, start, h, n).q.act(body.linear_axis()).eval();
   };
   const std::int64_t n = 400;
-  lgvi::LieGroupVariationalIntegrator<lgvi::HeavyTop> hamiltonian(body, top, 0.005);
-  lgvi::LagrangianLieGroupVariationalIntegrator<lgvi::HeavyTop> lagrangian(body, top, 0.005);
-  EXPECT_MAT_NEAR(axis_at(hamiltonian, n), axis_at(lagrangian, n), 16 * n * eps);
+  lgvi::SingleBody<lgvi::LieGroupVariationalIntegrator, lgvi::HeavyTop> hamiltonian(body, top);
+  lgvi::SingleBody<lgvi::LagrangianLieGroupVariationalIntegrator, lgvi::HeavyTop> lagrangian(body, top);
+  EXPECT_MAT_NEAR(axis_at(hamiltonian, 0.005, n), axis_at(lagrangian, 0.005, n), 16 * n * eps);
   std::vector<V3> axes;
   for (const double h : {0.004, 0.002, 0.001, 0.0005}) {
-    lgvi::LieGroupVariationalIntegrator<lgvi::HeavyTop> integ(body, top, h);
-    axes.push_back(axis_at(integ, std::lround(1.0 / h)));
+    lgvi::SingleBody<lgvi::LieGroupVariationalIntegrator, lgvi::HeavyTop> integ(body, top);
+    axes.push_back(axis_at(integ, h, std::lround(1.0 / h)));
   }
   for (std::size_t i = 2; i < axes.size(); ++i)
     EXPECT_NEAR(std::log2((axes[i - 2] - axes[i - 1]).norm() / (axes[i - 1] - axes[i]).norm()), 2.0, 0.1);
@@ -182,8 +182,8 @@ TEST(LinearBodies, APointMassDoesNotRotate) {
   RigidBodyState start;
   start.q = S3d::exp(V3(0.1, 0.2, 0.3));
   start.p = V3(1.0, -2.0, 0.5);
-  lgvi::LieGroupVariationalIntegrator<lgvi::NoPotential> integ(point, {}, 0.1);
-  const RigidBodyState s = lgvi::test::run(integ, start, 100);
+  lgvi::SingleBody<lgvi::LieGroupVariationalIntegrator, lgvi::NoPotential> integ(point, {});
+  const RigidBodyState s = lgvi::test::run(integ, start, 0.1, 100);
   EXPECT_EQ(std::memcmp(s.q.scalar_first().data(), start.q.scalar_first().data(), 4 * sizeof(double)), 0);
   EXPECT_EQ(s.w, V3::Zero());
   EXPECT_MAT_NEAR(s.x, (10.0 * start.p / 2.0).eval(), 64 * eps);
@@ -193,7 +193,7 @@ TEST(LinearBodies, APointMassDoesNotRotate) {
 template <template <class> class Method>
 void expect_refused(const RigidBody& body, const std::string& what) {
   try {
-    const Method<lgvi::NoPotential> stepper(body, {}, 0.01);
+    const lgvi::SingleBody<Method, lgvi::NoPotential> stepper(body, {});
     ADD_FAILURE() << "no error for a body of " << body.rotational_dof() << " rotational degrees of freedom";
   } catch (const lgvi::InvalidInput& e) {
     EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();

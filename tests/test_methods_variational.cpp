@@ -13,7 +13,6 @@
 
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <vector>
@@ -29,10 +28,10 @@ using V4 = lgvi::Vector4<double>;
 using M3 = lgvi::Matrix3<double>;
 constexpr double eps = 2.220446049250313e-16;
 
-static_assert(lgvi::Stepper<lgvi::So3LieGroupVariationalIntegrator<CentralGravity>>);
-static_assert(lgvi::Stepper<lgvi::So3LieGroupVariationalIntegrator<lgvi::NoPotential>>);
-static_assert(lgvi::Stepper<lgvi::RattleQuaternionIntegrator<CentralGravity>>);
-static_assert(lgvi::Stepper<lgvi::RattleQuaternionIntegrator<lgvi::NoPotential>>);
+static_assert(lgvi::SystemStepper<lgvi::SingleBody<lgvi::So3LieGroupVariationalIntegrator, CentralGravity>>);
+static_assert(lgvi::SystemStepper<lgvi::SingleBody<lgvi::So3LieGroupVariationalIntegrator, lgvi::NoPotential>>);
+static_assert(lgvi::SystemStepper<lgvi::SingleBody<lgvi::RattleQuaternionIntegrator, CentralGravity>>);
+static_assert(lgvi::SystemStepper<lgvi::SingleBody<lgvi::RattleQuaternionIntegrator, lgvi::NoPotential>>);
 
 using lgvi::test::distance;
 using lgvi::test::LongRun;
@@ -41,14 +40,14 @@ using lgvi::test::run;
 template <template <class> class Integrator>
 RigidBodyState run_paper(double h, std::int64_t n, RigidBodyState s0 = lgvi::paper::orbit_initial_state()) {
   const RigidBody body = lgvi::paper::three_ball_body();
-  Integrator<CentralGravity> integ(body, CentralGravity(body, 1.0), h);
-  return run(integ, s0, n);
+  lgvi::SingleBody<Integrator, CentralGravity> integ(body, CentralGravity(body, 1.0));
+  return run(integ, s0, h, n);
 }
 
 template <template <class> class Integrator>
 RigidBodyState run_free(const RigidBody& body, double h, std::int64_t n, const RigidBodyState& s0) {
-  Integrator<lgvi::NoPotential> integ(body, {}, h);
-  return run(integ, s0, n);
+  lgvi::SingleBody<Integrator, lgvi::NoPotential> integ(body, {});
+  return run(integ, s0, h, n);
 }
 
 /// As distance, with the attitudes compared as rotations pi(q).
@@ -71,8 +70,8 @@ double amplification(const RigidBody& body, const Pot& pot, const RigidBodyState
   s1.x += delta * V3(1, -1, 1).normalized() * s0.x.norm();
   s1.p += delta * V3(-1, 1, 1).normalized() * s0.p.norm();
   s1.w += delta * V3(1, 1, -1).normalized() * s0.w.norm();
-  lgvi::LieGroupVariationalIntegrator<Pot> a(body, pot, 0.01), b(body, pot, 0.01);
-  const RigidBodyState e0 = run(a, s0, n), e1 = run(b, s1, n);
+  lgvi::SingleBody<lgvi::LieGroupVariationalIntegrator, Pot> a(body, pot), b(body, pot);
+  const RigidBodyState e0 = run(a, s0, 0.01, n), e1 = run(b, s1, 0.01, n);
   return std::max(1.0, distance(e0, e1) / (delta * scale_of(s0)));
 }
 
@@ -114,24 +113,24 @@ void expect_second_order(const char* name) {
 
 template <class Integ, class Extra>
 LongRun long_run(Integ& integ, std::int64_t n, Extra&& extra) {
-  return lgvi::test::paper_orbit_long_run(integ, n, extra);
+  return lgvi::test::paper_orbit_long_run(integ, 0.01, n, extra);
 }
 
 template <template <class> class Integrator>
 void expect_bit_identical_resume() {
   const RigidBody body = lgvi::paper::three_ball_body();
   const double h = 0.01;
-  Integrator<CentralGravity> a(body, CentralGravity(body, 1.0), h);
-  RigidBodyState s = run(a, lgvi::paper::orbit_initial_state(), 300);
-  const RigidBodyState saved = s;
+  lgvi::SingleBody<Integrator, CentralGravity> a(body, CentralGravity(body, 1.0));
+  const RigidBodyState saved = run(a, lgvi::paper::orbit_initial_state(), h, 300);
   const std::vector<double> internal = a.internal_state();
-  for (int k = 0; k < 300; ++k) a.step(s);
-  Integrator<CentralGravity> b(body, CentralGravity(body, 1.0), h);
-  RigidBodyState t = saved;
-  b.resume(t, internal);
-  for (int k = 0; k < 300; ++k) b.step(t);
-  EXPECT_EQ(distance(s, t), 0.0);
-  EXPECT_EQ(s.q.scalar_first(), t.q.scalar_first());
+  lgvi::SystemState s(saved);
+  for (int k = 300; k < 600; ++k) a.step(s, k * h, h);
+  lgvi::SingleBody<Integrator, CentralGravity> b(body, CentralGravity(body, 1.0));
+  lgvi::SystemState t(saved);
+  b.resume(t, 300 * h, internal);
+  for (int k = 300; k < 600; ++k) b.step(t, k * h, h);
+  EXPECT_EQ(distance(s.body(0), t.body(0)), 0.0);
+  EXPECT_EQ(s.q[0].scalar_first(), t.q[0].scalar_first());
 }
 
 template <template <class> class Integrator>
@@ -143,8 +142,8 @@ void expect_one_evaluation_per_step() {
     ++calls;
     return gravity.evaluate(x, q);
   });
-  Integrator<lgvi::CallablePotential> integ(body, counting, 0.01);
-  run(integ, lgvi::paper::orbit_initial_state(), 500);
+  lgvi::SingleBody<Integrator, lgvi::CallablePotential> integ(body, counting);
+  run(integ, lgvi::paper::orbit_initial_state(), 0.01, 500);
   EXPECT_EQ(calls, 501);
 }
 
@@ -182,22 +181,24 @@ TEST(VariationalSo3, StepSolvesLeesMatrixEquation) {
   // Pi_{k+1} = F_k^T Pi_k + (h/2) F_k^T M_k + (h/2) M_{k+1}.
   const RigidBody body = lgvi::paper::three_ball_body();
   const double h = 0.05;
-  lgvi::So3LieGroupVariationalIntegrator<CentralGravity> integ(body, CentralGravity(body, 1.0), h);
-  RigidBodyState s = lgvi::paper::orbit_initial_state();
-  s.q = lgvi::test::random_unit_quaternion();
-  integ.initialize(s);
-  const M3 r0 = integ.rotation_matrix();
-  const V3 pi0 = 0.5 * s.w, m0 = integ.evaluation().torque;
-  integ.step(s);
-  const M3 F = r0.transpose() * integ.rotation_matrix();
-  const M3& jd = integ.nonstandard_inertia();
+  lgvi::SingleBody<lgvi::So3LieGroupVariationalIntegrator, CentralGravity> integ(body, CentralGravity(body, 1.0));
+  RigidBodyState s0 = lgvi::paper::orbit_initial_state();
+  s0.q = lgvi::test::random_unit_quaternion();
+  lgvi::SystemState state(s0);
+  integ.initialize(state, 0.0);
+  const M3 r0 = integ.rotation_matrix(0);
+  const V3 pi0 = 0.5 * s0.w, m0 = integ.evaluation().torque[0];
+  integ.step(state, 0.0, h);
+  const RigidBodyState s = state.body(0);
+  const M3 F = r0.transpose() * integ.rotation_matrix(0);
+  const M3& jd = integ.nonstandard_inertia(0);
   // vee(A) here is (A - A^T)^vee / 2, so (F J_d - J_d F^T)^vee = 2 vee(F J_d).
   const V3 lhs = h * pi0 + (h * h / 2) * m0;
   EXPECT_MAT_NEAR(lhs, (2.0 * S3d::vee(F * jd)).eval(), 32 * eps * body.inertia().norm());
-  const V3 pi1 = F.transpose() * pi0 + (h / 2) * F.transpose() * m0 + (h / 2) * integ.evaluation().torque;
+  const V3 pi1 = F.transpose() * pi0 + (h / 2) * F.transpose() * m0 + (h / 2) * integ.evaluation().torque[0];
   EXPECT_MAT_NEAR((0.5 * s.w).eval(), pi1, 32 * eps * pi0.norm());
   // The reported q is a unit lift of R with the previous q's sign.
-  EXPECT_MAT_NEAR(s.q.matrix(), integ.rotation_matrix(), 8 * eps);
+  EXPECT_MAT_NEAR(s.q.matrix(), integ.rotation_matrix(0), 8 * eps);
 }
 
 template <template <class> class Integrator>
@@ -247,10 +248,10 @@ TEST(VariationalSo3, IsSecondOrder) { expect_second_order<lgvi::So3LieGroupVaria
 
 TEST(VariationalSo3, InvariantsOver1e5Steps) {
   const RigidBody body = lgvi::paper::three_ball_body();
-  lgvi::So3LieGroupVariationalIntegrator<CentralGravity> integ(body, CentralGravity(body, 1.0), 0.01);
+  lgvi::SingleBody<lgvi::So3LieGroupVariationalIntegrator, CentralGravity> integ(body, CentralGravity(body, 1.0));
   double max_orth = 0;
-  const LongRun r = long_run(integ, 100000, [&](const lgvi::StepInfo&) {
-    max_orth = std::max(max_orth, integ.orthogonality_error());
+  const LongRun r = long_run(integ, 100000, [&](const lgvi::SystemStepInfo&) {
+    max_orth = std::max(max_orth, integ.orthogonality_error(0));
   });
   std::printf("[ lgvi     ] SO(3) LGVI 1e5 steps: max rel |dL| %.3e, max |dE| first tenth %.3e, last tenth %.3e, "
               "max ||R^T R - I|| %.3e, mean Newton iterations %.3f\n",
@@ -274,17 +275,17 @@ TEST(VariationalSo3, LiftFollowsThePreviousSign) {
   const S3d q = lgvi::test::random_unit_quaternion();
   const S3d minus(-q.w(), -q.vec().x(), -q.vec().y(), -q.vec().z());
   const M3 r = q.matrix();
-  using I = lgvi::So3LieGroupVariationalIntegrator<lgvi::NoPotential>;
+  using I = lgvi::So3LieGroupVariationalIntegrator<lgvi::ExternalField<lgvi::NoPotential>>;
   EXPECT_MAT_NEAR(I::lift(r, q).scalar_first(), q.scalar_first(), 8 * eps);
   EXPECT_MAT_NEAR(I::lift(r, minus).scalar_first(), minus.scalar_first(), 8 * eps);
 }
 
 TEST(VariationalSo3, RotationReachingPiFails) {
   const RigidBody body(1.0, M3(V3(1.0, 2.0, 3.0).asDiagonal()));
-  lgvi::So3LieGroupVariationalIntegrator<lgvi::NoPotential> integ(body, {}, 0.01);
+  lgvi::SingleBody<lgvi::So3LieGroupVariationalIntegrator, lgvi::NoPotential> integ(body, {});
   RigidBodyState s;
   s.w = 2.0 * body.inertia() * V3(400.0, 0, 0);
-  EXPECT_THROW(run(integ, s, 10), lgvi::IntegrationFailure);
+  EXPECT_THROW(run(integ, s, 0.01, 10), lgvi::IntegrationFailure);
 }
 
 // ==================================================== RATTLE quaternion
@@ -310,11 +311,12 @@ TEST(VariationalRattle, MomentumInR4IsConjugateToQdot) {
     grad(i) = (lagrangian(qdot + d * e) - lagrangian(qdot - d * e)) / (2 * d);
   }
   const V3 w = 4.0 * J * xi;
-  const V4 pi_q = lgvi::RattleQuaternionIntegrator<lgvi::NoPotential>::momentum_r4(q, w);
+  using Rattle = lgvi::RattleQuaternionIntegrator<lgvi::ExternalField<lgvi::NoPotential>>;
+  const V4 pi_q = Rattle::momentum_r4(q, w);
   EXPECT_MAT_NEAR(pi_q, grad, 1e-12 * w.norm());
   EXPECT_MAT_NEAR(pi_q, (4.0 * lgvi::rattle::F_matrix(qv).transpose() * J * xi).eval(), 8 * eps * w.norm());
   EXPECT_NEAR(pi_q.dot(qv), 0.0, 8 * eps * w.norm());  // orthogonal to q
-  EXPECT_MAT_NEAR(lgvi::RattleQuaternionIntegrator<lgvi::NoPotential>::momentum_w(q, pi_q), w, 8 * eps * w.norm());
+  EXPECT_MAT_NEAR(Rattle::momentum_w(q, pi_q), w, 8 * eps * w.norm());
 }
 
 TEST(VariationalRattle, JacobianMatchesFiniteDifferences) {
@@ -348,23 +350,23 @@ TEST(VariationalRattle, MultiplierIsTheRotationalKineticTerm) {
   // Multiplying the first RATTLE equation by q0^T: lambda = (4/h) a^T J a, a = Im(q0^* q1).
   const RigidBody body = lgvi::paper::three_ball_body();
   const double h = 0.05;
-  lgvi::RattleQuaternionIntegrator<CentralGravity> integ(body, CentralGravity(body, 1.0), h);
-  RigidBodyState s = lgvi::paper::orbit_initial_state();
-  s.q = lgvi::test::random_unit_quaternion();
-  integ.initialize(s);
-  const S3d q0 = s.q;
-  integ.step(s);
-  const V3 a = (q0.inverse() * s.q).vec();
+  lgvi::SingleBody<lgvi::RattleQuaternionIntegrator, CentralGravity> integ(body, CentralGravity(body, 1.0));
+  RigidBodyState s0 = lgvi::paper::orbit_initial_state();
+  s0.q = lgvi::test::random_unit_quaternion();
+  lgvi::SystemState s(s0);
+  integ.initialize(s, 0.0);
+  integ.step(s, 0.0, h);
+  const V3 a = (s0.q.inverse() * s.q[0]).vec();
   const double expected = (4 / h) * a.dot(body.inertia() * a);
-  EXPECT_NEAR(integ.last_multiplier(), expected, 64 * eps * expected);
+  EXPECT_NEAR(integ.last_multiplier(0), expected, 64 * eps * expected);
 }
 
 TEST(VariationalRattle, IsSecondOrder) { expect_second_order<lgvi::RattleQuaternionIntegrator>("RATTLE quaternion"); }
 
 TEST(VariationalRattle, InvariantsOver1e5Steps) {
   const RigidBody body = lgvi::paper::three_ball_body();
-  lgvi::RattleQuaternionIntegrator<CentralGravity> integ(body, CentralGravity(body, 1.0), 0.01);
-  const LongRun r = long_run(integ, 100000, [](const lgvi::StepInfo&) {});
+  lgvi::SingleBody<lgvi::RattleQuaternionIntegrator, CentralGravity> integ(body, CentralGravity(body, 1.0));
+  const LongRun r = long_run(integ, 100000, [](const lgvi::SystemStepInfo&) {});
   std::printf("[ lgvi     ] RATTLE 1e5 steps: max rel |dL| %.3e, max |dE| first tenth %.3e, last tenth %.3e, "
               "max ||q|-1| %.3e, mean Newton iterations %.3f\n",
               r.max_relative_momentum_error, r.first_tenth_energy, r.last_tenth_energy, r.max_quat_error,
@@ -384,40 +386,10 @@ TEST(VariationalRattle, OnePotentialEvaluationPerStep) {
 
 TEST(VariationalRattle, RotationReachingPiFails) {
   const RigidBody body(1.0, M3(V3(1.0, 2.0, 3.0).asDiagonal()));
-  lgvi::RattleQuaternionIntegrator<lgvi::NoPotential> integ(body, {}, 0.01);
+  lgvi::SingleBody<lgvi::RattleQuaternionIntegrator, lgvi::NoPotential> integ(body, {});
   RigidBodyState s;
   s.w = 2.0 * body.inertia() * V3(400.0, 0, 0);
-  EXPECT_THROW(run(integ, s, 10), lgvi::IntegrationFailure);
-}
-
-// ============================================================== timing
-
-template <class Integ>
-double ns_per_step(Integ& integ, RigidBodyState s, std::int64_t n) {
-  integ.initialize(s);
-  const auto t0 = std::chrono::steady_clock::now();
-  for (std::int64_t k = 0; k < n; ++k) integ.step(s);
-  const auto t1 = std::chrono::steady_clock::now();
-  return std::chrono::duration<double, std::nano>(t1 - t0).count() / static_cast<double>(n);
-}
-
-template <class Pot>
-void print_timing(const char* label, const RigidBody& body, const Pot& pot, const RigidBodyState& s0) {
-  const std::int64_t n = 100000;
-  double best[3] = {1e300, 1e300, 1e300};
-  double iters[3] = {0, 0, 0};
-  for (int rep = 0; rep < 5; ++rep) {
-    lgvi::LieGroupVariationalIntegrator<Pot> a(body, pot, 0.01);
-    lgvi::So3LieGroupVariationalIntegrator<Pot> b(body, pot, 0.01);
-    lgvi::RattleQuaternionIntegrator<Pot> c(body, pot, 0.01);
-    best[0] = std::min(best[0], ns_per_step(a, s0, n));
-    best[1] = std::min(best[1], ns_per_step(b, s0, n));
-    best[2] = std::min(best[2], ns_per_step(c, s0, n));
-    iters[0] = a.last_solve().iterations, iters[1] = b.last_solve().iterations, iters[2] = c.last_solve().iterations;
-  }
-  std::printf("[ lgvi     ] ns/step, %s (best of 5 x 1e5 steps): quaternion LGVI %.1f, SO(3) LGVI %.1f, RATTLE %.1f "
-              "(Newton iterations at the last step %g, %g, %g)\n",
-              label, best[0], best[1], best[2], iters[0], iters[1], iters[2]);
+  EXPECT_THROW(run(integ, s, 0.01, 10), lgvi::IntegrationFailure);
 }
 
 }  // namespace

@@ -68,11 +68,13 @@ template <class A, class B>
   return ::testing::AssertionFailure() << os.str();
 }
 
-/// Advances `stepper` n steps from s (initializing it there) and returns the state.
-template <class Stepper>
-RigidBodyState run(Stepper& stepper, RigidBodyState s, std::int64_t n) {
-  integrate_n_steps(stepper, s, 0.0, n, [](const StepInfo&) {});
-  return s;
+/// Advances `stepper` (of one body: SingleBody) n steps of h from s,
+/// initializing it there, and returns the state.
+template <SystemStepper Stepper>
+RigidBodyState run(Stepper& stepper, const RigidBodyState& s0, double h, std::int64_t n) {
+  SystemState s(s0);
+  integrate_n_steps(stepper, s, 0.0, h, n, [](const SystemStepInfo&) {});
+  return s.body(0);
 }
 
 /// max(|x - x'|, |q - q'|, |p - p'|, |w - w'|), q compared as 4-vectors (its sign counts).
@@ -90,21 +92,22 @@ struct LongRun {
   double mean_iterations = 0;
 };
 
-/// Runs `integ` (built on the paper's body) n steps from the paper-orbit
-/// state, calling extra(StepInfo) at every step too.
-template <class Integ, class Extra>
-LongRun paper_orbit_long_run(Integ& integ, std::int64_t n, Extra&& extra) {
+/// Runs `integ` (built on the paper's body: SingleBody) n steps of h from
+/// the paper-orbit state, calling extra(SystemStepInfo) at every step too.
+template <SystemStepper Integ, class Extra>
+LongRun paper_orbit_long_run(Integ& integ, double h, std::int64_t n, Extra&& extra) {
   const RigidBody body = paper::three_ball_body();
-  RigidBodyState s = paper::orbit_initial_state();
+  SystemState s(paper::orbit_initial_state());
   double e0 = 0;
   Vector3<double> l0 = Vector3<double>::Zero();
   LongRun r;
-  integrate_n_steps(integ, s, 0.0, n, [&](const StepInfo& i) {
-    const double e = total_energy(i.state, body, i.evaluation);
-    const Vector3<double> l = angular_momentum(i.state);
+  integrate_n_steps(integ, s, 0.0, h, n, [&](const SystemStepInfo& i) {
+    const RigidBodyState b = i.state.body(0);
+    const double e = total_energy(b, body, i.evaluation.body(0));
+    const Vector3<double> l = angular_momentum(b);
     if (i.k == 0) e0 = e, l0 = l;
     r.max_relative_momentum_error = std::max(r.max_relative_momentum_error, (l - l0).norm() / l0.norm());
-    r.max_quat_error = std::max(r.max_quat_error, std::abs(i.state.q.norm_error()));
+    r.max_quat_error = std::max(r.max_quat_error, std::abs(b.q.norm_error()));
     if (i.k <= n / 10) r.first_tenth_energy = std::max(r.first_tenth_energy, std::abs(e - e0));
     if (i.k >= n - n / 10) r.last_tenth_energy = std::max(r.last_tenth_energy, std::abs(e - e0));
     r.final_t = i.t;

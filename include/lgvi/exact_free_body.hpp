@@ -327,132 +327,73 @@ class ExactFreeRigidBody {
   S3d left_;
 };
 
-/// The exact flow as a Stepper (method = "exact"): step k gives at(k h) from
-/// the initial state, never accumulated. Free bodies only: any potential
-/// other than NoPotential is rejected with InvalidInput.
-template <class P>
-class ExactFreeBodyStepper {
- public:
-  ExactFreeBodyStepper(const RigidBody& body, P potential, double h, SolverOptions = {})
-      : body_(body), potential_(std::move(potential)), h_(h) {
-    if constexpr (!std::is_same_v<P, NoPotential>)
-      throw InvalidInput("integrator.method: \"exact\" is only available for the free body (no potential)");
-    detail::require_three_moments(System(body), "the exact flow");
-    detail::require_valid_step(h);
-  }
-
-  void initialize(const RigidBodyState& s) {
-    if (!s.all_finite()) throw InvalidInput("exact free body: the initial state must be finite");
-    flow_.emplace(body_, s);
-    k_ = 0;
-    k_base_ = 0;
-  }
-
-  void step(RigidBodyState& s) {
-    ++k_;
-    s = flow_->at(static_cast<double>(k_ - k_base_) * h_);
-  }
-
-  double step_size() const { return h_; }
-  const PotentialEvaluation& evaluation() const { return eval_; }
-  const SolveReport& last_solve() const { return report_; }
-  const RigidBody& body() const { return body_; }
-
-  /// {k, k_base, x0 (3), q0 (4, scalar first), p0 (3), w0 (3)}: the step
-  /// count and the state the steps are computed from (the state at step
-  /// k_base, 0 unless resumed from {k} alone), for a bit-identical resume.
-  std::vector<double> internal_state() const {
-    std::vector<double> v{static_cast<double>(k_), static_cast<double>(k_base_)};
-    if (flow_) {
-      const RigidBodyState s = flow_->at(0.0);
-      const Vector4<double> q = s.q.scalar_first();
-      v.insert(v.end(), {s.x.x(), s.x.y(), s.x.z(), q(0), q(1), q(2), q(3), s.p.x(), s.p.y(), s.p.z(), s.w.x(),
-                         s.w.y(), s.w.z()});
-    }
-    return v;
-  }
-
-  /// Resumes with saved internals: with the initial state saved, exactly as if
-  /// never interrupted; with {k} only, from `s` taken as the state at step k
-  /// (the same flow, not bit-identical).
-  void resume(const RigidBodyState& s, const std::vector<double>& internal) {
-    if (internal.size() == 15) {
-      RigidBodyState s0;
-      s0.x = Vector3<double>(internal[2], internal[3], internal[4]);
-      s0.q = S3d(internal[5], internal[6], internal[7], internal[8]);
-      s0.p = Vector3<double>(internal[9], internal[10], internal[11]);
-      s0.w = Vector3<double>(internal[12], internal[13], internal[14]);
-      initialize(s0);
-      k_ = static_cast<std::int64_t>(internal[0]);
-      k_base_ = static_cast<std::int64_t>(internal[1]);
-    } else if (internal.size() == 1) {
-      initialize(s);
-      k_ = k_base_ = static_cast<std::int64_t>(internal[0]);
-    } else {
-      throw InvalidInput("checkpoint: exact free body data must hold 1 or 15 numbers, got " +
-                         std::to_string(internal.size()));
-    }
-  }
-
- private:
-  RigidBody body_;
-  P potential_;
-  double h_;
-  std::optional<ExactFreeRigidBody> flow_;  // the flow from the state at step k_base_
-  std::int64_t k_ = 0, k_base_ = 0;
-  PotentialEvaluation eval_;
-  SolveReport report_;
-};
-
-/// The exact flow on the system stepper contract (method = "exact" in a
-/// run): one free body only. Step k gives at(k h) from the initial state, so
-/// the step size must stay the same from call to call; t is not used.
+namespace detail {
+/// True for ExternalField<P> with P anything but NoPotential: a field the
+/// exact flow of a free body cannot take (a run's potential is checked by the
+/// scenario reader instead).
 template <class I>
-class ExactFreeBodySystemStepper {
+constexpr bool is_forcing_field = false;
+template <class P>
+constexpr bool is_forcing_field<ExternalField<P>> = !std::is_same_v<P, NoPotential>;
+}  // namespace detail
+
+/// The exact flow on the stepper contract (method = "exact"): one free body
+/// (three principal moments > 0), checked on construction. Step k gives
+/// at((k - k_base) h) from the state at step k_base (0 unless resumed from
+/// {k} alone), never accumulated, so the step size must stay the same from
+/// call to call; t is not used. The flow is built at the first step, when h
+/// is known.
+template <class I>
+class ExactFreeBodyStepper {
  public:
   static constexpr MethodTraits traits{"exact", "the free rigid body's exact flow (Celledoni, Fasso, Safstrom & Zanna 2008)", 0,
                                       /*symmetric=*/true, /*two_step=*/false, /*implicit=*/false,
                                       /*accepts_forcing=*/false, /*needs_principal_axes=*/false,
                                       /*free_body_only=*/true, /*linear_bodies=*/false};
 
-  /// `potential` must be the free body's (the caller checks: the exact flow
-  /// knows no forces); more than one body is rejected.
-  ExactFreeBodySystemStepper(System system, I potential, SolverOptions = {}, Parallelism = {})
+  /// `potential` must be the free body's: an ExternalField of anything but
+  /// NoPotential is refused here; for other types the caller checks (the
+  /// exact flow knows no forces). More than one body is refused.
+  ExactFreeBodyStepper(System system, I potential, SolverOptions = {}, Parallelism = {})
       : system_(std::move(system)), potential_(std::move(potential)), eval_(1) {
+    if constexpr (detail::is_forcing_field<I>)
+      throw InvalidInput("integrator.method: \"exact\" is only available for the free body (no potential)");
     if (system_.size() != 1)
       throw InvalidInput("integrator.method: \"exact\" is the exact flow of one free body; this scenario has " +
                          std::to_string(system_.size()) + " bodies");
+    detail::require_three_moments(system_, "the exact flow");
   }
 
   void initialize(const SystemState& s, double /*t*/) {
-    stepper_.reset();
+    h_ = 0.0;
+    flow_.reset();
     pending_resume_ = false;
     state0_ = s.body(0);  // the free body: no potential to evaluate (eval_ stays zero)
   }
 
   void step(SystemState& s, double /*t*/, double h) {
-    if (!stepper_) {
-      // The step size is known only now: build the sampled flow (or resume it).
-      stepper_.emplace(system_.body(0), NoPotential{}, h);
-      if (pending_resume_) {
-        stepper_->resume(resume_state_, resume_data_);
-        pending_resume_ = false;
-      } else {
-        stepper_->initialize(state0_);
-      }
-    }
-    if (h != stepper_->step_size())
+    if (!flow_) start(h);
+    if (h != h_)
       throw InvalidInput("integrator.step: the exact flow is sampled at multiples of one step size; got " +
-                         std::to_string(h) + " after " + std::to_string(stepper_->step_size()));
-    RigidBodyState b = s.body(0);
-    stepper_->step(b);
-    s.set_body(0, b);
+                         std::to_string(h) + " after " + std::to_string(h_));
+    ++k_;
+    s.set_body(0, flow_->at(static_cast<double>(k_ - k_base_) * h_));
   }
 
   const System& system() const { return system_; }
+  const I& potential() const { return potential_; }
   const SystemEvaluation& evaluation() const { return eval_; }
   const SolveReport& last_solve() const { return report_; }
-  std::vector<double> internal_state() const { return stepper_ ? stepper_->internal_state() : std::vector<double>{}; }
+
+  /// {k, k_base, x0 (3), q0 (4, scalar first), p0 (3), w0 (3)} once stepped
+  /// (the step count and the state at step k_base), {} before: what a
+  /// bit-identical resume needs.
+  std::vector<double> internal_state() const {
+    if (!flow_) return {};
+    std::vector<double> v{static_cast<double>(k_), static_cast<double>(k_base_)};
+    append_state(v, flow_->at(0.0));
+    return v;
+  }
   /// Checkpoint fields: "stepper.started" (0 before the first step, then
   /// nothing else); "stepper.step_count", k and k_base, and
   /// "stepper.initial_state", the state the flow starts from at step k_base
@@ -462,10 +403,8 @@ class ExactFreeBodySystemStepper {
     if (v.empty() && pending_resume_) {
       v = resume_data_;
       if (v.size() == 1) {  // resumed from {k} alone and not stepped since: the flow from s at k
-        const Vector4<double> q = resume_state_.q.scalar_first();
-        const RigidBodyState& r = resume_state_;
-        v = {v[0], v[0], r.x.x(), r.x.y(), r.x.z(), q(0), q(1), q(2), q(3), r.p.x(), r.p.y(), r.p.z(),
-             r.w.x(), r.w.y(), r.w.z()};
+        v.push_back(v[0]);
+        append_state(v, resume_state_);
       }
     }
     out.put_i64("stepper.started", {v.empty() ? 0 : 1});
@@ -490,23 +429,65 @@ class ExactFreeBodySystemStepper {
     resume(s, t, v);
   }
 
-  /// Resumes bit-identically from the saved step count and initial state.
+  /// Resumes with saved internals (checked at the next step, when the flow
+  /// is built): with the initial state saved (15 numbers), exactly as if
+  /// never interrupted; with {k} only, from `s` taken as the state at step k
+  /// (the same flow, not bit-identical).
   void resume(const SystemState& s, double t, const std::vector<double>& internal) {
     initialize(s, t);
     if (internal.empty()) return;
     resume_data_ = internal;
-    stepper_.reset();
     pending_resume_ = true;
     resume_state_ = s.body(0);
   }
 
  private:
+  static void append_state(std::vector<double>& v, const RigidBodyState& s) {
+    const Vector4<double> q = s.q.scalar_first();
+    v.insert(v.end(), {s.x.x(), s.x.y(), s.x.z(), q(0), q(1), q(2), q(3), s.p.x(), s.p.y(), s.p.z(), s.w.x(),
+                       s.w.y(), s.w.z()});
+  }
+
+  /// The first step after initialize() or resume(): fixes h and builds the flow.
+  void start(double h) {
+    detail::require_valid_step(h);
+    h_ = h;
+    if (!pending_resume_) {
+      begin_flow(state0_, 0);
+      return;
+    }
+    pending_resume_ = false;
+    const std::vector<double>& internal = resume_data_;
+    if (internal.size() == 15) {
+      RigidBodyState s0;
+      s0.x = Vector3<double>(internal[2], internal[3], internal[4]);
+      s0.q = S3d(internal[5], internal[6], internal[7], internal[8]);
+      s0.p = Vector3<double>(internal[9], internal[10], internal[11]);
+      s0.w = Vector3<double>(internal[12], internal[13], internal[14]);
+      begin_flow(s0, static_cast<std::int64_t>(internal[1]));
+      k_ = static_cast<std::int64_t>(internal[0]);
+    } else if (internal.size() == 1) {
+      begin_flow(resume_state_, static_cast<std::int64_t>(internal[0]));
+    } else {
+      throw InvalidInput("checkpoint: exact free body data must hold 1 or 15 numbers, got " +
+                         std::to_string(internal.size()));
+    }
+  }
+  /// The flow from `s`, taken as the state at step k_base = k.
+  void begin_flow(const RigidBodyState& s, std::int64_t k_base) {
+    if (!s.all_finite()) throw InvalidInput("exact free body: the initial state must be finite");
+    flow_.emplace(system_.body(0), s);
+    k_ = k_base_ = k_base;
+  }
+
   System system_;
   I potential_;
   SystemEvaluation eval_;
   SolveReport report_;
+  double h_ = 0.0;  ///< the step size, fixed by the first step
+  std::optional<ExactFreeRigidBody> flow_;  ///< the flow from the state at step k_base_ (empty before the first step)
+  std::int64_t k_ = 0, k_base_ = 0;
   RigidBodyState state0_, resume_state_;
-  std::optional<ExactFreeBodyStepper<NoPotential>> stepper_;
   std::vector<double> resume_data_;
   bool pending_resume_ = false;
 };

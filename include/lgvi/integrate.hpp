@@ -14,22 +14,13 @@
 #include <lgvi/system.hpp>
 
 #include <concepts>
-#include <type_traits>
 #include <cstdint>
 #include <utility>
 
 namespace lgvi {
 
-/// What the observer of a single-body run sees at each step k = 0..n.
-struct StepInfo {
-  std::int64_t k;
-  double t;
-  const RigidBodyState& state;
-  const PotentialEvaluation& evaluation;  ///< V, F, M at `state`
-  const SolveReport& solve;               ///< the solve that produced `state` (empty at k = 0)
-};
-
-/// What the observer of a system's run sees at each step k = 0..n.
+/// What the observer of a run sees at each step k = 0..n (one body:
+/// state.body(0), evaluation.body(0)).
 struct SystemStepInfo {
   std::int64_t k;
   double t;
@@ -49,25 +40,6 @@ struct NeverStop {
 };
 
 namespace detail {
-// The two faces of a stepper seen by the one loop below: a system stepper
-// receives (state, t, h) and has no step size of its own; a single-body
-// stepper has a fixed step size and advances by step(state).
-template <SystemStepper S>
-void advance(S& s, SystemState& state, double t, double h) {
-  s.step(state, t, h);
-}
-template <Stepper S>
-void advance(S& s, RigidBodyState& state, double, double) {
-  s.step(state);
-}
-template <SystemStepper S>
-void start(S& s, SystemState& state, double t) {
-  s.initialize(state, t);
-}
-template <Stepper S>
-void start(S& s, RigidBodyState& state, double) {
-  s.initialize(state);
-}
 /// The forcing's work of a stepper that has a forcing, 0 otherwise.
 template <class S>
 double forcing_work(const S& s) {
@@ -86,9 +58,9 @@ double physical_time(const S& s, double t) {
 /// where the stepper has more than one: a many-body step's copy (104 B per
 /// body) is otherwise a serial part of every step. The same values either
 /// way.
-template <class S, class State>
-void copy_state(const S& s, State& to, const State& from) {
-  if constexpr (std::is_same_v<State, SystemState> && requires { s.parallelism(); }) {
+template <class S>
+void copy_state(const S& s, SystemState& to, const SystemState& from) {
+  if constexpr (requires { s.parallelism(); }) {
     if (to.size() == from.size() && from.eta.empty() && to.eta.empty() && s.parallelism().threads > 1) {
       parallel_for(from.size(), s.parallelism(), [&](std::size_t a) {
         to.x[a] = from.x[a];
@@ -101,66 +73,50 @@ void copy_state(const S& s, State& to, const State& from) {
   }
   to = from;
 }
-template <class State>
-using StepInfoOf = std::conditional_t<std::is_same_v<State, SystemState>, SystemStepInfo, StepInfo>;
 }  // namespace detail
 
 /// Advances an initialized `stepper` from step k_begin (state at
 /// t0 + k_begin h) to k_end, calling `observer` after every step. Returns the
 /// index reached: k_end, or an earlier one if `stop()` asked for it. A failed
 /// step is rethrown as IntegrationFailure naming the step and time; `state`
-/// then holds the last good state, which the observer has seen.
-template <class S, class State, class O, StopPredicate Stop = NeverStop>
-std::int64_t integrate_range(S& stepper, State& state, double t0, double h, std::int64_t k_begin,
+/// then holds the last good state, which the observer has seen. h must be
+/// finite and > 0 (InvalidInput otherwise, before any step).
+template <SystemStepper S, class O, StopPredicate Stop = NeverStop>
+std::int64_t integrate_range(S& stepper, SystemState& state, double t0, double h, std::int64_t k_begin,
                              std::int64_t k_end, O&& observer, Stop&& stop = {}) {
-  State next = state;  // assigned, not constructed, in the loop: no allocation per step
+  detail::require_valid_step(h);
+  SystemState next = state;  // assigned, not constructed, in the loop: no allocation per step
   for (std::int64_t k = k_begin; k < k_end; ++k) {
     if (stop()) return k;
     detail::copy_state(stepper, next, state);
     const double t = t0 + static_cast<double>(k) * h;
     try {
-      detail::advance(stepper, next, t, h);
+      stepper.step(next, t, h);
     } catch (const StepFailure& f) {
       throw IntegrationFailure(k, detail::physical_time(stepper, t), f);
     }
     std::swap(state, next);
-    if constexpr (std::is_same_v<State, SystemState>)
-      observer(SystemStepInfo{k + 1, detail::physical_time(stepper, t0 + static_cast<double>(k + 1) * h), state,
-                              stepper.evaluation(), stepper.last_solve(), detail::forcing_work(stepper)});
-    else
-      observer(StepInfo{k + 1, t0 + static_cast<double>(k + 1) * h, state, stepper.evaluation(), stepper.last_solve()});
+    observer(SystemStepInfo{k + 1, detail::physical_time(stepper, t0 + static_cast<double>(k + 1) * h), state,
+                            stepper.evaluation(), stepper.last_solve(), detail::forcing_work(stepper)});
   }
   return k_end;
-}
-
-/// The same for a single-body stepper with its own step size.
-template <Stepper S, class O, StopPredicate Stop = NeverStop>
-std::int64_t integrate_range(S& stepper, RigidBodyState& state, double t0, std::int64_t k_begin, std::int64_t k_end,
-                             O&& observer, Stop&& stop = {}) {
-  return integrate_range(stepper, state, t0, stepper.step_size(), k_begin, k_end, observer, stop);
 }
 
 /// Runs n steps of size h from `state` (updated in place): initializes the
 /// stepper there, calls `observer` at k = 0 and after every step. Failures as
 /// in integrate_range.
-template <class S, class State, class O, StopPredicate Stop = NeverStop>
-std::int64_t integrate_n_steps(S& stepper, State& state, double t0, double h, std::int64_t n, O&& observer,
+template <SystemStepper S, class O, StopPredicate Stop = NeverStop>
+std::int64_t integrate_n_steps(S& stepper, SystemState& state, double t0, double h, std::int64_t n, O&& observer,
                                Stop&& stop = {}) {
+  detail::require_valid_step(h);
   try {
-    detail::start(stepper, state, t0);
+    stepper.initialize(state, t0);
   } catch (const StepFailure& f) {
     throw IntegrationFailure(0, t0, f);
   }
   const SolveReport none{};
-  observer(detail::StepInfoOf<State>{0, t0, state, stepper.evaluation(), none});
+  observer(SystemStepInfo{0, t0, state, stepper.evaluation(), none});
   return integrate_range(stepper, state, t0, h, 0, n, observer, stop);
-}
-
-/// The same for a single-body stepper with its own step size.
-template <Stepper S, class O, StopPredicate Stop = NeverStop>
-std::int64_t integrate_n_steps(S& stepper, RigidBodyState& state, double t0, std::int64_t n, O&& observer,
-                               Stop&& stop = {}) {
-  return integrate_n_steps(stepper, state, t0, stepper.step_size(), n, observer, stop);
 }
 
 }  // namespace lgvi

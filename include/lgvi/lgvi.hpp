@@ -14,7 +14,7 @@
 // that part (the axial part of a torque does nothing to a body without
 // inertia about its axis; rotated by f it would leak across the axis, an
 // O(h) error) and keeps no axial component (RigidBody::admissible_momentum).
-// A single body is N = 1 (single_body.hpp gives it the RigidBodyState API).
+// A single body is N = 1 (single_body.hpp: SingleBody<Method, P>).
 // A body with reaction wheels (a gyrostat, wheels.hpp) takes the same step
 // with its rotation equation P(J_s f_v + (h/2) h_w) = (h/4)(w0 + h M0) and
 // the same update of w; its wheels' momenta take half of each step's motor
@@ -61,13 +61,10 @@
 
 namespace lgvi {
 
-/// The Hamiltonian-side quaternion LGVI on (x, q, p, w): for a system
-/// potential I (N bodies), or for a single-body potential (one body, below).
-template <class P>
-class LieGroupVariationalIntegrator;
-
+/// The Hamiltonian-side quaternion LGVI on (x, q, p, w) for a system
+/// potential I (N bodies; one body: SingleBody<LieGroupVariationalIntegrator, P>).
 template <SystemPotential I>
-class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, RotationPredictor> {
+class LieGroupVariationalIntegrator : public detail::ImplicitStepperBase<I, RotationPredictor> {
   using Base = detail::ImplicitStepperBase<I, RotationPredictor>;
 
  public:
@@ -331,12 +328,6 @@ class LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, R
   double load_time_ = 0.0;  ///< the t of load(), for load_extra's checks
 };
 
-template <Potential P>
-  requires(!SystemPotential<P>)
-class LieGroupVariationalIntegrator<P> : public SingleBodyStepper<LieGroupVariationalIntegrator, P> {
- public:
-  using SingleBodyStepper<LieGroupVariationalIntegrator, P>::SingleBodyStepper;
-};
 
 /// The Lagrangian-side (position-position) form: the paper's discrete
 /// Euler-Lagrange equations
@@ -363,11 +354,8 @@ class LieGroupVariationalIntegrator<P> : public SingleBodyStepper<LieGroupVariat
 /// increment carries its own rounding only (as the Hamiltonian form's
 /// momentum does), x keeps what its sums lose in the base's carry (drift),
 /// and p_k no longer pays the cancellation in x_k - x_{k-1}.
-template <class P>
-class LagrangianLieGroupVariationalIntegrator;
-
 template <SystemPotential I>
-class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, RotationPredictor> {
+class LagrangianLieGroupVariationalIntegrator : public detail::ImplicitStepperBase<I, RotationPredictor> {
   using Base = detail::ImplicitStepperBase<I, RotationPredictor>;
 
  public:
@@ -577,13 +565,6 @@ class LagrangianLieGroupVariationalIntegrator<I> : public detail::ImplicitSteppe
   /// Fresh: configuration 1 is computed at the next step; Resumed: it came
   /// from a checkpoint; Running: h_ is the step size of every call.
   enum class Phase { Fresh, Resumed, Running } phase_ = Phase::Fresh;
-};
-
-template <Potential P>
-  requires(!SystemPotential<P>)
-class LagrangianLieGroupVariationalIntegrator<P> : public SingleBodyStepper<LagrangianLieGroupVariationalIntegrator, P> {
- public:
-  using SingleBodyStepper<LagrangianLieGroupVariationalIntegrator, P>::SingleBodyStepper;
 };
 
 }  // namespace lgvi

@@ -37,7 +37,7 @@ struct StepperList {};
 using RegisteredMethods =
     StepperList<LieGroupVariationalIntegrator, LagrangianLieGroupVariationalIntegrator, So3LieGroupVariationalIntegrator,
                 RattleQuaternionIntegrator, Rk4NormalizedIntegrator, EulerExpIntegrator, NoSquishIntegrator,
-                SplittingDlmIntegrator, ExactFreeBodySystemStepper>;
+                SplittingDlmIntegrator, ExactFreeBodyStepper>;
 
 namespace detail {
 

@@ -21,18 +21,14 @@
 #pragma once
 
 #include <lgvi/methods/method_traits.hpp>
-#include <lgvi/single_body.hpp>
 #include <lgvi/methods/explicit_stepper.hpp>
 
 #include <vector>
 
 namespace lgvi {
 
-template <class P>
-class EulerExpIntegrator;
-
 template <SystemPotential I>
-class EulerExpIntegrator<I> : public detail::ExplicitStepperBase<I> {
+class EulerExpIntegrator : public detail::ExplicitStepperBase<I> {
  public:
   static constexpr MethodTraits traits{"euler-exp", "semi-implicit Euler with the exponential map", 1,
                                       /*symmetric=*/false, /*two_step=*/false, /*implicit=*/false,
@@ -58,13 +54,6 @@ class EulerExpIntegrator<I> : public detail::ExplicitStepperBase<I> {
     this->evaluate_at(s);
     this->finish_step(s);
   }
-};
-
-template <Potential P>
-  requires(!SystemPotential<P>)
-class EulerExpIntegrator<P> : public SingleBodyStepper<EulerExpIntegrator, P> {
- public:
-  using SingleBodyStepper<EulerExpIntegrator, P>::SingleBodyStepper;
 };
 
 }  // namespace lgvi

@@ -6,7 +6,6 @@
 #pragma once
 
 #include <lgvi/error.hpp>
-#include <lgvi/single_body.hpp>
 #include <lgvi/stepper.hpp>
 
 #include <algorithm>

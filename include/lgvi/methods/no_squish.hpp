@@ -44,7 +44,6 @@
 #pragma once
 
 #include <lgvi/methods/method_traits.hpp>
-#include <lgvi/single_body.hpp>
 #include <lgvi/methods/explicit_stepper.hpp>
 
 #include <cmath>
@@ -52,11 +51,8 @@
 
 namespace lgvi {
 
-template <class P>
-class NoSquishIntegrator;
-
 template <SystemPotential I>
-class NoSquishIntegrator<I> : public detail::ExplicitStepperBase<I> {
+class NoSquishIntegrator : public detail::ExplicitStepperBase<I> {
  public:
   static constexpr MethodTraits traits{"no-squish", "the NO_SQUISH splitting of Miller et al. (2002)", 2,
                                       /*symmetric=*/true, /*two_step=*/false, /*implicit=*/false,
@@ -131,13 +127,6 @@ class NoSquishIntegrator<I> : public detail::ExplicitStepperBase<I> {
 
   std::vector<Vector3<double>> moments_;
   std::vector<Vector4<double>> mom_;
-};
-
-template <Potential P>
-  requires(!SystemPotential<P>)
-class NoSquishIntegrator<P> : public SingleBodyStepper<NoSquishIntegrator, P> {
- public:
-  using SingleBodyStepper<NoSquishIntegrator, P>::SingleBodyStepper;
 };
 
 }  // namespace lgvi

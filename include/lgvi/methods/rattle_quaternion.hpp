@@ -50,7 +50,6 @@
 #include <lgvi/methods/method_traits.hpp>
 #include <lgvi/error.hpp>
 #include <lgvi/methods/implicit_stepper.hpp>
-#include <lgvi/single_body.hpp>
 #include <lgvi/potential.hpp>
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/rotation_solver.hpp>
@@ -122,11 +121,8 @@ inline Matrix5 jacobian(const Matrix3<double>& J, const Vector4<double>& q0, con
 
 }  // namespace rattle
 
-template <class P>
-class RattleQuaternionIntegrator;
-
 template <SystemPotential I>
-class RattleQuaternionIntegrator<I> : public detail::ImplicitStepperBase<I, RotationPredictor> {
+class RattleQuaternionIntegrator : public detail::ImplicitStepperBase<I, RotationPredictor> {
   using Base = detail::ImplicitStepperBase<I, RotationPredictor>;
 
  public:
@@ -242,22 +238,6 @@ class RattleQuaternionIntegrator<I> : public detail::ImplicitStepperBase<I, Rota
   std::vector<double> J_norm_;
   std::vector<Vector4<double>> q0_;
   std::vector<double> lambda_;
-};
-
-template <Potential P>
-  requires(!SystemPotential<P>)
-class RattleQuaternionIntegrator<P> : public SingleBodyStepper<RattleQuaternionIntegrator, P> {
-  using Base = SingleBodyStepper<RattleQuaternionIntegrator, P>;
-
- public:
-  using Base::Base;
-  double last_multiplier() const { return this->system_stepper().last_multiplier(0); }
-  static Vector4<double> momentum_r4(const S3d& q, const Vector3<double>& w) {
-    return Base::SystemMethod::momentum_r4(q, w);
-  }
-  static Vector3<double> momentum_w(const S3d& q, const Vector4<double>& pi_q) {
-    return Base::SystemMethod::momentum_w(q, pi_q);
-  }
 };
 
 }  // namespace lgvi

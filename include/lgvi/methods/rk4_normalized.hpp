@@ -25,18 +25,14 @@
 #pragma once
 
 #include <lgvi/methods/method_traits.hpp>
-#include <lgvi/single_body.hpp>
 #include <lgvi/methods/explicit_stepper.hpp>
 
 #include <vector>
 
 namespace lgvi {
 
-template <class P>
-class Rk4NormalizedIntegrator;
-
 template <SystemPotential I>
-class Rk4NormalizedIntegrator<I> : public detail::ExplicitStepperBase<I> {
+class Rk4NormalizedIntegrator : public detail::ExplicitStepperBase<I> {
  public:
   static constexpr MethodTraits traits{"rk4-normalized", "classical Runge-Kutta 4, q normalized after each step", 4,
                                       /*symmetric=*/false, /*two_step=*/false, /*implicit=*/false,
@@ -116,13 +112,6 @@ class Rk4NormalizedIntegrator<I> : public detail::ExplicitStepperBase<I> {
   std::vector<Y> y0_, k1_, k2_, k3_, k4_;
   SystemState stage_;
   SystemEvaluation stage_eval_;
-};
-
-template <Potential P>
-  requires(!SystemPotential<P>)
-class Rk4NormalizedIntegrator<P> : public SingleBodyStepper<Rk4NormalizedIntegrator, P> {
- public:
-  using SingleBodyStepper<Rk4NormalizedIntegrator, P>::SingleBodyStepper;
 };
 
 }  // namespace lgvi

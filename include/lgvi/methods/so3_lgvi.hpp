@@ -46,7 +46,6 @@
 #include <lgvi/methods/method_traits.hpp>
 #include <lgvi/error.hpp>
 #include <lgvi/methods/implicit_stepper.hpp>
-#include <lgvi/single_body.hpp>
 #include <lgvi/potential.hpp>
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/rotation_solver.hpp>
@@ -126,11 +125,8 @@ inline Matrix3<double> cayley(const Vector3<double>& u) {
 
 }  // namespace detail
 
-template <class P>
-class So3LieGroupVariationalIntegrator;
-
 template <SystemPotential I>
-class So3LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I, detail::CayleyPredictor> {
+class So3LieGroupVariationalIntegrator : public detail::ImplicitStepperBase<I, detail::CayleyPredictor> {
   using Base = detail::ImplicitStepperBase<I, detail::CayleyPredictor>;
 
  public:
@@ -280,19 +276,6 @@ class So3LieGroupVariationalIntegrator<I> : public detail::ImplicitStepperBase<I
   std::vector<RotationEquation> equations_;
   std::vector<Matrix3<double>> jd_, R_, F_;
   std::vector<Vector3<double>> w_half_;
-};
-
-template <Potential P>
-  requires(!SystemPotential<P>)
-class So3LieGroupVariationalIntegrator<P> : public SingleBodyStepper<So3LieGroupVariationalIntegrator, P> {
-  using Base = SingleBodyStepper<So3LieGroupVariationalIntegrator, P>;
-
- public:
-  using Base::Base;
-  const Matrix3<double>& rotation_matrix() const { return this->system_stepper().rotation_matrix(0); }
-  const Matrix3<double>& nonstandard_inertia() const { return this->system_stepper().nonstandard_inertia(0); }
-  double orthogonality_error() const { return this->system_stepper().orthogonality_error(0); }
-  static S3d lift(const Matrix3<double>& r, const S3d& previous) { return Base::SystemMethod::lift(r, previous); }
 };
 
 }  // namespace lgvi

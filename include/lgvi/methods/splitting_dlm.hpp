@@ -34,7 +34,6 @@
 #pragma once
 
 #include <lgvi/methods/method_traits.hpp>
-#include <lgvi/single_body.hpp>
 #include <lgvi/methods/explicit_stepper.hpp>
 
 #include <algorithm>
@@ -45,12 +44,8 @@
 
 namespace lgvi {
 
-
-template <class P>
-class SplittingDlmIntegrator;
-
 template <SystemPotential I>
-class SplittingDlmIntegrator<I> : public detail::ExplicitStepperBase<I> {
+class SplittingDlmIntegrator : public detail::ExplicitStepperBase<I> {
  public:
   static constexpr MethodTraits traits{"splitting-dlm", "the splitting of Dullweber, Leimkuhler & McLachlan (1997)", 2,
                                       /*symmetric=*/true, /*two_step=*/false, /*implicit=*/false,
@@ -99,13 +94,6 @@ class SplittingDlmIntegrator<I> : public detail::ExplicitStepperBase<I> {
   }
 
   std::vector<Vector3<double>> moments_, pi_;
-};
-
-template <Potential P>
-  requires(!SystemPotential<P>)
-class SplittingDlmIntegrator<P> : public SingleBodyStepper<SplittingDlmIntegrator, P> {
- public:
-  using SingleBodyStepper<SplittingDlmIntegrator, P>::SingleBodyStepper;
 };
 
 }  // namespace lgvi
