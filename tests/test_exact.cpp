@@ -15,11 +15,13 @@
 
 #include "test_support.hpp"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 namespace lgvi {
@@ -463,7 +465,7 @@ TEST(ExactPrecession, RateBoundsForBothFamilies) {
 
 // --- The stepper ------------------------------------------------------------------
 
-TEST(ExactStepper, SatisfiesStepperAndMatchesAt) {
+TEST(ExactStepper, IsASystemStepperAndMatchesAt) {
   using Exact = SingleBody<ExactFreeBodyStepper, NoPotential>;
   static_assert(SystemStepper<Exact>);
   const RigidBody body(2.0, kJ123);
@@ -517,6 +519,86 @@ TEST(ExactStepper, ResumeIsBitIdentical) {
   EXPECT_MAT_NEAR(aligned(sc.q[0], sa.q[0]), sa.q[0].scalar_first(), 1e-13);
   EXPECT_MAT_NEAR(sc.w[0], sa.w[0], 1e-13);
   EXPECT_EQ(c.internal_state()[0], 80.0);
+}
+
+TEST(ExactStepper, CheckpointFieldsInEveryPhase) {
+  // What save() writes is what a continuation needs, bit for bit, in each phase: a fresh start not stepped
+  // (nothing but started = 0), stepped (k, k_base and the state at k_base), and resumed but not stepped since
+  // (the data resumed from; {k} alone as {k, k, the state resumed at}). load() of each continues as the
+  // stepper that wrote it does, to the bit (every step is at((k - k_base) h) from the same state).
+  using Exact = SingleBody<ExactFreeBodyStepper, NoPotential>;
+  const RigidBody body(1.0, kJ123);
+  const double h = 0.05;
+  const RigidBodyState s0 = state_with_momentum(Vector3<double>(1, 0.3, 0.2), kQ0);
+  auto saved = [](const Exact& e) {
+    CheckpointFields f;
+    e.save(f);
+    return f;
+  };
+  auto continued = [&](Exact& e, SystemState s, std::int64_t from) {
+    for (std::int64_t k = from; k < from + 40; ++k) e.step(s, static_cast<double>(k) * h, h);
+    return s.body(0);
+  };
+  Exact a(body, NoPotential{});
+  EXPECT_EQ(a.body().mass(), body.mass());  // the one body's accessors
+  EXPECT_EQ(a.body().inertia(), body.inertia());
+  static_assert(std::is_same_v<decltype(a.body_potential()), const NoPotential&>);
+  SystemState s(s0);
+  a.initialize(s, 0.0);
+  const CheckpointFields fresh = saved(a);
+  ASSERT_EQ(fresh.fields().size(), 1u);
+  EXPECT_EQ(fresh.i64_value("stepper.started"), 0);
+  for (int k = 0; k < 40; ++k) a.step(s, k * h, h);
+  const SystemState at40 = s;
+  const CheckpointFields stepped = saved(a);
+  const std::vector<double> internal40 = a.internal_state();
+  EXPECT_EQ(stepped.i64_value("stepper.started"), 1);
+  EXPECT_EQ(stepped.i64("stepper.step_count", 2), (std::vector<std::int64_t>{40, 0}));
+  const Vector4<double> q0 = s0.q.scalar_first();
+  EXPECT_EQ(stepped.f64("stepper.initial_state", 13),
+            (std::vector<double>{s0.x.x(), s0.x.y(), s0.x.z(), q0(0), q0(1), q0(2), q0(3), s0.p.x(), s0.p.y(),
+                                 s0.p.z(), s0.w.x(), s0.w.y(), s0.w.z()}));
+  const RigidBodyState a80 = continued(a, at40, 40);
+  // Each phase written, loaded by a fresh stepper, continued.
+  Exact b(body, NoPotential{});
+  b.load(at40, 40 * h, stepped);
+  EXPECT_EQ(saved(b).fields().size(), 3u);  // resumed, not stepped: the same fields
+  EXPECT_EQ(saved(b).i64("stepper.step_count"), stepped.i64("stepper.step_count"));
+  EXPECT_EQ(saved(b).f64("stepper.initial_state"), stepped.f64("stepper.initial_state"));
+  EXPECT_EQ(b.internal_state(), internal40);
+  const RigidBodyState b80 = continued(b, at40, 40);
+  EXPECT_EQ(b80.q.scalar_first(), a80.q.scalar_first());
+  EXPECT_EQ(b80.w, a80.w);
+  Exact c(body, NoPotential{});
+  c.resume(at40, 40 * h, {40.0});
+  const CheckpointFields from_k = saved(c);
+  EXPECT_EQ(from_k.i64("stepper.step_count", 2), (std::vector<std::int64_t>{40, 40}));
+  const RigidBodyState r = at40.body(0);
+  const Vector4<double> qr = r.q.scalar_first();
+  EXPECT_EQ(from_k.f64("stepper.initial_state", 13),
+            (std::vector<double>{r.x.x(), r.x.y(), r.x.z(), qr(0), qr(1), qr(2), qr(3), r.p.x(), r.p.y(), r.p.z(),
+                                 r.w.x(), r.w.y(), r.w.z()}));
+  Exact d(body, NoPotential{});
+  d.load(at40, 40 * h, from_k);
+  const RigidBodyState c80 = continued(c, at40, 40), d80 = continued(d, at40, 40);
+  EXPECT_EQ(d80.q.scalar_first(), c80.q.scalar_first());
+  EXPECT_EQ(d80.w, c80.w);
+  Exact e(body, NoPotential{});
+  e.load(at40, 40 * h, fresh);  // a checkpoint of a fresh start: a fresh start from the given state
+  EXPECT_TRUE(e.internal_state().empty());
+  // Malformed data is refused at the first step, and stays refused (the resume stays pending).
+  Exact bad(body, NoPotential{});
+  SystemState sb = at40;
+  bad.resume(sb, 40 * h, {40.0, 0.0});
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    try {
+      bad.step(sb, 40 * h, h);
+      ADD_FAILURE() << "no error for 2 numbers";
+    } catch (const InvalidInput& err) {
+      EXPECT_THAT(err.what(), ::testing::HasSubstr("must hold 1 or 15 numbers, got 2"));
+    }
+  }
+  EXPECT_EQ(bad.internal_state(), (std::vector<double>{40.0, 0.0}));
 }
 
 TEST(ExactStepper, RejectsPotentialsAndBadSteps) {

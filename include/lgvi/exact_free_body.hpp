@@ -332,9 +332,9 @@ namespace detail {
 /// exact flow of a free body cannot take (a run's potential is checked by the
 /// scenario reader instead).
 template <class I>
-constexpr bool is_forcing_field = false;
+constexpr bool is_potential_field = false;
 template <class P>
-constexpr bool is_forcing_field<ExternalField<P>> = !std::is_same_v<P, NoPotential>;
+constexpr bool is_potential_field<ExternalField<P>> = !std::is_same_v<P, NoPotential>;
 }  // namespace detail
 
 /// The exact flow on the stepper contract (method = "exact"): one free body
@@ -356,7 +356,7 @@ class ExactFreeBodyStepper {
   /// exact flow knows no forces). More than one body is refused.
   ExactFreeBodyStepper(System system, I potential, SolverOptions = {}, Parallelism = {})
       : system_(std::move(system)), potential_(std::move(potential)), eval_(1) {
-    if constexpr (detail::is_forcing_field<I>)
+    if constexpr (detail::is_potential_field<I>)
       throw InvalidInput("integrator.method: \"exact\" is only available for the free body (no potential)");
     if (system_.size() != 1)
       throw InvalidInput("integrator.method: \"exact\" is the exact flow of one free body; this scenario has " +
@@ -385,28 +385,31 @@ class ExactFreeBodyStepper {
   const SystemEvaluation& evaluation() const { return eval_; }
   const SolveReport& last_solve() const { return report_; }
 
-  /// {k, k_base, x0 (3), q0 (4, scalar first), p0 (3), w0 (3)} once stepped
-  /// (the step count and the state at step k_base), {} before: what a
-  /// bit-identical resume needs.
+  /// {k, k_base, x0 (3), q0 (4, scalar first), p0 (3), w0 (3)}: the step
+  /// count and the state at step k_base, what a bit-identical resume needs.
+  /// Once stepped, the flow's; resumed and not stepped since, the data
+  /// resumed from ({k} alone as {k, k, the state resumed at}); {} after
+  /// initialize() and before the first step.
   std::vector<double> internal_state() const {
-    if (!flow_) return {};
-    std::vector<double> v{static_cast<double>(k_), static_cast<double>(k_base_)};
-    append_state(v, flow_->at(0.0));
-    return v;
-  }
-  /// Checkpoint fields: "stepper.started" (0 before the first step, then
-  /// nothing else); "stepper.step_count", k and k_base, and
-  /// "stepper.initial_state", the state the flow starts from at step k_base
-  /// (13 numbers: x, q scalar first, p, w).
-  void save(CheckpointFields& out) const {
-    std::vector<double> v = internal_state();
-    if (v.empty() && pending_resume_) {
+    std::vector<double> v;
+    if (flow_) {
+      v = {static_cast<double>(k_), static_cast<double>(k_base_)};
+      append_state(v, flow_->at(0.0));
+    } else if (pending_resume_) {
       v = resume_data_;
-      if (v.size() == 1) {  // resumed from {k} alone and not stepped since: the flow from s at k
+      if (v.size() == 1) {  // the flow from the state resumed at, taken as step k
         v.push_back(v[0]);
         append_state(v, resume_state_);
       }
     }
+    return v;
+  }
+  /// Checkpoint fields: "stepper.started" (0 when internal_state() is empty:
+  /// a fresh start not stepped yet, then nothing else); "stepper.step_count",
+  /// k and k_base, and "stepper.initial_state", the state the flow starts
+  /// from at step k_base (13 numbers: x, q scalar first, p, w).
+  void save(CheckpointFields& out) const {
+    const std::vector<double> v = internal_state();
     out.put_i64("stepper.started", {v.empty() ? 0 : 1});
     if (v.empty()) return;
     out.put_i64("stepper.step_count", {static_cast<std::int64_t>(v[0]), static_cast<std::int64_t>(v[1])});
@@ -448,15 +451,19 @@ class ExactFreeBodyStepper {
                        s.w.y(), s.w.z()});
   }
 
-  /// The first step after initialize() or resume(): fixes h and builds the flow.
+  /// The first step after initialize() or resume(): fixes h and builds the
+  /// flow. On an error nothing changes (a resume stays pending).
   void start(double h) {
     detail::require_valid_step(h);
-    h_ = h;
     if (!pending_resume_) {
-      begin_flow(state0_, 0);
-      return;
+      begin_flow(state0_, 0, 0);
+    } else {
+      resume_flow();
+      pending_resume_ = false;
     }
-    pending_resume_ = false;
+    h_ = h;
+  }
+  void resume_flow() {
     const std::vector<double>& internal = resume_data_;
     if (internal.size() == 15) {
       RigidBodyState s0;
@@ -464,20 +471,20 @@ class ExactFreeBodyStepper {
       s0.q = S3d(internal[5], internal[6], internal[7], internal[8]);
       s0.p = Vector3<double>(internal[9], internal[10], internal[11]);
       s0.w = Vector3<double>(internal[12], internal[13], internal[14]);
-      begin_flow(s0, static_cast<std::int64_t>(internal[1]));
-      k_ = static_cast<std::int64_t>(internal[0]);
+      begin_flow(s0, static_cast<std::int64_t>(internal[1]), static_cast<std::int64_t>(internal[0]));
     } else if (internal.size() == 1) {
-      begin_flow(resume_state_, static_cast<std::int64_t>(internal[0]));
+      begin_flow(resume_state_, static_cast<std::int64_t>(internal[0]), static_cast<std::int64_t>(internal[0]));
     } else {
       throw InvalidInput("checkpoint: exact free body data must hold 1 or 15 numbers, got " +
                          std::to_string(internal.size()));
     }
   }
-  /// The flow from `s`, taken as the state at step k_base = k.
-  void begin_flow(const RigidBodyState& s, std::int64_t k_base) {
+  /// The flow from `s`, taken as the state at step k_base, at step k.
+  void begin_flow(const RigidBodyState& s, std::int64_t k_base, std::int64_t k) {
     if (!s.all_finite()) throw InvalidInput("exact free body: the initial state must be finite");
     flow_.emplace(system_.body(0), s);
-    k_ = k_base_ = k_base;
+    k_base_ = k_base;
+    k_ = k;
   }
 
   System system_;

@@ -8,7 +8,7 @@
 #include <lgvi/error.hpp>
 #include <lgvi/lgvi.hpp>
 #include <lgvi/parallel.hpp>
-#include <lgvi/single_body.hpp>
+#include <lgvi/single_body.hpp>  // not used here: for programs of one body, which include this header
 #include <lgvi/state.hpp>
 #include <lgvi/stepper.hpp>
 #include <lgvi/system.hpp>

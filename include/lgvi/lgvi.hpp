@@ -34,7 +34,7 @@
 //  * (4/h)(f_s J f_v - f_v x J f_v) = pi(f)^T (4/h)(f_s J f_v + f_v x J f_v)
 //    = pi(f)^T (w0 + h M0) holds for |f| = 1 exactly; evaluated as the paper
 //    writes it, the solver's residual and the rounding of |f| (the same each
-//    step for a steady spin) enter w1 as a systematic error, which made the
+//    step for a steady spin) enter w1 as a systematic error, which makes the
 //    angular momentum drift linearly (4e-12 over 1e5 steps on the paper's
 //    orbit, against 3e-13 with the rotated form; see tests/test_lgvi.cpp).
 #pragma once
@@ -48,7 +48,6 @@
 #include <lgvi/rigid_body.hpp>
 #include <lgvi/rotation_solver.hpp>
 #include <lgvi/s3.hpp>
-#include <lgvi/single_body.hpp>
 #include <lgvi/state.hpp>
 #include <lgvi/stepper.hpp>
 #include <lgvi/system.hpp>
@@ -215,7 +214,8 @@ class LieGroupVariationalIntegrator : public detail::ImplicitStepperBase<I, Rota
     // after which each body's state is final: whether it is finite is noted
     // there, on the threads, rather than tested in a serial loop after it;
     // only a failure is examined again, serially, for the same message (the
-    // lowest failing body) as before. Every body is updated either way.
+    // lowest failing body) as a serial test gives. Every body is updated
+    // either way.
     const bool checked = this->forcing().empty();
     this->end_step(
         s, t + h, h,
@@ -328,7 +328,6 @@ class LieGroupVariationalIntegrator : public detail::ImplicitStepperBase<I, Rota
   double load_time_ = 0.0;  ///< the t of load(), for load_extra's checks
 };
 
-
 /// The Lagrangian-side (position-position) form: the paper's discrete
 /// Euler-Lagrange equations
 ///   m (x2 - 2 x1 + x0)/h^2 = F1,
@@ -349,7 +348,7 @@ class LieGroupVariationalIntegrator : public detail::ImplicitStepperBase<I, Rota
 /// Written as 2 x1 - x0 + (h^2/m) F1, the recurrence rounds at the size of x
 /// every step, and that rounding enters the implied velocity (x1 - x0)/h
 /// with a factor 1/h: in the radial free flight of scenarios/paper.toml at
-/// h = 1e-4 the angular momentum error grew like t^2, to 4.7e-7 by t = 200
+/// h = 1e-4 the angular momentum error grows like t^2, to 4.7e-7 by t = 200
 /// (scripts/roundoff_figures.sh; 1.0e-10 in summed form). In summed form the
 /// increment carries its own rounding only (as the Hamiltonian form's
 /// momentum does), x keeps what its sums lose in the base's carry (drift),

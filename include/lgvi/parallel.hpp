@@ -33,7 +33,7 @@ namespace lgvi {
 
 /// How many threads per-body loops use. Loops over fewer than
 /// `min_bodies_per_thread` bodies per thread run serially: below that the
-/// cost of waking threads (a few microseconds) exceeds the work.
+/// cost of waking threads exceeds the work (docs/tuning.md).
 struct Parallelism {
   int threads = 1;
   std::size_t min_bodies_per_thread = 16;

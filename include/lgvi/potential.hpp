@@ -104,8 +104,8 @@ class HeavyTop {
 /// to the gradient term O(size / r), and O((size / r)^2) for a body whose mass
 /// is symmetric about its centre; the model holds for r much larger than the
 /// body (a satellite, not a close pass). `Model::PointMass` drops the gradient
-/// term: a mass + inertia body is then a point mass m at x (no torque), the
-/// model of lgvi before this term; bodies of balls are the same in both.
+/// term: a mass + inertia body is then a point mass m at x (no torque);
+/// bodies of balls are the same in both.
 ///
 /// Close encounters: a ball (or point mass) whose centre reaches the source
 /// makes the evaluation throw StepFailure naming the ball and the distance,

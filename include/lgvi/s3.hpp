@@ -225,7 +225,7 @@ class S3 {
   /// (1 - f_s = |f_v|^2 / (1 + f_s) on S^3). Why: f_s is within ~|f_v|^2 of 1,
   /// where a double's spacing is eps/2, so the stored f_s carries an error of
   /// up to eps/4 and |f| - 1 with it; q f multiplies |q| by |f|. In a steady
-  /// spin f repeats exactly, and so would that error: |q| - 1 grew linearly
+  /// spin f repeats exactly, and so would that error: |q| - 1 would grow linearly
   /// (1e-16 per step in a Lennard-Jones gas, 1.6e-11 after 1e5 steps). Here
   /// the increment f - e is small and carries relative, not absolute,
   /// rounding; what is left is the rounding of the sum q + ..., which varies

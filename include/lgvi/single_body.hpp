@@ -1,10 +1,10 @@
 // One rigid body in a potential V(x, q): the system of one body (N = 1).
 //
 // SingleBody<Method, P> is the N-body stepper Method<ExternalField<P>> on
-// System(body), built from the body and its potential. It is that stepper
-// (the same class, the same arithmetic, the same contract: SystemStepper in
-// stepper.hpp, step(state, t, h) with the step size on every call) with two
-// accessors for the one body. Its state is a SystemState of one body:
+// System(body), built from the body and its potential: derived from that
+// stepper and adding only a constructor and two accessors for the one body
+// (the same arithmetic and the same contract: SystemStepper in stepper.hpp,
+// step(state, t, h) with the step size on every call). Its state is a SystemState of one body:
 // SystemState(RigidBodyState) makes one, state.body(0) reads it back, and an
 // observer reads i.state.body(0) and i.evaluation.body(0).
 #pragma once

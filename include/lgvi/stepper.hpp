@@ -29,7 +29,10 @@ namespace lgvi {
 
 /// A stepper for N bodies.
 ///  * initialize(state, t): evaluate the potential at `state` (time t);
-///  * step(state, t, h): advance `state` from t to t + h in place;
+///  * step(state, t, h): advance `state` from t to t + h in place; h is not
+///    checked here, since a composition's sub-steps gamma_i h can be negative
+///    (composition.hpp); the run loop (integrate.hpp) refuses a step size that
+///    is not finite and > 0;
 ///  * evaluation(): V, forces and torques at the current state, no extra cost;
 ///  * last_solve(): the implicit solves of the last step (zero if explicit);
 ///  * save(fields) / load(state, t, fields): what a checkpoint keeps besides
@@ -75,7 +78,7 @@ inline void require_valid_step(double h) {
 }
 
 /// "body a ("name"): " for systems of more than one body, "" for one body
-/// (whose messages stay as they were).
+/// (whose messages need not name it).
 inline std::string body_prefix(const System& sys, std::size_t a) {
   if (sys.size() == 1) return {};
   return "body " + std::to_string(a) + " (\"" + sys.name(a) + "\"): ";

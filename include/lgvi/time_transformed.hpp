@@ -38,14 +38,13 @@
 // evaluation as the next step's first kick): through the paper's close pass
 // (p0 = (1, 0, 0), c = 0.4) kick-drift-kick's energy error peaks 30 times
 // higher at eps = 0.02 (1.9e-3 against 6.4e-5) and needs eps = 0.01, with
-// twice the steps, to come near; drift-kick-drift reproduces the issue's
-// prototype (76 693 steps, 6.4e-5) exactly. Its cost per step: two rotation
-// solves per body and two evaluations, one at the midpoint for the kick and
-// one at the new state for its V, F and M (evaluation(), the stepper
-// contract: the energy of the reported state). No implicit equation for the
-// step size. Forcing is not taken (it would need the work in the extended
-// Hamiltonian); the caller refuses fields whose V can be positive, where
-// U = -V does not measure closeness.
+// twice the steps, to come near (drift-kick-drift's runs: docs/benchmarks.md).
+// Its cost per step: two rotation solves per body and two evaluations, one at
+// the midpoint for the kick and one at the new state for its V, F and M
+// (evaluation(), the stepper contract: the energy of the reported state). No
+// implicit equation for the step size. Forcing is not taken (it would need the
+// work in the extended Hamiltonian); the caller refuses fields whose V can be
+// positive, where U = -V does not measure closeness.
 //
 // Compositions: the step is a symmetric one-step map of the extended phase
 // space, so a symmetric composition (composition.hpp) of sub-steps gamma_i eps

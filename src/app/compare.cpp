@@ -392,7 +392,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
                        "steps it; the other methods and the references would treat it as a rigid body): use lgvi run");
   const bool system = is_system(base);
   // A system's table lists the methods that cannot run it, saying why; a single body's comparison refuses
-  // them as before. Either way, at least one method must run.
+  // them. Either way, at least one method must run.
   std::map<MethodChoice, std::string> unable;
   std::vector<MethodChoice> runnable;
   for (const MethodChoice& m : opt.methods) {

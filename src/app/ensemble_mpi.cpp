@@ -10,18 +10,17 @@
 // reserve, worker_loop), each carrying its last row (or nothing); rank 0
 // answers each with WORK (a member index) or STOP. So each member costs two
 // messages (a few more while a worker fills its reserve), and rank 0's work per member is
-// one receive, one send and one append (~10 us): one coordinator keeps up
-// with K ranks while a member takes more than K x 10 us (a member of 1e4
-// paper-orbit steps takes 2.2 ms: ~200 ranks; beyond, members should be made
-// longer or handed out in blocks).
+// one receive, one send and one append: one coordinator keeps up with K ranks
+// while a member takes more than K times that (the estimate:
+// docs/guide/ensembles.md); beyond, members should be made longer or handed
+// out in blocks.
 //
 // Every send is non-blocking (Outbox). Open MPI's blocking MPI_Send of a
-// small message was seen (gdb samples of a worker) waiting in
-// ompi_sync_wait_mt, spinning, until the receiver next entered MPI: a worker
-// sending its row waited for rank 0's coordinator, which sleeps between polls
-// and shares a core with rank 0's member runs (so it is woken late); rank 0
-// replying waited for a worker busy in a member. Those spins took ~11 % of
-// the worker's core (perf, 4096 members of 1e4 steps, mpirun -n 2).
+// small message waits in ompi_sync_wait_mt, spinning, until the receiver next
+// enters MPI: a worker sending its row would wait for rank 0's coordinator,
+// which sleeps between polls and shares a core with rank 0's member runs (so
+// it is woken late); rank 0 replying would wait for a worker busy in a member
+// (measured: docs/benchmarks.md, "Ensembles: overhead and scaling").
 #include "app/ensemble.hpp"
 
 #include <lgvi/error.hpp>
@@ -366,8 +365,8 @@ int run_ensemble_mpi(const std::string& sweep_path, const EnsembleOptions& opt) 
     if (!flag) {
       // Open MPI's blocking receive spins a core, which rank 0 shares with its member runs.
       // Workers keep ~10 ms of members in reserve (worker_loop), so a reply a few ms late costs
-      // them nothing; polling more often took CPU from rank 0's member runs (500/s here, against
-      // 2000/s at 0.5 ms: 4096 members of 1e4 steps, 663 -> 684 members/s).
+      // them nothing; polling more often takes CPU from rank 0's member runs (500/s here; measured:
+      // docs/tuning.md).
       std::this_thread::sleep_for(std::chrono::milliseconds(2));
       continue;
     }

@@ -232,8 +232,8 @@ PotentialSpec read_potential(const Reader& r, const toml::table& root) {
     r.only_keys(t, "potential", {"kind", "mu", "stop_at_contact", "j2", "reference_radius", "pole", "model"});
     p.kind = PotentialKind::Central;
     // How a body given by mass + inertia feels the field: "extended" (default), its
-    // second-order (gravity-gradient) potential; "point", a point mass (lgvi before
-    // that model). Balls are point masses in both.
+    // second-order (gravity-gradient) potential; "point", a point mass. Balls are
+    // point masses in both.
     if (t.contains("model")) p.point_masses = r.string(t, "potential", "model", {"extended", "point"}) == "point";
     if (const toml::node* n = t.get("stop_at_contact")) {
       if (!n->is_boolean()) r.fail("potential.stop_at_contact", "must be true or false");

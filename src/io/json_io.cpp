@@ -15,8 +15,8 @@ bool named(const std::vector<std::string_view>& names, const std::string& key) {
 }
 
 /// A number, string, boolean or null. nlohmann's dump would write a double
-/// as its shortest round-trip text ("0.1") and NaN as null; lgvi's files have
-/// always had json_number's 17 digits ("0.10000000000000001").
+/// as its shortest round-trip text ("0.1") and NaN as null; lgvi's files
+/// have json_number's 17 digits ("0.10000000000000001").
 std::string leaf_text(const Json& j) {
   if (j.is_number_float()) return json_number(j.get<double>());
   return j.dump(-1, ' ', false, Json::error_handler_t::replace);

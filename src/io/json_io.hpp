@@ -1,6 +1,6 @@
 // lgvi's JSON files (summary.json): nlohmann::ordered_json documents, written
-// in the layout and with the number text lgvi's files have always had, and
-// read back with one-line errors.
+// in lgvi's layout and with its number text (json_number's), and read back
+// with one-line errors.
 #pragma once
 
 #include <cstdio>

@@ -133,8 +133,7 @@ std::string float_text(double x) {
 /// takes no other character outside a comment): the escapes TOML and JSON
 /// share (\" \\ \b \t \n \f \r, other control characters and DEL as
 /// \u00XX), and every character beyond ASCII as its code point, \uXXXX or
-/// \UXXXXXXXX (an invalid UTF-8 byte as U+FFFD), as json.dumps wrote for
-/// the package before.
+/// \UXXXXXXXX (an invalid UTF-8 byte as U+FFFD).
 std::string basic_string_text(std::string_view text) {
   constexpr char hex[] = "0123456789abcdef";
   std::string out = "\"";

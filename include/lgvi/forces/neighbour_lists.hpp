@@ -110,9 +110,9 @@ inline std::size_t decode_partners(std::size_t i, const std::uint8_t* in, const 
 /// places the set's next array after the previous one, each on a 64-byte
 /// line. The buffer is kept between sets, not freed: its pages are taken
 /// from the system once rather than at every build, and the memory one set
-/// frees does not stay in the heap apart from the next (with glibc's malloc
-/// it did, on two threads: 130 MB more peak memory at 10^6 molecules;
-/// docs/benchmarks.md). Copies copy the bytes in use.
+/// frees does not stay in the heap apart from the next (glibc's malloc, on
+/// two threads, would keep it if it were freed; measured: docs/benchmarks.md).
+/// Copies copy the bytes in use.
 class ArrayWorkspace {
  public:
   ArrayWorkspace() = default;

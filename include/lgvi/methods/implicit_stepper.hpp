@@ -168,11 +168,12 @@ class ImplicitStepperBase : public StepperBase<I> {
 
   /// p_half = p0 + (h/2) F0 and x1 = x0 + (h/m) p_half for body a, x1 as a
   /// compensated (Kahan) sum: in free flight the increment is the same every
-  /// step, and so was the rounding of x0 + increment (within a binade the sum
-  /// has the same fraction of an ulp each time), so x drifted linearly and
-  /// x x p with it: the angular momentum of a Lennard-Jones gas grew to 1e-11
-  /// of its terms over 1e5 steps. The carry holds what the last sum lost and
-  /// is added back to the next increment (checkpointed: internal_state).
+  /// step, and so is the rounding of a plain x0 + increment (within a binade
+  /// the sum has the same fraction of an ulp each time), so x would drift
+  /// linearly and x x p with it: the angular momentum of a Lennard-Jones gas
+  /// would grow to 1e-11 of its terms over 1e5 steps. The carry holds what the
+  /// last sum lost and is added back to the next increment (checkpointed:
+  /// internal_state).
   void drift(SystemState& s, std::size_t a, double h) {
     p_half_[a] = s.p[a] + (0.5 * h) * this->force(a);
     add_to_position(s.x[a], a, (h / this->system_.body(a).mass()) * p_half_[a]);

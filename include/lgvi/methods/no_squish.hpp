@@ -89,7 +89,7 @@ class NoSquishIntegrator : public detail::ExplicitStepperBase<I> {
       // (0, w) = S(q)^{-1} P = S(q)^T P / |q|^2. The rotations keep |q| = 1 only
       // to rounding; dividing by the |q|^2 it has keeps w -> P -> w the identity,
       // where S(q)^T alone would scale w by |q|^2 every step, a systematic drift
-      // (|q| - 1 persists between steps) that broke the reversibility test
+      // (|q| - 1 persists between steps) that would break the reversibility test
       // (7e-11 instead of 5e-14 after 1000 steps forward and back).
       s.w[a] = (S(q).transpose() * mom_[a]).template tail<3>() / q.squaredNorm();
     });

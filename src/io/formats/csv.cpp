@@ -18,10 +18,11 @@ namespace lgvi::io {
 namespace {
 
 /// CSV: rows printed with 17 significant digits (%.17g: every double
-/// round-trips exactly). Formatting 17 digits costs ~60 ns a number, as much
-/// as the integration itself on the paper's run, so rows are collected in
-/// blocks and a second thread formats and writes each block while the
-/// integration goes on (double buffering). The bytes do not depend on timing.
+/// round-trips exactly). Formatting 17 digits costs as much as the
+/// integration itself on the paper's run (docs/tuning.md), so rows are
+/// collected in blocks and a second thread formats and writes each block
+/// while the integration goes on (double buffering). The bytes do not depend
+/// on timing.
 class CsvTrajectory final : public TrajectorySink {
  public:
   CsvTrajectory(const std::string& path, const TrajectoryLayout& layout, const SinkPosition* resume)
