@@ -4,7 +4,7 @@
 #   2. clang-tidy over the project's sources, clean (scripts/tidy.sh);
 #   3. the libFuzzer target, bounded to LGVI_FUZZ_SECONDS (default 60) (scripts/fuzz.sh);
 #   4. the C++ and command-line tests again under AddressSanitizer +
-#      UndefinedBehaviorSanitizer (build-asan/), with zero reports allowed;
+#      UndefinedBehaviorSanitizer (build-asan/, clang), with zero reports allowed;
 #   5. every test through ctest (GoogleTest, command-line, pytest with
 #      /usr/bin/python3, downstream find_package, the view and the documentation site
 #      (scripts/docs.sh, -W) in headless chromium).
@@ -16,9 +16,15 @@ scripts/setup.sh
 if [[ "${LGVI_QUICK:-0}" != 1 ]]; then
   scripts/tidy.sh
   scripts/fuzz.sh "${LGVI_FUZZ_SECONDS:-60}"
-  echo "lgvi: building and running the tests under ASan + UBSan (build-asan/)"
-  cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=None "-DCMAKE_CXX_FLAGS=-O1 -g1" -DLGVI_SANITIZE=ON -DLGVI_BUILD_BENCHMARKS=OFF -DLGVI_MPI=OFF \
-    -DLGVI_BUILD_PYTHON=OFF >/dev/null
+  echo "lgvi: building and running the tests under ASan + UBSan (build-asan/, clang)"
+  # clang, as the fuzz stage: it compiles this code under the sanitizers in about 0.6 of g++'s time
+  # (docs/benchmarks.md, "The test suite's time"). A build-asan/ configured with another compiler is
+  # started afresh.
+  if [[ -f build-asan/CMakeCache.txt ]] && ! grep -q '^CMAKE_CXX_COMPILER:[A-Z]*=.*clang++' build-asan/CMakeCache.txt; then
+    rm -rf build-asan
+  fi
+  cmake -S . -B build-asan -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=None \
+    "-DCMAKE_CXX_FLAGS=-O1 -g1" -DLGVI_SANITIZE=ON -DLGVI_BUILD_BENCHMARKS=OFF -DLGVI_MPI=OFF -DLGVI_BUILD_PYTHON=OFF >/dev/null
   cmake --build build-asan -j"$jobs" >build-asan.log 2>&1 || { tail -40 build-asan.log; exit 1; }
   # Not under the sanitizers: the Python extension and the downstream build (outside what they
   # instrument), and the view's browser tests (their time is chromium's: lgvi view's C++ side only
@@ -26,9 +32,10 @@ if [[ "${LGVI_QUICK:-0}" != 1 ]]; then
   # paper run's figures exercise here). The command-line paths that the pytest files drive run
   # against the sanitized binaries as the ctest test sanitized.cli_pytest (tests/CMakeLists.txt),
   # beside the C++ tests.
-  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
+  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+    LSAN_OPTIONS="suppressions=$(pwd)/scripts/lsan-suppressions.txt:print_suppressions=0"
   (cd build-asan && ctest -j"$jobs" -E "^(python|downstream|view)\." --output-on-failure)
-  unset ASAN_OPTIONS UBSAN_OPTIONS
+  unset ASAN_OPTIONS UBSAN_OPTIONS LSAN_OPTIONS
 fi
 cd build
 ctest --output-on-failure -j"$jobs"

@@ -114,8 +114,10 @@ class Box {
   const Vector3<double>& plain_bound() const { return plain_bound_; }
   /// Whether a component of d is beyond plain_bound(): only then is its
   /// minimum image another than d + 0.0, and reduce() needed.
+  /// (The three tests are or-ed bitwise, as ints: no branch per component in the pair loops.)
   bool beyond_plain(double dx, double dy, double dz) const {
-    return (std::fabs(dx) > plain_bound_(0)) | (std::fabs(dy) > plain_bound_(1)) | (std::fabs(dz) > plain_bound_(2));
+    return (static_cast<int>(std::fabs(dx) > plain_bound_(0)) | static_cast<int>(std::fabs(dy) > plain_bound_(1)) |
+            static_cast<int>(std::fabs(dz) > plain_bound_(2))) != 0;
   }
   /// d as its minimum image where a component is beyond plain_bound()
   /// (reduce()'s operations, so its bits), else left as it is (the same
