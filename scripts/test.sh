@@ -12,10 +12,19 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc 2>/dev/null || echo 2)
+# Each stage's wall time, printed as it ends (docs/benchmarks.md, "The test suite's time").
+stage_start=$SECONDS
+stage_done() {
+  echo "lgvi: $1: $((SECONDS - stage_start)) s"
+  stage_start=$SECONDS
+}
 scripts/setup.sh
+stage_done "setup and build"
 if [[ "${LGVI_QUICK:-0}" != 1 ]]; then
   scripts/tidy.sh
+  stage_done "clang-tidy"
   scripts/fuzz.sh "${LGVI_FUZZ_SECONDS:-60}"
+  stage_done "fuzz build and run"
   echo "lgvi: building and running the tests under ASan + UBSan (build-asan/, clang)"
   # clang, as the fuzz stage: it compiles this code under the sanitizers in about 0.6 of g++'s time
   # (docs/benchmarks.md, "The test suite's time"). A build-asan/ configured with another compiler is
@@ -26,6 +35,7 @@ if [[ "${LGVI_QUICK:-0}" != 1 ]]; then
   cmake -S . -B build-asan -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=None \
     "-DCMAKE_CXX_FLAGS=-O1 -g1" -DLGVI_SANITIZE=ON -DLGVI_BUILD_BENCHMARKS=OFF -DLGVI_MPI=OFF -DLGVI_BUILD_PYTHON=OFF >/dev/null
   cmake --build build-asan -j"$jobs" >build-asan.log 2>&1 || { tail -40 build-asan.log; exit 1; }
+  stage_done "sanitized build"
   # Not under the sanitizers: the Python extension and the downstream build (outside what they
   # instrument), and the view's browser tests (their time is chromium's: lgvi view's C++ side only
   # assembles the arguments of `python3 -m lgvi.viewer` and runs it through run_python, which the
@@ -36,6 +46,8 @@ if [[ "${LGVI_QUICK:-0}" != 1 ]]; then
     LSAN_OPTIONS="suppressions=$(pwd)/scripts/lsan-suppressions.txt:print_suppressions=0"
   (cd build-asan && ctest -j"$jobs" -E "^(python|downstream|view)\." --output-on-failure)
   unset ASAN_OPTIONS UBSAN_OPTIONS LSAN_OPTIONS
+  stage_done "sanitized tests"
 fi
 cd build
 ctest --output-on-failure -j"$jobs"
+stage_done "tests"
