@@ -518,35 +518,6 @@ struct Recorder {
     throw IntegrationFailure(step, t, cause);
   }
 
-  /// Body a's terms of the run's diagnostics (operator()), each a function of
-  /// body a alone, so the same bits on any thread: its kinetic energy, its
-  /// angular momentum x_a x p_a + R_a pi_a (pi_a = w_a / 2) and spin R_a pi_a,
-  /// |q_a| - 1, and its rotational energy (a gyrostat's kinetic energy less
-  /// the translational part).
-  struct BodyTerms {
-    double kinetic, norm_error, rotational;
-    Vector3<double> momentum, spin;
-  };
-  BodyTerms body_terms(const SystemState& s, std::size_t a) const {
-    const System& sys = scenario.system;
-    BodyTerms t;
-    t.kinetic = kinetic_energy(s, sys, a);
-    const Vector3<double> pi = 0.5 * s.w[a];
-    t.spin = s.q[a].act(pi);
-    t.momentum = s.x[a].cross(s.p[a]) + t.spin;
-    t.norm_error = s.q[a].norm_error();
-    t.rotational = sys.body(a).has_wheels() ? t.kinetic - s.p[a].squaredNorm() / (2.0 * sys.body(a).mass())
-                                            : 0.5 * pi.dot(sys.body(a).inertia_inverse() * pi);
-    return t;
-  }
-  /// The diagnostics' threads: the scenario's, on at least 1024 bodies a
-  /// thread (a body's terms take tens of nanoseconds, waking a thread some
-  /// microseconds), in chunks of diagnostics_chunk bodies (their terms held
-  /// at once: 0.6 MB, not an array over every body).
-  Parallelism diagnostics_par = {scenario_parallelism(scenario).threads, 1024};
-  static constexpr std::size_t diagnostics_chunk = 8192;
-  std::vector<BodyTerms> terms = {};
-
   void operator()(const SystemStepInfo& i) {
     const SystemState& s = i.state;
     const bool contact_stop = i.k > 0 && contact.observe(i.k, i.t, s);
@@ -554,35 +525,31 @@ struct Recorder {
     // Every diagnostic in one pass over the bodies (not one pass each), each
     // sum in body order from body 0's term as total_energy, angular_momentum
     // and linear_momentum (system.hpp) take them: the same values, bit for bit.
+    const System& sys = scenario.system;
     double kinetic = 0.0, rot_energy = 0.0, dq = 0.0;
     Vector3<double> L = Vector3<double>::Zero(), P = Vector3<double>::Zero(), spin = Vector3<double>::Zero();
-    auto add = [&](std::size_t a, const BodyTerms& t) {
+    for (std::size_t a = 0; a < n; ++a) {
+      const double ke = kinetic_energy(s, sys, a);
+      // The spin R_a pi_a, pi_a = w_a / 2: the rotational part of
+      // angular_momentum(body), x_a x p_a + R_a (w_a / 2), and the spin's sum.
+      const Vector3<double> pi = 0.5 * s.w[a];
+      const Vector3<double> spin_a = s.q[a].act(pi);
+      const Vector3<double> la = s.x[a].cross(s.p[a]) + spin_a;
+      const double dq_a = s.q[a].norm_error();
       if (a == 0) {
-        kinetic = t.kinetic;
-        L = t.momentum;
+        kinetic = ke;
+        L = la;
         P = s.p[0];
-        dq = t.norm_error;
+        dq = dq_a;
       } else {
-        kinetic += t.kinetic;
-        L += t.momentum;
+        kinetic += ke;
+        L += la;
         P += s.p[a];
-        if (std::abs(t.norm_error) > std::abs(dq)) dq = t.norm_error;
+        if (std::abs(dq_a) > std::abs(dq)) dq = dq_a;
       }
-      rot_energy += t.rotational;
-      spin += t.spin;
-    };
-    // On several threads the terms of a chunk of bodies are computed in
-    // parallel, then added in body order on this thread: the same sums.
-    const Parallelism& par = diagnostics_par;
-    if (par.threads_for(n) <= 1) {
-      for (std::size_t a = 0; a < n; ++a) add(a, body_terms(s, a));
-    } else {
-      for (std::size_t c0 = 0; c0 < n; c0 += diagnostics_chunk) {
-        const std::size_t count = std::min(diagnostics_chunk, n - c0);
-        terms.resize(count);
-        parallel_for(count, par, [&](std::size_t k) { terms[k] = body_terms(s, c0 + k); });
-        for (std::size_t k = 0; k < count; ++k) add(c0 + k, terms[k]);
-      }
+      rot_energy += sys.body(a).has_wheels() ? ke - s.p[a].squaredNorm() / (2.0 * sys.body(a).mass())
+                                             : 0.5 * pi.dot(sys.body(a).inertia_inverse() * pi);
+      spin += spin_a;
     }
     const double energy = kinetic + i.evaluation.energy;  // total_energy(s, sys, i.evaluation)
     if (i.k == 0) {
