@@ -399,7 +399,7 @@ class ExactFreeBodyStepper {
       v = resume_data_;
       if (v.size() == 1) {  // the flow from the state resumed at, taken as step k
         v.push_back(v[0]);
-        append_state(v, resume_state_);
+        append_state(v, state0_);
       }
     }
     return v;
@@ -440,8 +440,7 @@ class ExactFreeBodyStepper {
     initialize(s, t);
     if (internal.empty()) return;
     resume_data_ = internal;
-    pending_resume_ = true;
-    resume_state_ = s.body(0);
+    pending_resume_ = true;  // (initialize() took s's body as state0_: the state resumed at)
   }
 
  private:
@@ -473,7 +472,7 @@ class ExactFreeBodyStepper {
       s0.w = Vector3<double>(internal[12], internal[13], internal[14]);
       begin_flow(s0, static_cast<std::int64_t>(internal[1]), static_cast<std::int64_t>(internal[0]));
     } else if (internal.size() == 1) {
-      begin_flow(resume_state_, static_cast<std::int64_t>(internal[0]), static_cast<std::int64_t>(internal[0]));
+      begin_flow(state0_, static_cast<std::int64_t>(internal[0]), static_cast<std::int64_t>(internal[0]));
     } else {
       throw InvalidInput("checkpoint: exact free body data must hold 1 or 15 numbers, got " +
                          std::to_string(internal.size()));
@@ -494,7 +493,7 @@ class ExactFreeBodyStepper {
   double h_ = 0.0;  ///< the step size, fixed by the first step
   std::optional<ExactFreeRigidBody> flow_;  ///< the flow from the state at step k_base_ (empty before the first step)
   std::int64_t k_ = 0, k_base_ = 0;
-  RigidBodyState state0_, resume_state_;
+  RigidBodyState state0_;  ///< the state given to initialize() or resume()
   std::vector<double> resume_data_;
   bool pending_resume_ = false;
 };

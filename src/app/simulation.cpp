@@ -529,7 +529,20 @@ struct Recorder {
     double kinetic = 0.0, rot_energy = 0.0, dq = 0.0;
     Vector3<double> L = Vector3<double>::Zero(), P = Vector3<double>::Zero(), spin = Vector3<double>::Zero();
     for (std::size_t a = 0; a < n; ++a) {
-      const double ke = kinetic_energy(s, sys, a);
+      const RigidBody& body = sys.body(a);
+      // kinetic_energy(s, sys, a), written out: p^2 / 2m + w . (J^-1 w) / 8,
+      // whose second term is the rotational energy 1/2 pi . (J^-1 pi), pi = w / 2
+      // (the same number: halving is exact, short of subnormal terms). With
+      // wheels, the gyrostat's (Wheels::kinetic_energy), less p^2 / 2m.
+      const double translational = s.p[a].squaredNorm() / (2.0 * body.mass());
+      double ke = 0.0, rot = 0.0;
+      if (!body.has_wheels()) {
+        rot = s.w[a].dot(body.inertia_inverse() * s.w[a]) / 8.0;
+        ke = translational + rot;
+      } else {
+        ke = kinetic_energy(s, sys, a);
+        rot = ke - translational;
+      }
       // The spin R_a pi_a, pi_a = w_a / 2: the rotational part of
       // angular_momentum(body), x_a x p_a + R_a (w_a / 2), and the spin's sum.
       const Vector3<double> pi = 0.5 * s.w[a];
@@ -547,8 +560,7 @@ struct Recorder {
         P += s.p[a];
         if (std::abs(dq_a) > std::abs(dq)) dq = dq_a;
       }
-      rot_energy += sys.body(a).has_wheels() ? ke - s.p[a].squaredNorm() / (2.0 * sys.body(a).mass())
-                                             : 0.5 * pi.dot(sys.body(a).inertia_inverse() * pi);
+      rot_energy += rot;
       spin += spin_a;
     }
     const double energy = kinetic + i.evaluation.energy;  // total_energy(s, sys, i.evaluation)
