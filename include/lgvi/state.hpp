@@ -43,9 +43,15 @@ inline RotationMatrixState project(const RigidBodyState& s, const RigidBody& bod
   return {s.x, s.q.matrix(), s.p / body.mass(), 0.5 * body.inertia_inverse() * s.w};
 }
 
+/// Rotational kinetic energy Omega^T J Omega / 2 = w^T J^{-1} w / 8 of a
+/// body with momentum w (= pi^T J^{-1} pi / 2, body angular momentum pi = w / 2).
+inline double rotational_kinetic_energy(const Vector3<double>& w, const RigidBody& body) {
+  return w.dot(body.inertia_inverse() * w) / 8.0;
+}
+
 /// Kinetic energy |p|^2/(2m) + Omega^T J Omega / 2 = |p|^2/(2m) + w^T J^{-1} w / 8.
 inline double kinetic_energy(const RigidBodyState& s, const RigidBody& body) {
-  return s.p.squaredNorm() / (2.0 * body.mass()) + s.w.dot(body.inertia_inverse() * s.w) / 8.0;
+  return s.p.squaredNorm() / (2.0 * body.mass()) + rotational_kinetic_energy(s.w, body);
 }
 
 /// Total energy, with V from an evaluation at the same state.

@@ -530,14 +530,13 @@ struct Recorder {
     Vector3<double> L = Vector3<double>::Zero(), P = Vector3<double>::Zero(), spin = Vector3<double>::Zero();
     for (std::size_t a = 0; a < n; ++a) {
       const RigidBody& body = sys.body(a);
-      // kinetic_energy(s, sys, a), written out: p^2 / 2m + w . (J^-1 w) / 8,
-      // whose second term is the rotational energy 1/2 pi . (J^-1 pi), pi = w / 2
-      // (the same number: halving is exact, short of subnormal terms). With
-      // wheels, the gyrostat's (Wheels::kinetic_energy), less p^2 / 2m.
+      // kinetic_energy(s, sys, a) as its two terms, p^2 / 2m and the rotational
+      // energy (state.hpp: the same operations, so the same bits); with wheels,
+      // the gyrostat's (Wheels::kinetic_energy), less p^2 / 2m.
       const double translational = s.p[a].squaredNorm() / (2.0 * body.mass());
       double ke = 0.0, rot = 0.0;
       if (!body.has_wheels()) {
-        rot = s.w[a].dot(body.inertia_inverse() * s.w[a]) / 8.0;
+        rot = rotational_kinetic_energy(s.w[a], body);
         ke = translational + rot;
       } else {
         ke = kinetic_energy(s, sys, a);
