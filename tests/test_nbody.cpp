@@ -353,11 +353,18 @@ TEST(LennardJonesPairs, VectorizedTermsAreTheScalarFormulaBitForBit) {
   dy.push_back(0.0);
   dz.push_back(0.0);
   std::vector<double> fx(dx.size()), fy(dx.size()), fz(dx.size()), energy(dx.size());
-  ASSERT_TRUE(lgvi::detail::pair_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), nullptr, fx.data(), fy.data(), fz.data(),
-                                       energy.data()));
+  auto terms = [&](double plain_radius2) {
+    return lgvi::detail::pair_terms(dx.size(), c, plain_radius2, dx.data(), dy.data(), dz.data(), nullptr, fx.data(),
+                                    fy.data(), fz.data(), energy.data());
+  };
+  const double unbounded = std::numeric_limits<double>::infinity();
+  ASSERT_TRUE(terms(unbounded).finite);
+  EXPECT_TRUE(terms(unbounded).plain);
   int inside = 0;
+  double largest_r2 = 0.0;
   for (std::size_t k = 0; k < dx.size(); ++k) {
     const double r2 = (dx[k] * dx[k] + dy[k] * dy[k]) + dz[k] * dz[k];
+    largest_r2 = std::max(largest_r2, r2);
     const double sr2 = sigma * sigma / r2, sr6 = sr2 * sr2 * sr2, sr12 = sr6 * sr6;
     const bool in = r2 < cutoff * cutoff;
     inside += in ? 1 : 0;
@@ -369,10 +376,17 @@ TEST(LennardJonesPairs, VectorizedTermsAreTheScalarFormulaBitForBit) {
   }
   EXPECT_GT(inside, 20);
   EXPECT_LT(inside, 200);
+  // `plain`: every r^2 strictly below the bound, the vectorized r^2 the
+  // scalar one's bits (a bound at the largest r^2 is not met; the next
+  // double above it is).
+  EXPECT_FALSE(terms(largest_r2).plain);
+  EXPECT_TRUE(terms(std::nextafter(largest_r2, unbounded)).plain);
   // A separation of zero (two sites on top of each other) is reported.
   dx[7] = dy[7] = dz[7] = 0.0;
-  EXPECT_FALSE(lgvi::detail::pair_terms(dx.size(), c, dx.data(), dy.data(), dz.data(), nullptr, fx.data(), fy.data(), fz.data(),
-                                        energy.data()));
+  EXPECT_FALSE(terms(unbounded).finite);
+  // A NaN separation is neither finite nor plain.
+  dx[9] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(terms(unbounded).plain);
 }
 
 TEST(LennardJonesPairs, ForcesTorquesAndEnergyEqualADirectSumOverAllPairs) {

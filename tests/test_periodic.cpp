@@ -109,6 +109,28 @@ TEST(Box, WrapPutsAPositionInTheBoxAndCountsItsTurns) {
   EXPECT_EQ(top.image[0], 1);
 }
 
+TEST(Box, ASeparationWithinThePlainRadiusIsItsOwnMinimumImage) {
+  // plain_radius2() is the smallest plain_bound()^2 (the shortest periodic
+  // axis's): a separation whose rounded r^2 is below it has every component
+  // within plain_bound(), so its minimum image is d + 0.0; one with a
+  // component just beyond its axis's bound has r^2 at least that.
+  const Box box(V3(-1.5, 0.25, 3.0), V3(2.5, 7.25, 4.0), {true, true, false});  // periods 4 and 7, z open
+  const double b = box.plain_bound()(0);
+  EXPECT_EQ(box.plain_radius2(), b * b);
+  EXPECT_EQ(Box().plain_radius2(), std::numeric_limits<double>::infinity());
+  for (int trial = 0; trial < 1000; ++trial) {
+    const V3 d = t::random_vector(6.0);
+    const double r2 = (d(0) * d(0) + d(1) * d(1)) + d(2) * d(2);
+    if (r2 < box.plain_radius2()) {
+      EXPECT_FALSE(box.beyond_plain(d(0), d(1), d(2))) << d.transpose();
+      EXPECT_EQ(box.minimum_image(d), V3(d + V3::Zero())) << d.transpose();
+    }
+  }
+  const double over = std::nextafter(b, 10.0);  // x just beyond its bound, nothing else
+  EXPECT_TRUE(box.beyond_plain(over, 0.0, 0.0));
+  EXPECT_FALSE(over * over < box.plain_radius2());
+}
+
 TEST(Box, RefusesAnEmptyOrUnboundedBox) {
   EXPECT_THROW(Box(V3(0, 0, 0), V3(1, 0, 1), {true, true, true}), lgvi::InvalidInput);
   EXPECT_THROW(Box(V3(0, 0, 0), V3(1, 1, std::numeric_limits<double>::infinity()), {true, true, true}),

@@ -72,6 +72,7 @@ class Box {
         length_(k) = length;
         inverse_length_(k) = 1.0 / length;
         plain_bound_(k) = 0.5 * length * (1.0 - 0x1p-20);
+        plain_radius2_ = std::min(plain_radius2_, plain_bound_(k) * plain_bound_(k));
       }
     }
     any_periodic_ = periodic[0] || periodic[1] || periodic[2];
@@ -112,6 +113,12 @@ class Box {
   /// Just below L_k / 2 along a periodic axis, so that d_k / L_k, rounded, is
   /// below 1/2 however it rounds; infinity along an open one.
   const Vector3<double>& plain_bound() const { return plain_bound_; }
+  /// The smallest plain_bound()^2 (as rounded: b * b), infinity in free
+  /// space: a separation d whose (dx^2 + dy^2) + dz^2, rounded, is below it
+  /// has no component beyond plain_bound() (if |d_k| > b_k, the rounded
+  /// squares and their rounded sum are at least b_k * b_k, rounding being
+  /// monotonic). One test on r^2 where a pair loop has it anyway.
+  double plain_radius2() const { return plain_radius2_; }
   /// Whether a component of d is beyond plain_bound(): only then is its
   /// minimum image another than d + 0.0, and reduce() needed.
   /// (The three tests are or-ed bitwise, as ints: no branch per component in the pair loops.)
@@ -195,6 +202,7 @@ class Box {
   bool any_periodic_ = false;
   Vector3<double> length_ = Vector3<double>::Zero(), inverse_length_ = Vector3<double>::Zero();
   Vector3<double> plain_bound_ = Vector3<double>::Constant(std::numeric_limits<double>::infinity());
+  double plain_radius2_ = std::numeric_limits<double>::infinity();
   Vector3<double> below_upper_ = Vector3<double>::Zero();  ///< the largest double below upper, per axis (wrap)
 };
 

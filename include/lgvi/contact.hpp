@@ -270,17 +270,31 @@ class ContactDetector {
     std::sort(cells_.begin(), cells_.end());
     auto by_cell = [](const std::pair<Cell, std::size_t>& e, const Cell& c) { return e.first < c; };
     // Calls visit(v) for every proxy v of level l that may meet proxy u (in
-    // the 27 cells about u's own cell of that level).
+    // the 27 cells about u's own cell of that level), cell by cell in the
+    // order dx, dy, dz = -1, 0, 1. The three cells of a column (dz) are
+    // consecutive in cells_ where their z indices are (no wrap): one search
+    // finds the column, whose proxies then come in that order.
     auto near = [&](std::size_t u, int l, auto&& visit) {
       const Cell home = cell_of(centre_[u], l);
+      const std::int64_t z0 = neighbour(home, -1, 2), z1 = neighbour(home, 1, 2);
+      const bool column = z1 == z0 + 2;
       for (std::int64_t dx = -1; dx <= 1; ++dx)
-        for (std::int64_t dy = -1; dy <= 1; ++dy)
+        for (std::int64_t dy = -1; dy <= 1; ++dy) {
+          const std::int64_t x = neighbour(home, dx, 0), y = neighbour(home, dy, 1);
+          if (column) {
+            const Cell last{l, x, y, z1};
+            for (auto e = std::lower_bound(cells_.begin(), cells_.end(), Cell{l, x, y, z0}, by_cell);
+                 e != cells_.end() && e->first <= last; ++e)
+              visit(e->second);
+            continue;
+          }
           for (std::int64_t dz = -1; dz <= 1; ++dz) {
-            const Cell c{l, neighbour(home, dx, 0), neighbour(home, dy, 1), neighbour(home, dz, 2)};
+            const Cell c{l, x, y, neighbour(home, dz, 2)};
             for (auto e = std::lower_bound(cells_.begin(), cells_.end(), c, by_cell);
                  e != cells_.end() && e->first == c; ++e)
               visit(e->second);
           }
+        }
     };
     auto meet = [&](std::size_t u, std::size_t v) {
       return box.minimum_image(centre_[v] - centre_[u]).norm() <= proxies_[u].radius + proxies_[v].radius + 2.0 * slack;

@@ -98,12 +98,21 @@ concept PairKernel = TypedPairKernel<K> || (std::copyable<K> && requires(const K
 
 namespace detail {
 
+/// What detail::pair_terms reports of a batch besides its terms.
+struct PairTermsCheck {
+  bool finite;  ///< every force finite
+  bool plain;   ///< every r^2 < plain_radius2
+};
+
 /// The pair terms of `count` list entries with separations d = (dx, dy, dz):
 /// r^2 = (dx^2 + dy^2) + dz^2, the force on the list's site f = coef d into
 /// (fx, fy, fz), and the pair's energy into `energy`, from the kernel for
 /// r^2 < r_c^2; all 0 for r >= r_c. `pair`: each entry's pair of site types
-/// for a TypedPairKernel (ignored, and may be null, otherwise). Returns true if every force is finite
-/// (false may also mean a sum of components overflowed: the caller looks).
+/// for a TypedPairKernel (ignored, and may be null, otherwise). Returns
+/// whether every force is finite (false may also mean a sum of components
+/// overflowed: the caller looks) and whether every r^2 is below
+/// `plain_radius2` (Box::plain_radius2: then each separation taken plain is
+/// its minimum image; false also for a NaN r^2).
 /// Branch-free, so that the compiler vectorizes it (GCC does only without
 /// trapping math, which changes no result: it only stops treating the
 /// compare as a possible floating-point trap); a clone for AVX2 (4 doubles at
@@ -121,17 +130,19 @@ __attribute__((optimize("no-trapping-math")))
 __attribute__((target_clones("avx2", "default")))
 #endif
 #endif
-bool pair_terms(std::size_t count, const Kernel& kernel, const double* __restrict dx, const double* __restrict dy,
-                const double* __restrict dz, const std::uint32_t* __restrict pair, double* __restrict fx,
-                double* __restrict fy, double* __restrict fz, double* __restrict energy) {
+PairTermsCheck pair_terms(std::size_t count, const Kernel& kernel, double plain_radius2, const double* __restrict dx,
+                          const double* __restrict dy, const double* __restrict dz,
+                          const std::uint32_t* __restrict pair, double* __restrict fx, double* __restrict fy,
+                          double* __restrict fz, double* __restrict energy) {
   // A local copy of a trivially copyable kernel (its constants stay in
   // registers); a kernel that shares a table (TypedPairKernel's) by reference.
   std::conditional_t<std::is_trivially_copyable_v<Kernel>, const Kernel, const Kernel&> k = kernel;
   const double cutoff2 = k.cutoff2();
-  double bad = 0.0;  // (a double, not a bool: this form GCC vectorizes)
+  double bad = 0.0, far = 0.0;  // (doubles, not bools: this form GCC vectorizes)
   for (std::size_t i = 0; i < count; ++i) {
     const double r2 = (dx[i] * dx[i] + dy[i] * dy[i]) + dz[i] * dz[i];
     const bool inside = r2 < cutoff2;
+    far = r2 < plain_radius2 ? far : 1.0;
     PairTerms t;  // computed for every entry: no branch
     if constexpr (TypedPairKernel<Kernel>) t = k(r2, pair[i]);
     else t = k(r2);
@@ -143,7 +154,7 @@ bool pair_terms(std::size_t count, const Kernel& kernel, const double* __restric
     const double sum = (fx[i] + fy[i]) + fz[i];  // not finite if a component is not (or, rarely, if it overflows)
     bad = sum - sum == 0.0 ? bad : 1.0;          // x - x is NaN for an infinite or NaN x
   }
-  return bad == 0.0;
+  return {bad == 0.0, far == 0.0};
 }
 
 }  // namespace detail
@@ -173,8 +184,8 @@ class PairInteraction {
   void add(const SystemState& s, SystemEvaluation& e) {
     prepare(s);
     const std::size_t n = s.size();
-    energy_.assign(n, 0.0);
-    finite_.assign(n, 1);
+    energy_.resize(n);  // (every body's entries written by the pass: no fill)
+    finite_.resize(n);
     ranged_pass(s, e);
     for (std::size_t a = 0; a < n; ++a) e.energy += energy_[a];
   }
@@ -266,37 +277,26 @@ class PairInteraction {
     }
   };
 
-  /// The separations d = X_j - X_i of the list entries of bodies [a, b) into
-  /// the scratch (entry k - first, first the bodies' first entry); their count.
-  /// In a periodic box, each separation's minimum image (box.hpp). For a
-  /// TypedPairKernel also each entry's pair of site types.
-  template <class Buffers>
-  std::size_t gather(std::size_t a, std::size_t b, Buffers& scratch) const {
-    if (!lists_.box().any_periodic()) return gather<Separation::plain>(a, b, scratch);
-    const std::size_t count = gather<Separation::marked>(a, b, scratch);
-    return count != not_plain ? count : gather<Separation::reduced>(a, b, scratch);
-  }
-  /// How gather<How>() takes a site's separations: `plain`, as they are (an
-  /// open box); `reduced`, their minimum images (Box::reduce); `unmarked`,
-  /// as they are + 0.0, which is their minimum images' bits where each
-  /// component is within Box::plain_bound(); `marked`, per site:
-  /// reduced if one of its entries is marked across a period
-  /// (NeighbourLists::across), else unmarked. So a periodic box pays for
-  /// the reduction only at sites with a pair across a period. gather<marked>
-  /// returns not_plain if an unmarked separation is beyond the bound (a
-  /// body whose centre has crossed a face since the pruning is placed a
-  /// period away from its partners), and the bodies are then gathered
-  /// again, reduced.
+  /// How gather<How>() takes the separations d = X_j - X_i of the list
+  /// entries of bodies [a, b) into the scratch (entry k - first, first the
+  /// bodies' first entry; for a TypedPairKernel also each entry's pair of
+  /// site types), returning their count: `plain`, as they are (an open box);
+  /// `reduced`, their minimum images (Box::reduce); `unmarked`, as they are
+  /// + 0.0, which is their minimum images' bits where each component is
+  /// within Box::plain_bound(); `marked`, per site: reduced if one of its
+  /// entries is marked across a period (NeighbourLists::across), else
+  /// unmarked. So a periodic box pays for the reduction only at sites with a
+  /// pair across a period. Whether an unmarked separation is within the
+  /// bound is the caller's test, on r^2 (pair_terms: a body whose centre has
+  /// crossed a face since the pruning is placed a period away from its
+  /// partners, and the bodies are then gathered again, reduced).
   enum class Separation { plain, reduced, unmarked, marked };
-  static constexpr std::size_t not_plain = std::numeric_limits<std::size_t>::max();
   template <Separation How, class Buffers>
   std::size_t gather(std::size_t a, std::size_t b, Buffers& scratch) const {
     const std::size_t first = lists_.list_begin(sites().begin(a)),
                       count = lists_.list_begin(sites().end(b - 1)) - first;
     scratch.resize(count);
     const Box& box = lists_.box();
-    // The largest plain |d_k| taken, per axis (compared with Box::plain_bound() at the end).
-    double largest_x = 0.0, largest_y = 0.0, largest_z = 0.0;
     // Site i's entries [k0, k1), taken as `how` says (plain, reduced or unmarked).
     auto separations = [&](const Vector3<double>& xi, std::size_t k0, std::size_t k1, auto how) {
       for (std::size_t k = k0; k < k1; ++k) {
@@ -308,9 +308,6 @@ class PairInteraction {
           dy = box.reduce(dy, 1);
           dz = box.reduce(dz, 2);
         } else if (how != Separation::plain) {
-          largest_x = std::max(largest_x, std::fabs(dx));
-          largest_y = std::max(largest_y, std::fabs(dy));
-          largest_z = std::max(largest_z, std::fabs(dz));
           dx += 0.0;
           dy += 0.0;
           dz += 0.0;
@@ -340,7 +337,7 @@ class PairInteraction {
           scratch.pair[k - first] = row + sites().type(lists_.partner(k));
       }
     }
-    return box.beyond_plain(largest_x, largest_y, largest_z) ? not_plain : count;
+    return count;
   }
 
   /// The pair terms of bodies [a, b): the separations gathered into the
@@ -348,12 +345,24 @@ class PairInteraction {
   /// energies into the scratch's `energy` (entry k - first of their list
   /// entries). Each entry's terms depend on its separation only, so they are
   /// the same computed for one body or several at once. Returns false if a
-  /// force may not be finite (as detail::pair_terms).
+  /// force may not be finite (as detail::pair_terms). In a periodic box the
+  /// separations are first taken `marked`; if some r^2 is not below
+  /// Box::plain_radius2() (an unmarked one may then be beyond the plain
+  /// bound), the bodies are gathered again, reduced, and their terms
+  /// computed again (a superset of the separations beyond the bound, so the
+  /// same bits either way: within it, reduced is unmarked's bits).
   template <class Buffers>
   bool pair_terms(std::size_t a, std::size_t b, Buffers& scratch, double* fx, double* fy, double* fz) const {
-    const std::size_t count = gather(a, b, scratch);
-    return detail::pair_terms(count, model_->kernel, scratch.dx.data(), scratch.dy.data(), scratch.dz.data(),
-                              scratch.pair.data(), fx, fy, fz, scratch.energy.data());
+    auto terms = [&](std::size_t count, double plain_radius2) {
+      return detail::pair_terms(count, model_->kernel, plain_radius2, scratch.dx.data(), scratch.dy.data(),
+                                scratch.dz.data(), scratch.pair.data(), fx, fy, fz, scratch.energy.data());
+    };
+    constexpr double unbounded = std::numeric_limits<double>::infinity();
+    const Box& box = lists_.box();
+    if (!box.any_periodic()) return terms(gather<Separation::plain>(a, b, scratch), unbounded).finite;
+    const detail::PairTermsCheck marked = terms(gather<Separation::marked>(a, b, scratch), box.plain_radius2());
+    if (marked.plain) return marked.finite;
+    return terms(gather<Separation::reduced>(a, b, scratch), unbounded).finite;
   }
 
   /// The energy of body a's pairs, summed in list order into energy_[a], from
