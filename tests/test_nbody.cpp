@@ -384,7 +384,7 @@ TEST(LennardJonesPairs, VectorizedTermsAreTheScalarFormulaBitForBit) {
   // A separation of zero (two sites on top of each other) is reported.
   dx[7] = dy[7] = dz[7] = 0.0;
   EXPECT_FALSE(terms(unbounded).finite);
-  // A NaN separation is neither finite nor plain.
+  // A NaN separation is not plain (a NaN r^2 is not below any bound).
   dx[9] = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(terms(unbounded).plain);
 }

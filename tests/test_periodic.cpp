@@ -111,24 +111,31 @@ TEST(Box, WrapPutsAPositionInTheBoxAndCountsItsTurns) {
 
 TEST(Box, ASeparationWithinThePlainRadiusIsItsOwnMinimumImage) {
   // plain_radius2() is the smallest plain_bound()^2 (the shortest periodic
-  // axis's): a separation whose rounded r^2 is below it has every component
-  // within plain_bound(), so its minimum image is d + 0.0; one with a
-  // component just beyond its axis's bound has r^2 at least that.
-  const Box box(V3(-1.5, 0.25, 3.0), V3(2.5, 7.25, 4.0), {true, true, false});  // periods 4 and 7, z open
-  const double b = box.plain_bound()(0);
+  // axis's, here y's): a separation whose rounded r^2 is below it has every
+  // component within plain_bound(), so its minimum image is d + 0.0 to the
+  // bit (a -0 component becomes +0); one with a component just beyond its
+  // axis's bound has r^2 at least that.
+  const Box box(V3(-1.5, 0.25, 3.0), V3(5.5, 4.25, 4.0), {true, true, false});  // periods 7 and 4, z open
+  const double b = box.plain_bound()(1);
   EXPECT_EQ(box.plain_radius2(), b * b);
+  EXPECT_LT(b, box.plain_bound()(0));
   EXPECT_EQ(Box().plain_radius2(), std::numeric_limits<double>::infinity());
+  int below = 0;
   for (int trial = 0; trial < 1000; ++trial) {
-    const V3 d = t::random_vector(6.0);
+    V3 d = t::random_vector(1.6);  // components within +-1.6: r from 0 to 2.8, on both sides of b ~ 2
+    if (trial % 10 == 0) d(trial % 3) = -0.0;
     const double r2 = (d(0) * d(0) + d(1) * d(1)) + d(2) * d(2);
-    if (r2 < box.plain_radius2()) {
-      EXPECT_FALSE(box.beyond_plain(d(0), d(1), d(2))) << d.transpose();
-      EXPECT_EQ(box.minimum_image(d), V3(d + V3::Zero())) << d.transpose();
-    }
+    if (!(r2 < box.plain_radius2())) continue;
+    ++below;
+    EXPECT_FALSE(box.beyond_plain(d(0), d(1), d(2))) << d.transpose();
+    const V3 image = box.minimum_image(d), plain = d + V3::Zero();
+    EXPECT_EQ(std::memcmp(image.data(), plain.data(), sizeof(double) * 3), 0) << d.transpose();
   }
-  const double over = std::nextafter(b, 10.0);  // x just beyond its bound, nothing else
-  EXPECT_TRUE(box.beyond_plain(over, 0.0, 0.0));
-  EXPECT_FALSE(over * over < box.plain_radius2());
+  EXPECT_GT(below, 300);  // the test above is exercised
+  // Just beyond the bound along y, and nothing else: beyond_plain, and r^2 not below the radius.
+  const double over = std::nextafter(b, 10.0);
+  EXPECT_TRUE(box.beyond_plain(0.0, over, 0.0));
+  EXPECT_FALSE((0.0 + over * over) + 0.0 < box.plain_radius2());
 }
 
 TEST(Box, RefusesAnEmptyOrUnboundedBox) {
