@@ -5,6 +5,7 @@
 #include "app/simulation.hpp"
 #include "test_support.hpp"
 
+#include <lgvi/forcing.hpp>
 #include <lgvi/integrate.hpp>
 #include <lgvi/forces/wca.hpp>
 #include <lgvi/lennard_jones.hpp>
@@ -1403,6 +1404,51 @@ TEST(Threads, ResultsAreBitIdenticalForOneAndTwoThreads) {
                             run_with_threads<lgvi::RattleQuaternionIntegrator>(sys, lj, s, 2, 50)));
   EXPECT_TRUE(bitwise_equal(run_with_threads<lgvi::Rk4NormalizedIntegrator>(sys, lj, s, 1, 50),
                             run_with_threads<lgvi::Rk4NormalizedIntegrator>(sys, lj, s, 2, 50)));
+}
+
+TEST(NBodyLgvi, AStepFromOneStateIntoAnotherIsTheInPlaceStepBitForBit) {
+  // The run loop steps from the last state into a second one (step_from,
+  // integrate.hpp), so that the last state stays whole if a step fails,
+  // without copying it first: the LGVI writes every part of the new state
+  // from the old. So each step must give the in-place step's bits, whatever
+  // the second state held before (NaN here: a value read from it would show),
+  // and must leave the old state as it was; with a forcing (which reads and
+  // writes the state before the solves) step_from copies, then steps: the
+  // same bits too. 125 Lennard-Jones molecules (colliding, so the solves,
+  // forces and kicks all work), 60 steps, on 1 and 2 threads.
+  const System sys = molecules(125);
+  const SystemState start = lattice_state(125, 2.2, 0.5);
+  const double h = 0.002, nan = std::numeric_limits<double>::quiet_NaN();
+  for (const bool forced : {false, true}) {
+    for (const int threads : {1, 2}) {
+      const Parallelism par{threads};
+      lgvi::LieGroupVariationalIntegrator<LjSystem> in_place(sys, lennard_jones(sys, par), lgvi::SolverOptions{}, par),
+          from_to(sys, lennard_jones(sys, par), lgvi::SolverOptions{}, par);
+      if (forced) {
+        lgvi::ForcingSet f;
+        f.add(lgvi::Damping{0.07, 0.04});
+        in_place.set_forcing(f);
+        from_to.set_forcing(f);
+      }
+      SystemState a = start, from = start;
+      in_place.initialize(a, 0.0);
+      from_to.initialize(from, 0.0);
+      SystemState to(sys.size());
+      for (int k = 0; k < 60; ++k) {
+        for (std::size_t b = 0; b < sys.size(); ++b) {
+          to.x[b] = to.p[b] = to.w[b] = V3::Constant(nan);
+          to.q[b] = S3d(nan, nan, nan, nan);
+        }
+        const SystemState before = from;
+        in_place.step(a, k * h, h);
+        from_to.step_from(from, to, k * h, h);
+        ASSERT_TRUE(bitwise_equal(from, before)) << "step " << k << ", threads " << threads << ", forced " << forced;
+        ASSERT_TRUE(bitwise_equal(to, a)) << "step " << k << ", threads " << threads << ", forced " << forced;
+        ASSERT_EQ(from_to.evaluation().energy, in_place.evaluation().energy) << "step " << k;
+        std::swap(from, to);
+      }
+    }
+  }
 }
 
 TEST(Threads, BalancedRangesSplitTheRunningCostAtItsFractions) {

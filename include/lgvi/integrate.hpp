@@ -73,6 +73,18 @@ void copy_state(const S& s, SystemState& to, const SystemState& from) {
   }
   to = from;
 }
+/// One step from `state` into `next` (whose contents before are not read):
+/// the stepper's step_from where it has one (it writes the new state from
+/// the old without a copy first), else a copy and an in-place step.
+template <class S>
+void step_into_next(S& s, const SystemState& state, SystemState& next, double t, double h) {
+  if constexpr (requires { s.step_from(state, next, t, h); }) {
+    s.step_from(state, next, t, h);
+  } else {
+    copy_state(s, next, state);
+    s.step(next, t, h);
+  }
+}
 }  // namespace detail
 
 /// Advances an initialized `stepper` from step k_begin (state at
@@ -88,10 +100,9 @@ std::int64_t integrate_range(S& stepper, SystemState& state, double t0, double h
   SystemState next = state;  // assigned, not constructed, in the loop: no allocation per step
   for (std::int64_t k = k_begin; k < k_end; ++k) {
     if (stop()) return k;
-    detail::copy_state(stepper, next, state);
     const double t = t0 + static_cast<double>(k) * h;
     try {
-      stepper.step(next, t, h);
+      detail::step_into_next(stepper, state, next, t, h);
     } catch (const StepFailure& f) {
       throw IntegrationFailure(k, detail::physical_time(stepper, t), f);
     }

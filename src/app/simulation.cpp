@@ -380,6 +380,19 @@ struct Recorder {
   std::int64_t dof = degrees_of_freedom(scenario);
   /// The energy error is E - E0 - W (a forcing, or motor torques on reaction wheels).
   bool forced = conservation_laws(scenario).forced;
+  /// The diagnostics' threads (those of the scenario's run: the values do not depend on them).
+  Parallelism par = scenario_parallelism(scenario);
+  /// One body's terms of the diagnostics at a step: its kinetic energy and
+  /// its rotational part, its angular momentum x x p + R pi and the spin R
+  /// pi in it, and |q| - 1.
+  struct BodyTerms {
+    double ke = 0.0, rot = 0.0, dq = 0.0;
+    Vector3<double> l = Vector3<double>::Zero(), spin = Vector3<double>::Zero();
+  };
+  /// The bodies' terms are computed in blocks of this many (72 B each: a
+  /// block's stay in a core's L2), each block's on the threads.
+  static constexpr std::size_t diagnostics_block = 8192;
+  std::vector<BodyTerms> body_terms = {};
   std::vector<double> row_buffer = {};  ///< a single-body row with its wheels' columns
   /// A copy of the scenario's wheel controller, sampled on the same states as the stepper's: its commands.
   std::optional<WheelAttitudeControl> wheel_control = scenario.wheel_control;
@@ -526,41 +539,52 @@ struct Recorder {
     // sum in body order from body 0's term as total_energy, angular_momentum
     // and linear_momentum (system.hpp) take them: the same values, bit for bit.
     const System& sys = scenario.system;
-    double kinetic = 0.0, rot_energy = 0.0, dq = 0.0;
-    Vector3<double> L = Vector3<double>::Zero(), P = Vector3<double>::Zero(), spin = Vector3<double>::Zero();
-    for (std::size_t a = 0; a < n; ++a) {
+    // The bodies' terms in blocks, each block's on the threads (BodyTerms:
+    // each term the same operations as alone), then summed here in body
+    // order: the serial part is the sums only.
+    auto terms_of = [&](std::size_t a, BodyTerms& t) {
       const RigidBody& body = sys.body(a);
       // kinetic_energy(s, sys, a) as its two terms, p^2 / 2m and the rotational
       // energy (state.hpp: the same operations, so the same bits); with wheels,
       // the gyrostat's (Wheels::kinetic_energy), less p^2 / 2m.
       const double translational = s.p[a].squaredNorm() / (2.0 * body.mass());
-      double ke = 0.0, rot = 0.0;
       if (!body.has_wheels()) {
-        rot = rotational_kinetic_energy(s.w[a], body);
-        ke = translational + rot;
+        t.rot = rotational_kinetic_energy(s.w[a], body);
+        t.ke = translational + t.rot;
       } else {
-        ke = kinetic_energy(s, sys, a);
-        rot = ke - translational;
+        t.ke = kinetic_energy(s, sys, a);
+        t.rot = t.ke - translational;
       }
       // The spin R_a pi_a, pi_a = w_a / 2: the rotational part of
       // angular_momentum(body), x_a x p_a + R_a (w_a / 2), and the spin's sum.
       const Vector3<double> pi = 0.5 * s.w[a];
-      const Vector3<double> spin_a = s.q[a].act(pi);
-      const Vector3<double> la = s.x[a].cross(s.p[a]) + spin_a;
-      const double dq_a = s.q[a].norm_error();
-      if (a == 0) {
-        kinetic = ke;
-        L = la;
-        P = s.p[0];
-        dq = dq_a;
-      } else {
-        kinetic += ke;
-        L += la;
-        P += s.p[a];
-        if (std::abs(dq_a) > std::abs(dq)) dq = dq_a;
+      t.spin = s.q[a].act(pi);
+      t.l = s.x[a].cross(s.p[a]) + t.spin;
+      t.dq = s.q[a].norm_error();
+    };
+    double kinetic = 0.0, rot_energy = 0.0, dq = 0.0;
+    Vector3<double> L = Vector3<double>::Zero(), P = Vector3<double>::Zero(), spin = Vector3<double>::Zero();
+    body_terms.resize(std::min(n, diagnostics_block));
+    for (std::size_t first = 0; first < n; first += diagnostics_block) {
+      const std::size_t count = std::min(diagnostics_block, n - first);
+      parallel_for(count, par, [&](std::size_t l) { terms_of(first + l, body_terms[l]); });
+      for (std::size_t l = 0; l < count; ++l) {
+        const std::size_t a = first + l;
+        const BodyTerms& t = body_terms[l];
+        if (a == 0) {
+          kinetic = t.ke;
+          L = t.l;
+          P = s.p[0];
+          dq = t.dq;
+        } else {
+          kinetic += t.ke;
+          L += t.l;
+          P += s.p[a];
+          if (std::abs(t.dq) > std::abs(dq)) dq = t.dq;
+        }
+        rot_energy += t.rot;
+        spin += t.spin;
       }
-      rot_energy += rot;
-      spin += spin_a;
     }
     const double energy = kinetic + i.evaluation.energy;  // total_energy(s, sys, i.evaluation)
     if (i.k == 0) {

@@ -174,9 +174,13 @@ class ImplicitStepperBase : public StepperBase<I> {
   /// would grow to 1e-11 of its terms over 1e5 steps. The carry holds what the
   /// last sum lost and is added back to the next increment (checkpointed:
   /// internal_state).
-  void drift(SystemState& s, std::size_t a, double h) {
-    p_half_[a] = s.p[a] + (0.5 * h) * this->force(a);
-    add_to_position(s.x[a], a, (h / this->system_.body(a).mass()) * p_half_[a]);
+  void drift(SystemState& s, std::size_t a, double h) { drift(s, s, a, h); }
+  /// The same from `in`'s p and x into s's x (s may be in).
+  void drift(const SystemState& in, SystemState& s, std::size_t a, double h) {
+    p_half_[a] = in.p[a] + (0.5 * h) * this->force(a);
+    Vector3<double> x = in.x[a];
+    add_to_position(x, a, (h / this->system_.body(a).mass()) * p_half_[a]);
+    s.x[a] = x;
   }
   /// x += increment for body a's position x, as a compensated (Kahan) sum
   /// with its carry (see drift).
