@@ -29,6 +29,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -1414,12 +1415,19 @@ TEST(NBodyLgvi, AStepFromOneStateIntoAnotherIsTheInPlaceStepBitForBit) {
   // the second state held before (NaN here: a value read from it would show),
   // and must leave the old state as it was; with a forcing (which reads and
   // writes the state before the solves) step_from copies, then steps: the
-  // same bits too. 125 Lennard-Jones molecules (colliding, so the solves,
-  // forces and kicks all work), 60 steps, on 1 and 2 threads.
-  const System sys = molecules(125);
-  const SystemState start = lattice_state(125, 2.2, 0.5);
+  // same bits too. Lennard-Jones molecules (colliding, so the solves,
+  // forces and kicks all work): 125 (the solves batched) and 5 (fewer than a
+  // batch: each solved alone), 60 steps, on 1 and 2 threads. A step that
+  // fails (a NaN momentum) leaves the old state as it was. And the run loop
+  // takes this path for the LGVI (integrate.hpp's step_into_next).
   const double h = 0.002, nan = std::numeric_limits<double>::quiet_NaN();
-  for (const bool forced : {false, true}) {
+  static_assert(requires(lgvi::LieGroupVariationalIntegrator<LjSystem>& i, const SystemState& a, SystemState& b) {
+    i.step_from(a, b, 0.0, 0.002);
+  });
+  const std::pair<std::size_t, bool> cases[] = {{125, false}, {125, true}, {5, false}, {5, true}};  // (bodies, forced)
+  for (const auto& [n, forced] : cases) {
+    const System sys = molecules(n);
+    const SystemState start = lattice_state(n, 2.2, 0.5);
     for (const int threads : {1, 2}) {
       const Parallelism par{threads};
       lgvi::LieGroupVariationalIntegrator<LjSystem> in_place(sys, lennard_jones(sys, par), lgvi::SolverOptions{}, par),
@@ -1447,6 +1455,10 @@ TEST(NBodyLgvi, AStepFromOneStateIntoAnotherIsTheInPlaceStepBitForBit) {
         ASSERT_EQ(from_to.evaluation().energy, in_place.evaluation().energy) << "step " << k;
         std::swap(from, to);
       }
+      from.p[n / 2] = V3(nan, 0.0, 0.0);
+      const SystemState before = from;
+      EXPECT_THROW(from_to.step_from(from, to, 60 * h, h), lgvi::StepFailure) << "threads " << threads;
+      EXPECT_TRUE(bitwise_equal(from, before)) << "threads " << threads << ", forced " << forced;
     }
   }
 }

@@ -169,8 +169,9 @@ class Box {
   /// The image count of position x along each periodic axis, n_k =
   /// floor((x_k - lower_k) / L_k) (0 along open axes), and x wrapped into
   /// the box, x - n L, in [lower, upper) along periodic axes. A coordinate
-  /// in [lower, upper) already is its own wrap, with image 0 (most are, at
-  /// every step: the test is all they cost). A coordinate 2^52 or more box
+  /// in (lower, upper) already is its own wrap, with image 0 (most are, at
+  /// every step: the test is all they cost; lower itself takes the full
+  /// path, which turns -0 into +0 at lower = 0). A coordinate 2^52 or more box
   /// lengths away (where rounding has lost its place in the box) or not
   /// finite is left as it is, with image 0.
   struct Wrapped {
@@ -180,7 +181,7 @@ class Box {
   Wrapped wrap(const Vector3<double>& x) const {
     Wrapped w{x, {}};
     for (int k = 0; k < 3; ++k) {
-      if (!periodic(k) || (x(k) >= lower_(k) && x(k) < upper_(k)) || !std::isfinite(x(k))) continue;
+      if (!periodic(k) || (x(k) > lower_(k) && x(k) < upper_(k)) || !std::isfinite(x(k))) continue;
       double n = std::floor((x(k) - lower_(k)) * inverse_length_(k));
       if (!(std::abs(n) < 0x1p52)) continue;
       double v = x(k) - n * length_(k);

@@ -53,29 +53,10 @@ double physical_time(const S& s, double t) {
   if constexpr (requires { { s.time() } -> std::convertible_to<double>; }) return s.time();
   else return t;
 }
-/// to = from before each step. A system without wheels (eta empty), copied
-/// into one of its size, is copied body by body on the stepper's threads
-/// where the stepper has more than one: a many-body step's copy (104 B per
-/// body) is otherwise a serial part of every step. The same values either
-/// way.
-template <class S>
-void copy_state(const S& s, SystemState& to, const SystemState& from) {
-  if constexpr (requires { s.parallelism(); }) {
-    if (to.size() == from.size() && from.eta.empty() && to.eta.empty() && s.parallelism().threads > 1) {
-      parallel_for(from.size(), s.parallelism(), [&](std::size_t a) {
-        to.x[a] = from.x[a];
-        to.q[a] = from.q[a];
-        to.p[a] = from.p[a];
-        to.w[a] = from.w[a];
-      });
-      return;
-    }
-  }
-  to = from;
-}
 /// One step from `state` into `next` (whose contents before are not read):
 /// the stepper's step_from where it has one (it writes the new state from
-/// the old without a copy first), else a copy and an in-place step.
+/// the old without a copy first), else a copy (copy_state, stepper.hpp) and
+/// an in-place step.
 template <class S>
 void step_into_next(S& s, const SystemState& state, SystemState& next, double t, double h) {
   if constexpr (requires { s.step_from(state, next, t, h); }) {

@@ -159,7 +159,7 @@ class LieGroupVariationalIntegrator : public detail::ImplicitStepperBase<I, Rota
     const std::size_t n = from.size();
     const bool same_size = to.x.size() == n && to.q.size() == n && to.p.size() == n && to.w.size() == n;
     if (!this->forcing().empty() || !gyrostats_.empty() || !from.eta.empty() || !to.eta.empty() || !same_size) {
-      to = from;
+      detail::copy_state(*this, to, from);
       step_into(to, to, t, h);
       return;
     }

@@ -58,6 +58,28 @@ concept SystemStepper = requires(S& s, const S& cs, SystemState& state, double t
 
 namespace detail {
 
+/// to = from before a step (the run loop's, integrate.hpp, or a
+/// step_from that steps in place). A system without wheels (eta empty), copied
+/// into one of its size, is copied body by body on the stepper's threads
+/// where the stepper has more than one: a many-body step's copy (104 B per
+/// body) is otherwise a serial part of every step. The same values either
+/// way.
+template <class S>
+void copy_state(const S& s, SystemState& to, const SystemState& from) {
+  if constexpr (requires { s.parallelism(); }) {
+    if (to.size() == from.size() && from.eta.empty() && to.eta.empty() && s.parallelism().threads > 1) {
+      parallel_for(from.size(), s.parallelism(), [&](std::size_t a) {
+        to.x[a] = from.x[a];
+        to.q[a] = from.q[a];
+        to.p[a] = from.p[a];
+        to.w[a] = from.w[a];
+      });
+      return;
+    }
+  }
+  to = from;
+}
+
 /// Throws InvalidInput unless every body has three principal moments > 0.
 /// The methods whose equations divide by the moments (all but the LGVI's two
 /// forms, MethodTraits::linear_bodies) call it on construction: a linear body
