@@ -19,6 +19,14 @@ lgvi's process's, and the sum of LAMMPS's ranks' (each rank under
 over every step (its summary), LAMMPS's over every step too (thermo 1, in a second run: its time and memory are
 from a run printing the first and last step only, as lgvi's).
 
+With --marginal, each program also runs 2 x `--steps` steps (timed the same
+way), and a second table gives the time per step from the difference of the
+two loops, (loop(2 s) - loop(s)) / s: the cost of a step in the middle of a run,
+without what both loops hold once. lgvi's loop holds its first evaluation (its
+neighbour lists built) and the two frames it writes (at 10^6 molecules two
+frames of 10^6 rows, 1 GB of CSV); LAMMPS's "Loop time" holds neither (its first
+evaluation is in its set-up, and it writes no frames here, only thermo lines).
+
 With --no-squish, a second table gives the energy errors to five digits, with
 those of lgvi's own NO_SQUISH method (`method = "no-squish"`, the rotation
 splitting fix rigid/nve/small uses) on the same gas: as far as lgvi's
@@ -113,10 +121,13 @@ def main():
     ap.add_argument("--step", type=float, default=0.002)
     ap.add_argument("--threads", type=int, nargs="+", default=[1],
                     help="lgvi's threads and LAMMPS's MPI ranks (default 1)")
+    ap.add_argument("--marginal", action="store_true",
+                    help="also run 2 x steps: a table of the time per step from the difference of the two loops")
     ap.add_argument("--no-squish", action="store_true",
                     help="also run lgvi's no-squish method: a table of the energy errors to five digits")
     args = ap.parse_args()
     errors = []  # (molecules, lgvi's max |dE|, lgvi no-squish's, LAMMPS's) with --no-squish
+    marginal = []  # (molecules, threads, lgvi's and LAMMPS's loops at steps and 2 x steps) with --marginal
     print(f"Periodic Lennard-Jones gas of rigid triangle molecules, {args.steps} steps of h = {args.step}:\n")
     print("| molecules | threads / ranks | lgvi set-up s | LAMMPS set-up s | lgvi ms/step | LAMMPS ms/step | / LAMMPS "
           "| lgvi MB | LAMMPS MB | / LAMMPS | lgvi max abs dE | LAMMPS max abs dE |")
@@ -127,21 +138,30 @@ def main():
             text, box = scenario(n, args.steps, args.step)
             data_file(args.lgvi, work, n, box)
             (work / "gas.toml").write_text(text)
+            (work / "gas-long.toml").write_text(scenario(n, 2 * args.steps, args.step)[0])
             for threads in args.threads:
-                lgvi_wall, lgvi_rss = timed([args.lgvi, "run", work / "gas.toml", "--out", work / "lgvi", "--force",
-                                             "--no-figures", "-q", "--threads", threads])
-                with open(work / "lgvi" / "summary.json") as f:
-                    summary = json.load(f)
+                def run_lgvi(toml):  # (wall s, peak MB, summary)
+                    wall, rss = timed([args.lgvi, "run", toml, "--out", work / "lgvi", "--force", "--no-figures", "-q",
+                                       "--threads", threads])
+                    with open(work / "lgvi" / "summary.json") as f:
+                        return wall, rss, json.load(f)
+                lgvi_wall, lgvi_rss, summary = run_lgvi(work / "gas.toml")
                 lgvi_loop, lgvi_de = summary["wall_seconds"], summary["max_abs_energy_error"]
-                def lammps(thermo):
+                def lammps(thermo, steps=args.steps):
                     return [args.lmp, "-in", HERE / "in.lj-triangles", "-log", "none", "-screen", "none",
                             "-var", "boundary", "p", "-var", "data", work / "lj-triangles.data",
-                            "-var", "steps", args.steps, "-var", "dt", repr(args.step),
+                            "-var", "steps", steps, "-var", "dt", repr(args.step),
                             "-var", "thermo", thermo, "-var", "log", work / "lammps.log"]
+                def lammps_loop():
+                    return float(re.search(r"Loop time of ([0-9.eE+-]+)", (work / "lammps.log").read_text()).group(1))
                 # Timed with thermo output at the first and last step only, as lgvi's; the energy error
                 # from a second run printing every step (whose reductions would add to the loop time).
                 lmp_wall, lmp_rss = timed(lammps(args.steps), ranks=threads)
-                lmp_loop = float(re.search(r"Loop time of ([0-9.eE+-]+)", (work / "lammps.log").read_text()).group(1))
+                lmp_loop = lammps_loop()
+                if args.marginal:
+                    lgvi_long = run_lgvi(work / "gas-long.toml")[2]["wall_seconds"]
+                    timed(lammps(2 * args.steps, 2 * args.steps), ranks=threads)
+                    marginal.append((n ** 3, threads, lgvi_loop, lgvi_long, lmp_loop, lammps_loop()))
                 timed(lammps(1), ranks=threads)
                 log = (work / "lammps.log").read_text()
                 # The thermo rows: step, total energy, pe, ke (in.lj-triangles's thermo_style).
@@ -158,6 +178,17 @@ def main():
                                 "--no-figures", "-q"], check=True)
                 with open(work / "no-squish" / "summary.json") as f:
                     errors.append((n ** 3, lgvi_de, json.load(f)["max_abs_energy_error"], lmp_de))
+    if marginal:
+        print(f"\nTime per step from the difference of runs of {args.steps} and {2 * args.steps} steps "
+              f"(loop({2 * args.steps}) - loop({args.steps})) / {args.steps}:\n")
+        print("| molecules | threads / ranks | lgvi loop s (s, 2 s) | LAMMPS loop s (s, 2 s) | lgvi ms/step "
+              "| LAMMPS ms/step | / LAMMPS |")
+        print("|---:|---:|---:|---:|---:|---:|---:|")
+        for n, threads, lgvi_short, lgvi_long, lmp_short, lmp_long in marginal:
+            t_lgvi = (lgvi_long - lgvi_short) / args.steps * 1e3
+            t_lmp = (lmp_long - lmp_short) / args.steps * 1e3
+            print(f"| {n} | {threads} | {lgvi_short:.2f}, {lgvi_long:.2f} | {lmp_short:.2f}, {lmp_long:.2f} "
+                  f"| {t_lgvi:.2f} | {t_lmp:.2f} | {t_lgvi / t_lmp:.2f} |", flush=True)
     if errors:
         print("\n| molecules | lgvi (LGVI) max abs dE | lgvi (NO_SQUISH) max abs dE | LAMMPS max abs dE "
               "| LGVI / LAMMPS | NO_SQUISH / LAMMPS |")
