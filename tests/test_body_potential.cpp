@@ -9,6 +9,8 @@
 
 #include <gmock/gmock.h>
 
+namespace test_body_potential {
+
 namespace {
 
 using lgvi::Ball;
@@ -184,3 +186,5 @@ TEST(Potential, HeavyTopTorqueMatchesFiniteDifferencesAndForceIsZero) {
 }
 
 }  // namespace
+
+}  // namespace test_body_potential

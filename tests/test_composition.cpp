@@ -25,6 +25,8 @@
 #include <string>
 #include <vector>
 
+namespace test_composition {
+
 namespace {
 
 using lgvi::CompositionTable;
@@ -455,3 +457,5 @@ duration = 1.0
 }
 
 }  // namespace
+
+}  // namespace test_composition

@@ -31,6 +31,8 @@
 
 #include <unistd.h>
 
+namespace test_contact {
+
 namespace {
 
 using lgvi::Contact;
@@ -626,3 +628,5 @@ TEST(OnContact, OverlapAtTheStartIsAnErrorForEveryExtent) {
 }
 
 }  // namespace
+
+}  // namespace test_contact

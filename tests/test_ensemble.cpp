@@ -10,6 +10,8 @@
 #include <cstdlib>
 #include <string>
 
+namespace test_ensemble {
+
 namespace {
 
 using lgvi::app::EnsemblePlan;
@@ -93,3 +95,5 @@ TEST(EnsembleMpi, ABuildWithoutMpiStartedAsSeveralRanksRefusesToRun) {
 }
 
 }  // namespace
+
+}  // namespace test_ensemble

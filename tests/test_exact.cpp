@@ -24,7 +24,7 @@
 #include <type_traits>
 #include <vector>
 
-namespace lgvi {
+namespace lgvi::test_exact {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -618,4 +618,4 @@ TEST(ExactStepper, RejectsPotentialsAndBadSteps) {
 }
 
 }  // namespace
-}  // namespace lgvi
+}  // namespace lgvi::test_exact

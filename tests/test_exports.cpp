@@ -20,6 +20,8 @@
 
 #include <unistd.h>
 
+namespace test_exports {
+
 namespace {
 
 using lgvi::io::BodyShape;
@@ -211,3 +213,5 @@ TEST(ExportFormat, SitePositionIsXPlusRRho) {
 }
 
 }  // namespace
+
+}  // namespace test_exports

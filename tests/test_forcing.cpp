@@ -28,6 +28,8 @@
 #include <numbers>
 #include <vector>
 
+namespace test_forcing {
+
 namespace {
 
 using lgvi::AppliedForce;
@@ -509,3 +511,4 @@ TEST(ForcingScenario, FileTablesAreInlinedIntoTheRunsCopy) {
 
 }  // namespace
 
+}  // namespace test_forcing

@@ -33,6 +33,8 @@
 
 #include <unistd.h>
 
+namespace test_formats {
+
 namespace {
 
 using lgvi::io::open_trajectory;
@@ -797,3 +799,5 @@ TEST(FormatSamples, Write) {
 }
 
 }  // namespace
+
+}  // namespace test_formats

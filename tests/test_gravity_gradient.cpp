@@ -23,6 +23,8 @@
 #include <string>
 #include <vector>
 
+namespace test_gravity_gradient {
+
 namespace {
 
 using lgvi::CentralGravity;
@@ -341,3 +343,5 @@ TEST(GravityGradient, ScenarioModelKey) {
 }
 
 }  // namespace
+
+}  // namespace test_gravity_gradient

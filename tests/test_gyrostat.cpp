@@ -30,6 +30,8 @@
 
 #include <unistd.h>
 
+namespace test_gyrostat {
+
 namespace {
 
 using lgvi::HeldTorque;
@@ -633,3 +635,5 @@ TEST(WheelThermodynamics, EachWheelIsOneDegreeOfFreedom) {
   const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
   EXPECT_EQ(lgvi::app::degrees_of_freedom(lgvi::app::parse_scenario(text, "formation")), 2 * 6 - 3 + 3);
 }
+
+}  // namespace test_gyrostat

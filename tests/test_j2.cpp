@@ -20,6 +20,8 @@
 #include <sstream>
 #include <vector>
 
+namespace test_j2 {
+
 namespace {
 
 using lgvi::Ball;
@@ -286,3 +288,5 @@ mu = 4.0e14
 }
 
 }  // namespace
+
+}  // namespace test_j2

@@ -23,6 +23,8 @@
 #include <sstream>
 #include <string>
 
+namespace test_json {
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -305,3 +307,5 @@ TEST(Json, MalformedFileIsOneErrorNamingTheFileAndLine) {
 }
 
 }  // namespace
+
+}  // namespace test_json

@@ -12,6 +12,8 @@
 #include <cmath>
 #include <vector>
 
+namespace test_lgvi {
+
 namespace {
 
 using lgvi::CentralGravity;
@@ -383,3 +385,5 @@ TEST(HeavyTop, VerticalAngularMomentumIsConservedToRoundOff) {
 }
 
 }  // namespace
+
+}  // namespace test_lgvi

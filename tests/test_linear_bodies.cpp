@@ -24,6 +24,8 @@
 #include <string>
 #include <vector>
 
+namespace test_linear_bodies {
+
 namespace {
 
 using lgvi::Ball;
@@ -343,3 +345,5 @@ TEST(LinearBodies, AMixedClusterKeepsItsMomentaAndEnergyOnAnyThreads) {
 }
 
 }  // namespace
+
+}  // namespace test_linear_bodies

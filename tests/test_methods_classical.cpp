@@ -19,6 +19,8 @@
 #include <cstdio>
 #include <vector>
 
+namespace test_methods_classical {
+
 namespace {
 
 using lgvi::CentralGravity;
@@ -385,3 +387,5 @@ TEST(ClassicalInput, InvalidStepAndNonFiniteStateFail) {
 }
 
 }  // namespace
+
+}  // namespace test_methods_classical

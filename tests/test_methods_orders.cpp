@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+namespace test_methods_orders {
+
 namespace {
 
 using lgvi::RigidBodyState;
@@ -163,3 +165,5 @@ INSTANTIATE_TEST_SUITE_P(RegisteredMethods, MethodSymmetry, ::testing::ValuesIn(
                          [](const auto& info) { return test_name(info.param); });
 
 }  // namespace
+
+}  // namespace test_methods_orders

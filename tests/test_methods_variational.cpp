@@ -17,6 +17,8 @@
 #include <cstdio>
 #include <vector>
 
+namespace test_methods_variational {
+
 namespace {
 
 using lgvi::CentralGravity;
@@ -393,3 +395,5 @@ TEST(VariationalRattle, RotationReachingPiFails) {
 }
 
 }  // namespace
+
+}  // namespace test_methods_variational

@@ -32,6 +32,8 @@
 #include <utility>
 #include <vector>
 
+namespace test_nbody {
+
 namespace {
 
 using lgvi::Ball;
@@ -1632,3 +1634,5 @@ TEST(AgainstGubas, DidymosOrderTwoPotentialAndEnergyAtTheStart) {
 }
 
 }  // namespace
+
+}  // namespace test_nbody

@@ -23,6 +23,8 @@
 #include <string>
 #include <vector>
 
+namespace test_pair_damping {
+
 namespace {
 
 namespace t = lgvi::test;
@@ -400,3 +402,5 @@ duration = 0.1
 }
 
 }  // namespace
+
+}  // namespace test_pair_damping

@@ -20,6 +20,8 @@
 #include <limits>
 #include <vector>
 
+namespace test_periodic {
+
 namespace {
 
 using lgvi::Box;
@@ -461,3 +463,5 @@ TEST(PeriodicContact, MutualGravityRefusesAPeriodicBox) {
 }
 
 }  // namespace
+
+}  // namespace test_periodic

@@ -14,6 +14,8 @@
 #include <cstdio>
 #include <vector>
 
+namespace test_s3 {
+
 namespace {
 
 using lgvi::S3d;
@@ -241,3 +243,5 @@ TEST(S3, LogOfMinusIdentityAndPureRotationByPi) {
 }
 
 }  // namespace
+
+}  // namespace test_s3

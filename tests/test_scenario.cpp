@@ -25,6 +25,8 @@
 
 #include <unistd.h>
 
+namespace test_scenario {
+
 namespace {
 
 using lgvi::InvalidInput;
@@ -910,3 +912,5 @@ TEST(ImportedKinds, IdenticalMoleculesShareAKindAndKeepTheirAtomsAndMomenta) {
   }
   EXPECT_EQ(next, atoms.size());
 }
+
+}  // namespace test_scenario

@@ -11,6 +11,8 @@
 #include <cmath>
 #include <map>
 
+namespace test_solver {
+
 namespace {
 
 using lgvi::RotationEquation;
@@ -327,3 +329,5 @@ TEST(Solvers, PrincipalMomentsGiveTheBodysOwnSolver) {
   for (const V3& bad : {V3(0.0, 0.0, 1.0), V3(-1.0, 1.0, 1.0), V3(1.0, std::nan(""), 1.0)})
     EXPECT_THROW(RotationSolver::for_principal_moments(bad, opt), lgvi::InvalidInput);
 }
+
+}  // namespace test_solver

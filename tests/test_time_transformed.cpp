@@ -21,6 +21,8 @@
 #include <limits>
 #include <vector>
 
+namespace test_time_transformed {
+
 namespace {
 
 using lgvi::CentralGravity;
@@ -468,3 +470,5 @@ TEST(TimeTransformed, ACloseBinaryKeepsItsAngularMomentumAndBeatsTheFixedStep) {
 }
 
 }  // namespace
+
+}  // namespace test_time_transformed

@@ -21,6 +21,8 @@
 #include <utility>
 #include <vector>
 
+namespace test_toml_writer {
+
 namespace {
 
 using lgvi::io::write_inline_toml;
@@ -151,3 +153,5 @@ TEST(TomlWriter, InlineTableQuotesTheUsersInput) {
 }
 
 }  // namespace
+
+}  // namespace test_toml_writer

@@ -213,7 +213,7 @@ struct LongRun {
 std::string fmt_e(double v) { return std::isfinite(v) ? fmt::format("{:.3e}", v) : "-"; }
 
 /// `text` as one CSV field (RFC 4180): in double quotes, each double quote in it doubled.
-std::string csv_field(const std::string& text) {
+std::string csv_quoted(const std::string& text) {
   std::string quoted = "\"";
   for (const char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
   return quoted + "\"";
@@ -674,7 +674,7 @@ int compare_methods(const Scenario& base, const CompareOptions& opt) {
       // Not run: the reason, in the table and in the CSV's last column.
       csv += m.name();
       for (int c = 1; c < 21; ++c) csv += c == 14 || c == 20 ? ",false" : ",null";
-      csv += ",null,null,null," + csv_field(u->second) + "\n";
+      csv += ",null,null,null," + csv_quoted(u->second) + "\n";
       md += fmt::format("| {} | not applicable: {} |", m.name(), u->second);
       for (int c = 2; c < columns; ++c) md += " - |";
       md += "\n";
