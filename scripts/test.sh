@@ -48,10 +48,11 @@ if [[ "${LGVI_QUICK:-0}" != 1 ]]; then
   # beside the C++ tests.
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
     LSAN_OPTIONS="suppressions=$(pwd)/scripts/lsan-suppressions.txt:print_suppressions=0"
-  # Nor TimeTransformed.SecondOrderThroughTheClosestPass...: under the sanitizers it takes 140 s of
-  # the stage's 770 CPU seconds, nearly all in its reference (about 10^6 RK4 steps of the continuous
-  # equations, ContinuousEquations::rk4_time_transformed), a code path the stage's other
-  # TimeTransformed and ExactFlow tests run; it runs with the rest in the Release ctest below.
+  # Nor TimeTransformed.SecondOrderThroughTheClosestPass...: its time under the sanitizers is nearly
+  # all its reference (about 10^6 RK4 steps of the continuous equations,
+  # ContinuousEquations::rk4_time_transformed), a code path the stage's other TimeTransformed and
+  # ExactFlow tests run (its share of the stage: docs/benchmarks.md, "The test suite's time"); it
+  # runs with the rest in the Release ctest below.
   (cd build-asan && ctest -j"$jobs" -E "^(python|downstream|view)\.|^TimeTransformed\.SecondOrderThroughTheClosestPass" \
     --output-on-failure)
   unset ASAN_OPTIONS UBSAN_OPTIONS LSAN_OPTIONS
